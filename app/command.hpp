@@ -1,0 +1,31 @@
+#pragma once
+// Subcommands register themselves here, so each lives in its own file under app/.
+// A command's run function returns the process exit status:
+//   0 success, 2 bad input (nothing written), 3 the simulation became unstable.
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace weft::app {
+
+constexpr int kExitOk = 0;
+constexpr int kExitBadInput = 2;
+constexpr int kExitUnstable = 3;
+
+struct CommandSpec {
+  std::string parent;  ///< "" for top level, e.g. "experiment" for `weft experiment NAME`
+  std::string name;
+  std::string help;
+  /// Adds options to `sub`; returns the function to run once parsing succeeded.
+  std::function<std::function<int()>(CLI::App& sub)> setup;
+  int order = 100;  ///< position in --help listings
+};
+
+std::vector<CommandSpec>& command_registry();
+
+struct RegisterCommand {
+  explicit RegisterCommand(CommandSpec spec) { command_registry().push_back(std::move(spec)); }
+};
+
+}  // namespace weft::app

@@ -1,0 +1,61 @@
+// The `weft` command: a thin shell over the library. Subcommands live in app/cmd_*.cpp.
+#include <algorithm>
+#include <iostream>
+#include <map>
+
+#include "command.hpp"
+#include "weft/error.hpp"
+
+namespace weft::app {
+std::vector<CommandSpec>& command_registry() {
+  static std::vector<CommandSpec> registry;
+  return registry;
+}
+}  // namespace weft::app
+
+int main(int argc, char** argv) {
+  using namespace weft::app;
+  CLI::App app{
+      "weft " WEFT_VERSION
+      " - cloth simulation by semi-implicit integration (alpha family, Implicit Midpoint,\n"
+      "progressive BDF-2) with adaptive damping.\n"
+      "Exit status: 0 success, 2 bad input (nothing written), 3 simulation became unstable."};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("weft ") + WEFT_VERSION);
+
+  auto specs = command_registry();
+  std::stable_sort(specs.begin(), specs.end(),
+                   [](const CommandSpec& a, const CommandSpec& b) { return a.order < b.order; });
+  std::map<std::string, CLI::App*> parents;
+  std::function<int()> action;
+  // Group commands first (e.g. `experiment`), then their members.
+  for (const auto& s : specs) {
+    if (!s.parent.empty() && !parents.count(s.parent)) {
+      auto* group = app.add_subcommand(s.parent, "Reproducible experiments (see `weft " +
+                                                     s.parent + " --help`)");
+      group->require_subcommand(1);
+      parents[s.parent] = group;
+    }
+  }
+  for (const auto& s : specs) {
+    CLI::App* owner = s.parent.empty() ? &app : parents[s.parent];
+    CLI::App* sub = owner->add_subcommand(s.name, s.help);
+    auto run = s.setup(*sub);
+    sub->callback([run, &action] { action = run; });
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    int code = app.exit(e);
+    return code == 0 ? 0 : kExitBadInput;
+  }
+  try {
+    return action ? action() : kExitOk;
+  } catch (const weft::InputError& e) {
+    std::cerr << "weft: error: " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "weft: internal error: " << e.what() << "\n";
+    return 1;
+  }
+}

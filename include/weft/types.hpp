@@ -1,0 +1,24 @@
+#pragma once
+// Basic numeric types shared by every part of weft. Positions are in metres, time in seconds.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <vector>
+
+namespace weft {
+
+using Vec2 = Eigen::Vector2d;
+using Vec3 = Eigen::Vector3d;
+using Mat2 = Eigen::Matrix2d;
+using Mat3 = Eigen::Matrix3d;
+using VecX = Eigen::VectorXd;
+using MatX = Eigen::MatrixXd;
+/// #V by 3 array of points (row per vertex).
+using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+
+/// A 3n vector viewed as n 3D points.
+inline Eigen::Map<Vec3> node(VecX& x, int i) { return Eigen::Map<Vec3>(x.data() + 3 * i); }
+inline Eigen::Map<const Vec3> node(const VecX& x, int i) {
+  return Eigen::Map<const Vec3>(x.data() + 3 * i);
+}
+
+}  // namespace weft
