@@ -1,6 +1,10 @@
 #pragma once
 // Basic numeric types shared by every part of weft. Positions are in metres, time in seconds.
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <Eigen/SVD>
 #include <Eigen/Geometry>
 #include <vector>
 

@@ -1,0 +1,70 @@
+#pragma once
+// A validated scene (docs/scene-format.md): what to simulate, for how long, and how.
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "integrate/integrator.hpp"
+#include "mesh/mesh.hpp"
+#include "weft/material.hpp"
+#include "weft/types.hpp"
+
+namespace weft {
+
+constexpr int kSceneFormatVersion = 1;
+
+struct GridSpec {
+  double size_u = 1, size_v = 1;  ///< metres
+  int vertices_u = 2, vertices_v = 2;
+};
+
+struct ClothSpec {
+  std::optional<GridSpec> grid;    ///< either a grid ...
+  std::string obj_path;            ///< ... or an OBJ file (absolute, resolved against the scene)
+  double uv_scale = 1.0;           ///< metres per OBJ texture unit
+  Vec3 rotation_deg = Vec3::Zero();  ///< applied X, then Y, then Z
+  Vec3 translation = Vec3::Zero();
+  Vec3 initial_velocity = Vec3::Zero();
+  Material material;
+  std::vector<int> pin_vertices;                  ///< explicit vertex indices
+  std::vector<std::pair<int, int>> pin_grid_nodes;///< (i, j) on a grid, negative counts from the end
+};
+
+struct Scene {
+  std::string file;                ///< where it was read from ("" when built in code)
+  std::string description;
+  double duration = 6.0;           ///< s
+  double frame_interval = 0.02;    ///< s between output frames
+  Vec3 gravity{0, -9.81, 0};
+  std::string method_name = "implicit-midpoint";
+  IntegratorSettings integrator;
+  /// Adaptive damping ratio; unset = the method's default (5% for Implicit Midpoint and
+  /// BDF-2 variants, 0 otherwise).
+  std::optional<double> damping_ratio;
+  ClothSpec cloth;
+  nlohmann::json colliders = nlohmann::json::array();
+
+  /// The damping ratio that applies (explicit value or the method's default).
+  double effective_damping_ratio() const;
+  int steps_per_frame() const;  ///< frame_interval / dt (fixed-step methods)
+};
+
+/// The default adaptive damping ratio of a method.
+double default_damping_ratio(Method method, double alpha);
+
+/// Reads and validates a scene file. Throws InputError naming the file, key and value.
+Scene load_scene(const std::string& path);
+Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::string& base_dir);
+
+/// Sets method and alpha by name (alpha only where the method takes one); validates.
+/// `where` prefixes error messages.
+void set_method(Scene& scene, const std::string& name, std::optional<double> alpha, const std::string& where);
+/// Re-checks the timing fields after overrides (dt > 0, frame interval a multiple of dt...).
+void validate_timing(const Scene& scene, const std::string& where);
+
+/// The cloth mesh placed in the world (grid generated or OBJ read) and the pinned vertices.
+TriMesh build_cloth_mesh(const ClothSpec& spec);
+std::vector<int> resolve_pins(const ClothSpec& spec, const TriMesh& mesh);
+
+}  // namespace weft

@@ -1,0 +1,85 @@
+#include "damping/adaptive.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace weft {
+
+Vec3 membrane_mass_sums(const Vec3& ru, const Vec3& rv, const Vec3& inverse_mass) {
+  const Vec3 su = ru.cwiseAbs2().cwiseProduct(inverse_mass);
+  const Vec3 sv = rv.cwiseAbs2().cwiseProduct(inverse_mass);
+  return Vec3(su.sum(), sv.sum(), su.sum() + sv.sum());
+}
+
+Vec3 membrane_kappa(double area, const Vec3& tangent_moduli, const Vec3& mass_sums, double dt) {
+  return dt * dt * area * tangent_moduli.cwiseProduct(mass_sums);
+}
+
+Vec3 membrane_lambda(double area, const Vec3& viscosity, const Vec3& mass_sums, double dt) {
+  return dt * area * viscosity.cwiseProduct(mass_sums);
+}
+
+Vec3 membrane_required_viscosity(double area, const Vec3& tangent_moduli, const Vec3& mass_sums,
+                                 double damping_ratio) {
+  Vec3 eta;
+  for (int k = 0; k < 3; ++k) {
+    const double as = area * mass_sums[k];
+    eta[k] = (as > 0 && tangent_moduli[k] > 0)
+                 ? 2.0 * damping_ratio * std::sqrt(tangent_moduli[k] / as)
+                 : 0.0;
+  }
+  return eta;
+}
+
+double bending_kappa(double stiffness, double alpha_mass_sum, double dt) {
+  return dt * dt * stiffness * alpha_mass_sum;
+}
+
+double bending_required_viscosity(double stiffness, double alpha_mass_sum, double damping_ratio) {
+  if (!(alpha_mass_sum > 0) || !(stiffness > 0)) return 0.0;
+  return 2.0 * damping_ratio * std::sqrt(stiffness / alpha_mass_sum);
+}
+
+void LogStatistics::add(double value) {
+  if (!(value > 0) || !std::isfinite(value)) return;
+  if (count_ == 0) {
+    min_ = max_ = value;
+  } else {
+    min_ = std::min(min_, value);
+    max_ = std::max(max_, value);
+  }
+  sum_ += value;
+  ++count_;
+  const double pos = (std::log10(value) - kMinDecade) * kBinsPerDecade;
+  const int bin = std::clamp(static_cast<int>(std::floor(pos)) + 1, 0, static_cast<int>(bins_.size()) - 1);
+  ++bins_[bin];
+}
+
+void LogStatistics::merge(const LogStatistics& o) {
+  if (o.count_ == 0) return;
+  if (count_ == 0) {
+    *this = o;
+    return;
+  }
+  for (size_t i = 0; i < bins_.size(); ++i) bins_[i] += o.bins_[i];
+  min_ = std::min(min_, o.min_);
+  max_ = std::max(max_, o.max_);
+  sum_ += o.sum_;
+  count_ += o.count_;
+}
+
+double LogStatistics::median() const {
+  if (count_ == 0) return 0.0;
+  long seen = 0;
+  for (size_t i = 0; i < bins_.size(); ++i) {
+    seen += bins_[i];
+    if (2 * seen >= count_) {
+      const double centre = kMinDecade + (static_cast<double>(i) - 0.5) / kBinsPerDecade;
+      return std::clamp(std::pow(10.0, centre), min_, max_);
+    }
+  }
+  return max_;
+}
+
+}  // namespace weft

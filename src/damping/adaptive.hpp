@@ -1,0 +1,50 @@
+#pragma once
+// Stiffness factors and adaptive damping (METHOD.md 4, paper 2.3-2.4). For an element of
+// stiffness k, viscosity l and mass m, kappa = k dt^2 / m and lambda = l dt / m; the
+// damping ratio is lambda / (2 sqrt(kappa)). Adaptive damping raises each element's
+// strain-rate viscosity so that its damping ratio is at least a target zeta.
+#include <array>
+#include <vector>
+
+#include "weft/types.hpp"
+
+namespace weft {
+
+/// Mass sums S = (sum r_u,i^2 / m_i, sum r_v,i^2 / m_i, sum (r_u,i^2 + r_v,i^2) / m_i) of a
+/// triangle (weft, warp, shear modes); a fixed vertex has 1/m = 0.
+Vec3 membrane_mass_sums(const Vec3& ru, const Vec3& rv, const Vec3& inverse_mass);
+
+/// kappa per mode: dt^2 A E_mode S_mode.
+Vec3 membrane_kappa(double area, const Vec3& tangent_moduli, const Vec3& mass_sums, double dt);
+/// lambda per mode: dt A eta_mode S_mode.
+Vec3 membrane_lambda(double area, const Vec3& viscosity, const Vec3& mass_sums, double dt);
+
+/// Viscosity per mode needed for damping ratio zeta: eta >= 2 zeta sqrt(E / (A S)).
+Vec3 membrane_required_viscosity(double area, const Vec3& tangent_moduli, const Vec3& mass_sums,
+                                 double damping_ratio);
+
+/// Bending stencil: kappa_b = dt^2 k_b sum alpha_i^2 / m_i, and the viscosity for ratio zeta.
+double bending_kappa(double stiffness, double alpha_mass_sum, double dt);
+double bending_required_viscosity(double stiffness, double alpha_mass_sum, double damping_ratio);
+
+/// Running statistics of positive values (min, max, mean and a median from a fine
+/// logarithmic histogram: 200 bins per decade, so the median is within 1.2%).
+class LogStatistics {
+ public:
+  void add(double value);
+  void merge(const LogStatistics& other);
+  long count() const { return count_; }
+  double min() const { return count_ ? min_ : 0.0; }
+  double max() const { return count_ ? max_ : 0.0; }
+  double mean() const { return count_ ? sum_ / count_ : 0.0; }
+  double median() const;
+
+ private:
+  static constexpr int kBinsPerDecade = 200;
+  static constexpr int kMinDecade = -15, kMaxDecade = 15;
+  std::vector<long> bins_ = std::vector<long>((kMaxDecade - kMinDecade) * kBinsPerDecade + 2, 0);
+  long count_ = 0;
+  double min_ = 0, max_ = 0, sum_ = 0;
+};
+
+}  // namespace weft

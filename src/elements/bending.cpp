@@ -1,0 +1,51 @@
+#include "elements/bending.hpp"
+
+#include <cmath>
+
+namespace weft {
+
+namespace {
+double cross2(const Vec2& p, const Vec2& q) { return p.x() * q.y() - p.y() * q.x(); }
+}  // namespace
+
+bool make_bending_geometry(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d,
+                           double rigidity_weft_Nm, double rigidity_warp_Nm, BendingGeometry& g) {
+  const Vec2 cd = d - c;
+  const double len = cd.norm();
+  if (!(len > 0)) return false;
+  // Tip heights over the hinge line.
+  const double ha = std::abs(cross2(cd, a - c)) / len;
+  const double hb = std::abs(cross2(cd, b - c)) / len;
+  if (!(ha > 1e-9 * len) || !(hb > 1e-9 * len)) return false;
+  // Solve s A + (1 - s) B = t C + (1 - t) D for (s, t).
+  Mat2 m;
+  m.col(0) = a - b;
+  m.col(1) = d - c;
+  const double det = m.determinant();
+  if (std::abs(det) < 1e-12 * (a - b).norm() * len) return false;
+  const Vec2 st = m.inverse() * (d - b);
+  const double s = st[0], t = st[1];
+  g.alpha = Eigen::Vector4d(s, 1 - s, -t, -(1 - t));
+  if (!g.alpha.allFinite() || g.alpha.cwiseAbs().maxCoeff() > 1e3) return false;
+  const Vec2 n = Vec2(-cd.y(), cd.x()) / len;
+  const double rigidity = rigidity_weft_Nm * n.x() * n.x() + rigidity_warp_Nm * n.y() * n.y();
+  // k_b = (2/3) (h_A + h_B) / (h_A^2 h_B^2) |CD| B
+  g.stiffness = (2.0 / 3.0) * (ha + hb) / (ha * ha * hb * hb) * len * rigidity;
+  g.kappa_factor = g.alpha.squaredNorm();
+  return true;
+}
+
+void evaluate_bending(const BendingGeometry& g, double damping, const std::array<Vec3, 4>& x,
+                      const std::array<Vec3, 4>& v, BendingResult& out) {
+  Vec3 R = Vec3::Zero(), Rd = Vec3::Zero();
+  for (int i = 0; i < 4; ++i) {
+    R += g.alpha[i] * x[i];
+    Rd += g.alpha[i] * v[i];
+  }
+  out.energy = 0.5 * g.stiffness * R.squaredNorm();
+  const Vec3 f = -(g.stiffness * R + damping * Rd);
+  for (int i = 0; i < 4; ++i) out.force.segment<3>(3 * i) = g.alpha[i] * f;
+  out.viscous_power = -damping * Rd.squaredNorm();
+}
+
+}  // namespace weft

@@ -1,0 +1,36 @@
+#pragma once
+// Linear bending element (METHOD.md 5): for the edge CD shared by triangles with tips A and B,
+// R = sum_i alpha_i x_i vanishes on the flat rest shape and measures the bend;
+// energy k_b |R|^2 / 2, forces F_i = -k_b alpha_i R, constant Jacobian -k_b alpha alpha^T (x) I3.
+#include <array>
+
+#include "weft/types.hpp"
+
+namespace weft {
+
+struct BendingGeometry {
+  Eigen::Vector4d alpha;  ///< coefficients of (A, B, C, D); sum to zero
+  double stiffness = 0;   ///< k_b (N/m)
+  double kappa_factor = 0;///< sum_i alpha_i^2 / m_i is formed by the caller; this is sum alpha^2
+};
+
+/// Builds the stencil from flat pattern coordinates of tips A, B and edge C, D.
+/// The coefficients make R vanish on the pattern: alpha_A A + alpha_B B is the point where line
+/// AB crosses line CD, as is -(alpha_C C + alpha_D D) (the |N| ratios of METHOD.md 5 when ACBD
+/// is convex). `rigidity_weft_Nm`/`rigidity_warp_Nm` weigh the rigidity by the direction
+/// across the edge: B = B_weft n_u^2 + B_warp n_v^2, n the unit normal of CD in the pattern.
+/// Returns false for a degenerate stencil.
+bool make_bending_geometry(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d,
+                           double rigidity_weft_Nm, double rigidity_warp_Nm, BendingGeometry& g);
+
+struct BendingResult {
+  double energy = 0;
+  Eigen::Matrix<double, 12, 1> force;
+  double viscous_power = 0;
+};
+
+/// Forces of the element with bending viscosity `damping` (N s/m, acts on dR/dt).
+void evaluate_bending(const BendingGeometry& g, double damping, const std::array<Vec3, 4>& x,
+                      const std::array<Vec3, 4>& v, BendingResult& out);
+
+}  // namespace weft

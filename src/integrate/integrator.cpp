@@ -1,0 +1,267 @@
+#include "integrate/integrator.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace weft {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+}  // namespace
+
+const std::vector<MethodInfo>& method_table() {
+  static const std::vector<MethodInfo> table = {
+      {"forward-euler", Method::ForwardEuler, 0.0, 0.0, "explicit Euler (alpha family, alpha = 0)"},
+      {"implicit-midpoint", Method::AlphaFamily, 0.5, 0.5, "alpha family, alpha = 1/2 (second order)"},
+      {"backward-euler", Method::AlphaFamily, 1.0, 1.0, "alpha family, alpha = 1 (first order, dissipative)"},
+      {"alpha", Method::AlphaFamily, std::nullopt, 0.5, "alpha family with the given --alpha in [0, 1]"},
+      {"bdf2", Method::Bdf2, 1.0, 1.0, "progressive BDF-2, alpha = 1 (standard BDF-2)"},
+      {"bdf2-alpha", Method::Bdf2, std::nullopt, 1.0 / std::sqrt(3.0),
+       "progressive BDF-2 with the given alpha (default 1/sqrt(3))"},
+      {"rk4", Method::Rk4, std::nullopt, 0.0, "classical explicit Runge-Kutta, fourth order"},
+      {"rk45", Method::Rk45, std::nullopt, 0.0,
+       "adaptive explicit Dormand-Prince 5(4) with local error tolerance (reference)"},
+  };
+  return table;
+}
+
+const MethodInfo* find_method(const std::string& name) {
+  for (const auto& m : method_table())
+    if (m.name == name) return &m;
+  return nullptr;
+}
+
+std::string method_names() {
+  std::string s;
+  for (const auto& m : method_table()) s += (s.empty() ? "" : ", ") + m.name;
+  return s;
+}
+
+Integrator::Integrator(System& system, IntegratorSettings settings)
+    : system_(system), settings_(settings) {
+  system_.prepare(eval_);
+  matrix_.reset(system_.pattern());
+  const int n = system_.num_nodes();
+  mass3_.resize(3 * n);
+  for (int i = 0; i < n; ++i) mass3_.segment<3>(3 * i).setConstant(system_.node_mass()[i]);
+}
+
+void Integrator::advance(State& s, double t_end, StepStatistics& stats) {
+  const double dt = settings_.dt;
+  if (settings_.method != Method::Rk45) {
+    const long steps = std::lround((t_end - s.t) / dt);
+    for (long k = 0; k < steps; ++k) step(s, dt, stats);
+    s.t = t_end;  // no drift from summing dt
+    return;
+  }
+  if (!(s.rk45_step > 0)) s.rk45_step = dt;
+  while (s.t < t_end - 1e-12 * std::max(1.0, std::abs(t_end))) {
+    double h = std::min({s.rk45_step, dt, t_end - s.t});
+    double err = 0;
+    const double t0 = s.t;
+    if (rk45_try(s, h, err, stats)) {
+      ++stats.steps;
+      // Standard controller: h_new = h * 0.9 err^(-1/5), within [0.2, 5] h.
+      const double factor = err > 0 ? std::clamp(0.9 * std::pow(err, -0.2), 0.2, 5.0) : 5.0;
+      s.rk45_step = std::min(dt, h * factor);
+      if (t_end - s.t < 1e-12 * std::max(1.0, std::abs(t_end))) s.t = t_end;
+      (void)t0;
+    } else {
+      ++stats.rejected_steps;
+      if (!std::isfinite(err)) {
+        s.rk45_step = h * 0.2;
+      } else {
+        s.rk45_step = h * std::clamp(0.9 * std::pow(err, -0.2), 0.1, 0.9);
+      }
+      if (s.rk45_step < 1e-14) {
+        // Cannot make progress: let the caller detect the blow-up.
+        s.x.setConstant(std::nan(""));
+        return;
+      }
+    }
+  }
+  s.t = t_end;
+}
+
+void Integrator::step(State& s, double dt, StepStatistics& stats) {
+  const double alpha = settings_.alpha;
+  switch (settings_.method) {
+    case Method::ForwardEuler:
+      linear_step(s, dt, 0.0, 0.0, dt, stats);
+      break;
+    case Method::AlphaFamily:
+      linear_step(s, dt, alpha, 0.0, dt, stats);
+      break;
+    case Method::Bdf2:
+      if (!s.has_history) {
+        linear_step(s, dt, alpha, 0.0, dt, stats);  // start with one alpha-family step
+      } else {
+        // METHOD.md 2: beta = (2 alpha - 1)/(2 alpha + 1), dt_b = 2 dt/(2 alpha + 1)
+        linear_step(s, dt, alpha, (2 * alpha - 1) / (2 * alpha + 1), 2 * dt / (2 * alpha + 1), stats);
+      }
+      break;
+    case Method::Rk4:
+      rk4_step(s, dt, stats);
+      break;
+    case Method::Rk45: {
+      double err;
+      if (!rk45_try(s, dt, err, stats)) ++stats.rejected_steps;
+      break;
+    }
+  }
+  ++stats.steps;
+}
+
+void Integrator::linear_step(State& s, double dt, double alpha, double beta, double dt_b,
+                             StepStatistics& stats) {
+  const auto t0 = Clock::now();
+  system_.begin_step(s.x, s.v, dt);
+  const bool implicit = alpha > 0;
+  system_.evaluate(s.x, s.v, implicit, eval_);
+  const BlockPattern& P = system_.pattern();
+  const int n = system_.num_nodes();
+  const VecX& m = system_.node_mass();
+  // Right-hand side: beta M dv_p + dt_b f + alpha dt_b K (beta dx_p + dt_b v)
+  rhs_ = dt_b * eval_.force;
+  if (beta != 0.0) rhs_ += beta * mass3_.cwiseProduct(s.dv_prev);
+  if (implicit) {
+    tmp_ = dt_b * s.v;
+    if (beta != 0.0) tmp_ += beta * s.dx_prev;
+    eval_.stiffness.multiply(tmp_, tmp2_);
+    rhs_ += alpha * dt_b * tmp2_;
+  }
+  // Matrix M - alpha dt_b D - alpha^2 dt_b^2 K, assembled into the shared pattern.
+  const double cd = alpha * dt_b, ck = alpha * alpha * dt_b * dt_b;
+  for (int b = 0; b < P.num_blocks(); ++b)
+    matrix_.block[b] = implicit ? Mat3(-cd * eval_.damping.block[b] - ck * eval_.stiffness.block[b]) : Mat3::Zero();
+  for (int i = 0; i < n; ++i) matrix_.block[P.diagonal_slot(i)].diagonal().array() += m[i];
+  stats.assembly_seconds += seconds_since(t0);
+
+  const auto t1 = Clock::now();
+  if (dv_.size() != 3 * n) dv_ = VecX::Zero(3 * n);
+  // Warm start from the previous change in velocity.
+  if (s.dv_prev.size() == 3 * n) dv_ = s.dv_prev; else dv_.setZero();
+  PcgSettings ps{settings_.cg_tolerance, settings_.cg_max_iterations};
+  PcgResult r = solve_pcg(matrix_, rhs_, system_.fixed(), ps, dv_, pcg_);
+  stats.cg_iterations += r.iterations;
+  ++stats.cg_solves;
+  if (!r.converged) ++stats.cg_failures;
+  stats.solve_seconds += seconds_since(t1);
+
+  // dx = beta dx_p + dt_b (v + alpha dv)
+  VecX dx = dt_b * (s.v + alpha * dv_);
+  if (beta != 0.0) dx += beta * s.dx_prev;
+  // Viscous work over the step, with the step's mean velocity dx/dt (METHOD.md 6).
+  if (implicit) {
+    tmp_ = dx / dt;
+    eval_.damping.multiply(tmp_, tmp2_);
+    s.viscous_dissipated -= dt * tmp_.dot(tmp2_);
+  } else {
+    s.viscous_dissipated -= dt * eval_.viscous_power;
+  }
+  s.x += dx;
+  s.v += dv_;
+  s.dx_prev = std::move(dx);
+  s.dv_prev = dv_;
+  s.has_history = true;
+  s.t += dt;
+}
+
+void Integrator::derivative(const VecX& x, const VecX& v, VecX& a, double& viscous_power) {
+  system_.evaluate(x, v, false, eval_);
+  a = eval_.force.cwiseQuotient(mass3_);
+  const auto& fixed = system_.fixed();
+  for (size_t i = 0; i < fixed.size(); ++i)
+    if (fixed[i]) a.segment<3>(3 * i).setZero();
+  viscous_power = eval_.viscous_power;
+}
+
+void Integrator::rk4_step(State& s, double dt, StepStatistics& stats) {
+  const auto t0 = Clock::now();
+  system_.begin_step(s.x, s.v, dt);
+  VecX a1, a2, a3, a4;
+  double p1, p2, p3, p4;
+  derivative(s.x, s.v, a1, p1);
+  const VecX v1 = s.v;
+  const VecX v2 = s.v + 0.5 * dt * a1;
+  derivative(s.x + 0.5 * dt * v1, v2, a2, p2);
+  const VecX v3 = s.v + 0.5 * dt * a2;
+  derivative(s.x + 0.5 * dt * v2, v3, a3, p3);
+  const VecX v4 = s.v + dt * a3;
+  derivative(s.x + dt * v3, v4, a4, p4);
+  VecX dx = dt / 6 * (v1 + 2 * v2 + 2 * v3 + v4);
+  VecX dv = dt / 6 * (a1 + 2 * a2 + 2 * a3 + a4);
+  s.viscous_dissipated -= dt / 6 * (p1 + 2 * p2 + 2 * p3 + p4);
+  s.x += dx;
+  s.v += dv;
+  s.dx_prev = std::move(dx);
+  s.dv_prev = std::move(dv);
+  s.has_history = true;
+  s.t += dt;
+  stats.assembly_seconds += seconds_since(t0);
+}
+
+bool Integrator::rk45_try(State& s, double h, double& error_norm, StepStatistics& stats) {
+  // Dormand-Prince 5(4) tableau.
+  static constexpr double c[7] = {0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1, 1};
+  static constexpr double A[7][6] = {
+      {0, 0, 0, 0, 0, 0},
+      {1.0 / 5, 0, 0, 0, 0, 0},
+      {3.0 / 40, 9.0 / 40, 0, 0, 0, 0},
+      {44.0 / 45, -56.0 / 15, 32.0 / 9, 0, 0, 0},
+      {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729, 0, 0},
+      {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656, 0},
+      {35.0 / 384, 0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784, 11.0 / 84}};
+  static constexpr double b5[7] = {35.0 / 384, 0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784, 11.0 / 84, 0};
+  static constexpr double b4[7] = {5179.0 / 57600, 0, 7571.0 / 16695, 393.0 / 640, -92097.0 / 339200, 187.0 / 2100, 1.0 / 40};
+  (void)c;
+  const auto t0 = Clock::now();
+  system_.begin_step(s.x, s.v, h);
+  std::vector<VecX> kx(7), kv(7);
+  double power[7];
+  VecX xs, vs;
+  for (int st = 0; st < 7; ++st) {
+    xs = s.x;
+    vs = s.v;
+    for (int j = 0; j < st; ++j) {
+      if (A[st][j] == 0.0) continue;
+      xs += h * A[st][j] * kx[j];
+      vs += h * A[st][j] * kv[j];
+    }
+    kx[st] = vs;
+    derivative(xs, vs, kv[st], power[st]);
+  }
+  VecX x5 = s.x, v5 = s.v, ex = VecX::Zero(s.x.size()), ev = VecX::Zero(s.x.size());
+  double dissipated = 0;
+  for (int st = 0; st < 7; ++st) {
+    x5 += h * b5[st] * kx[st];
+    v5 += h * b5[st] * kv[st];
+    ex += h * (b5[st] - b4[st]) * kx[st];
+    ev += h * (b5[st] - b4[st]) * kv[st];
+    dissipated -= h * b5[st] * power[st];
+  }
+  stats.assembly_seconds += seconds_since(t0);
+  const double tol = settings_.error_tolerance;
+  double sum = 0;
+  for (Eigen::Index i = 0; i < ex.size(); ++i) {
+    const double sx = tol * (1 + std::max(std::abs(s.x[i]), std::abs(x5[i])));
+    const double sv = tol * (1 + std::max(std::abs(s.v[i]), std::abs(v5[i])));
+    sum += (ex[i] / sx) * (ex[i] / sx) + (ev[i] / sv) * (ev[i] / sv);
+  }
+  error_norm = std::sqrt(sum / (2.0 * ex.size()));
+  if (!(error_norm <= 1.0)) return false;
+  s.dx_prev = x5 - s.x;
+  s.dv_prev = v5 - s.v;
+  s.x = std::move(x5);
+  s.v = std::move(v5);
+  s.viscous_dissipated += dissipated;
+  s.has_history = true;
+  s.t += h;
+  return true;
+}
+
+}  // namespace weft

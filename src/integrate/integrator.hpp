@@ -1,0 +1,87 @@
+#pragma once
+// Time integrators (METHOD.md 1-2). All semi-implicit methods share one linear step:
+//   (M - alpha dt_b D - alpha^2 dt_b^2 K) dv = beta M dv_p + dt_b f + alpha dt_b K (beta dx_p + dt_b v)
+//   dx = beta dx_p + dt_b (v + alpha dv)
+// with beta = 0, dt_b = dt for the alpha family (forward Euler alpha = 0, Implicit Midpoint
+// 1/2, backward Euler 1) and beta = (2 alpha - 1)/(2 alpha + 1), dt_b = 2 dt/(2 alpha + 1)
+// for progressive BDF-2. RK4 and adaptive Dormand-Prince RK45 are the explicit references.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "linalg/pcg.hpp"
+#include "system/system.hpp"
+
+namespace weft {
+
+enum class Method { ForwardEuler, AlphaFamily, Bdf2, Rk4, Rk45 };
+
+struct IntegratorSettings {
+  Method method = Method::AlphaFamily;
+  double alpha = 0.5;               ///< implicitness (alpha family and BDF-2)
+  double dt = 0.02;                 ///< step (s); for RK45 the largest step
+  double cg_tolerance = 1e-6;       ///< relative residual of the linear solve
+  int cg_max_iterations = 1000;
+  double error_tolerance = 1e-6;    ///< RK45 local error tolerance (relative and absolute)
+};
+
+/// Method names accepted on the command line and in scenes, and their meaning.
+struct MethodInfo {
+  std::string name;
+  Method method;
+  std::optional<double> fixed_alpha;  ///< alpha implied by the name, if any
+  double default_alpha;
+  std::string description;
+};
+const std::vector<MethodInfo>& method_table();
+/// Looks a method up by name; nullptr when unknown.
+const MethodInfo* find_method(const std::string& name);
+std::string method_names();  ///< "forward-euler, backward-euler, ..."
+
+struct State {
+  VecX x, v;             ///< positions (m) and velocities (m/s), 3n
+  double t = 0;          ///< time (s)
+  VecX dx_prev, dv_prev; ///< previous step's changes (BDF-2 history)
+  bool has_history = false;
+  double viscous_dissipated = 0;  ///< cumulative work done against viscous forces (J)
+  double rk45_step = 0;           ///< RK45 step size carried between calls
+};
+
+struct StepStatistics {
+  long steps = 0;            ///< accepted steps
+  long rejected_steps = 0;   ///< RK45 rejections
+  long cg_iterations = 0;
+  long cg_solves = 0;
+  long cg_failures = 0;      ///< solves that hit the iteration cap
+  double assembly_seconds = 0;
+  double solve_seconds = 0;
+};
+
+class Integrator {
+ public:
+  Integrator(System& system, IntegratorSettings settings);
+  /// Advances `state` to time `t_end`: fixed-step methods take round((t_end - t)/dt) steps
+  /// of dt; RK45 takes adaptive steps no longer than dt and lands on t_end exactly.
+  void advance(State& state, double t_end, StepStatistics& stats);
+  /// One step of size dt (fixed-step methods).
+  void step(State& state, double dt, StepStatistics& stats);
+  const IntegratorSettings& settings() const { return settings_; }
+  /// The evaluation made at the start of the last step (forces, energies, Jacobians).
+  const Evaluation& last_evaluation() const { return eval_; }
+
+ private:
+  void linear_step(State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
+  void rk4_step(State& s, double dt, StepStatistics& stats);
+  bool rk45_try(State& s, double h, double& error_norm, StepStatistics& stats);
+  void derivative(const VecX& x, const VecX& v, VecX& a, double& viscous_power);
+
+  System& system_;
+  IntegratorSettings settings_;
+  Evaluation eval_;
+  BlockMatrix matrix_;
+  PcgWorkspace pcg_;
+  VecX rhs_, dv_, tmp_, tmp2_;
+  VecX mass3_;  ///< mass per coordinate
+};
+
+}  // namespace weft

@@ -1,0 +1,48 @@
+#pragma once
+// Strict JSON access for input files: every error names the file, the key path, the value
+// found and what was expected. Unknown keys are errors.
+#include <cmath>
+#include <initializer_list>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "weft/error.hpp"
+#include "weft/types.hpp"
+
+namespace weft::json_util {
+
+/// A JSON object being read, with its location for messages ("scene.json: cloth.mesh").
+class Reader {
+ public:
+  Reader(const nlohmann::json& j, std::string file, std::string path);
+
+  /// Throws unless every key of the object is in `allowed`.
+  void allow_only(std::initializer_list<const char*> allowed) const;
+  bool has(const char* key) const { return j_.contains(key); }
+  const nlohmann::json& raw(const char* key) const;
+  Reader object(const char* key) const;
+
+  double number(const char* key) const;
+  double number(const char* key, double fallback) const { return has(key) ? number(key) : fallback; }
+  /// A number within [lo, hi] (inclusive), or (lo, hi] when `open_low`.
+  double number_in(const char* key, double lo, double hi, bool open_low) const;
+  long integer(const char* key) const;
+  std::string string(const char* key) const;
+  bool boolean(const char* key) const;
+  Vec3 vec3(const char* key) const;
+
+  /// "FILE: key PATH.KEY" for messages.
+  std::string where(const char* key) const;
+  [[noreturn]] void fail(const char* key, const std::string& message) const;
+  const std::string& file() const { return file_; }
+  const std::string& path() const { return path_; }
+  const nlohmann::json& json() const { return j_; }
+
+ private:
+  const nlohmann::json& j_;
+  std::string file_, path_;
+};
+
+std::string describe(const nlohmann::json& value);  ///< short text of a value for messages
+
+}  // namespace weft::json_util

@@ -1,0 +1,58 @@
+#include "linalg/block_sparse.hpp"
+
+#include <algorithm>
+
+namespace weft {
+
+BlockPattern::BlockPattern(int n, const std::vector<std::pair<int, int>>& pairs) : n_(n) {
+  std::vector<std::vector<int>> rows(n);
+  for (int i = 0; i < n; ++i) rows[i].push_back(i);
+  for (auto [i, j] : pairs) {
+    rows[i].push_back(j);
+    rows[j].push_back(i);
+  }
+  row_start_.assign(n + 1, 0);
+  diag_.assign(n, -1);
+  for (int i = 0; i < n; ++i) {
+    auto& r = rows[i];
+    std::sort(r.begin(), r.end());
+    r.erase(std::unique(r.begin(), r.end()), r.end());
+    row_start_[i + 1] = row_start_[i] + static_cast<int>(r.size());
+  }
+  col_.reserve(row_start_[n]);
+  for (int i = 0; i < n; ++i) {
+    for (int j : rows[i]) {
+      if (j == i) diag_[i] = static_cast<int>(col_.size());
+      col_.push_back(j);
+    }
+  }
+}
+
+int BlockPattern::slot(int i, int j) const {
+  auto begin = col_.begin() + row_start_[i], end = col_.begin() + row_start_[i + 1];
+  auto it = std::lower_bound(begin, end, j);
+  return (it != end && *it == j) ? static_cast<int>(it - col_.begin()) : -1;
+}
+
+void BlockMatrix::multiply(const VecX& x, VecX& y) const {
+  const auto& rs = pattern->row_start();
+  const auto& col = pattern->column();
+  const int n = pattern->num_nodes();
+  y.resize(3 * n);
+  for (int i = 0; i < n; ++i) {
+    Vec3 acc = Vec3::Zero();
+    for (int s = rs[i]; s < rs[i + 1]; ++s) acc.noalias() += block[s] * node(x, col[s]);
+    node(y, i) = acc;
+  }
+}
+
+MatX BlockMatrix::to_dense() const {
+  const int n = pattern->num_nodes();
+  MatX d = MatX::Zero(3 * n, 3 * n);
+  for (int i = 0; i < n; ++i)
+    for (int s = pattern->row_start()[i]; s < pattern->row_start()[i + 1]; ++s)
+      d.block<3, 3>(3 * i, 3 * pattern->column()[s]) = block[s];
+  return d;
+}
+
+}  // namespace weft

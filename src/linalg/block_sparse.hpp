@@ -1,0 +1,49 @@
+#pragma once
+// Block-sparse matrix with 3x3 blocks (one block per pair of coupled nodes), stored as
+// compressed rows of blocks. The pattern is built once from the topology; assembly writes
+// into precomputed slots, so a step never allocates.
+#include <utility>
+#include <vector>
+
+#include "weft/types.hpp"
+
+namespace weft {
+
+/// Which node pairs (i, j) hold a block. Symmetric: both (i, j) and (j, i) are stored.
+class BlockPattern {
+ public:
+  BlockPattern() = default;
+  /// `n` nodes; `pairs` lists coupled nodes (either order, duplicates allowed). Every
+  /// diagonal block (i, i) is always present.
+  BlockPattern(int n, const std::vector<std::pair<int, int>>& pairs);
+
+  int num_nodes() const { return n_; }
+  int num_blocks() const { return static_cast<int>(col_.size()); }
+  /// Index of block (i, j) in the value array; -1 when absent.
+  int slot(int i, int j) const;
+  int diagonal_slot(int i) const { return diag_[i]; }
+  const std::vector<int>& row_start() const { return row_start_; }
+  const std::vector<int>& column() const { return col_; }
+
+ private:
+  int n_ = 0;
+  std::vector<int> row_start_, col_, diag_;
+};
+
+/// Values of a matrix on a BlockPattern.
+struct BlockMatrix {
+  const BlockPattern* pattern = nullptr;
+  std::vector<Mat3> block;
+
+  void reset(const BlockPattern& p) {
+    pattern = &p;
+    block.assign(p.num_blocks(), Mat3::Zero());
+  }
+  void set_zero() { std::fill(block.begin(), block.end(), Mat3::Zero()); }
+  /// y = A x
+  void multiply(const VecX& x, VecX& y) const;
+  /// Dense copy (tests and small systems only).
+  MatX to_dense() const;
+};
+
+}  // namespace weft

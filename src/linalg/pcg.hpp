@@ -1,0 +1,31 @@
+#pragma once
+// Preconditioned conjugate gradient on a BlockMatrix with per-node constraint filters
+// (Baraff-Witkin style): a filtered node's unknowns are held at zero, so the system
+// restricted to the free nodes stays symmetric positive definite.
+#include "linalg/block_sparse.hpp"
+
+namespace weft {
+
+struct PcgSettings {
+  double relative_tolerance = 1e-6;  ///< stop when |r| <= tol |b| (filtered)
+  int max_iterations = 1000;
+};
+
+struct PcgResult {
+  int iterations = 0;
+  double relative_residual = 0.0;
+  bool converged = false;
+};
+
+/// Scratch vectors kept between solves so a step does not allocate.
+struct PcgWorkspace {
+  VecX r, z, p, q;
+  std::vector<Mat3> inverse_diagonal;
+};
+
+/// Solves A x = b for the nodes with fixed[i] == 0; x_i = 0 on fixed nodes.
+/// `x` holds the initial guess on entry. Preconditioner: inverse 3x3 diagonal blocks.
+PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>& fixed,
+                    const PcgSettings& settings, VecX& x, PcgWorkspace& ws);
+
+}  // namespace weft

@@ -1,0 +1,138 @@
+#include "mesh/mesh.hpp"
+
+#include <tiny_obj_loader.h>
+
+#include <cstdio>
+#include <map>
+
+#include "io/atomic_file.hpp"
+#include "weft/error.hpp"
+
+namespace weft {
+
+TriMesh make_grid(double size_u, double size_v, int nu, int nv) {
+  TriMesh m;
+  m.positions.resize(nu * nv, 3);
+  m.pattern.resize(nu * nv);
+  for (int j = 0; j < nv; ++j)
+    for (int i = 0; i < nu; ++i) {
+      const double u = size_u * i / (nu - 1), v = size_v * j / (nv - 1);
+      m.positions.row(j * nu + i) = Vec3(u, v, 0).transpose();
+      m.pattern[j * nu + i] = Vec2(u, v);
+    }
+  for (int j = 0; j + 1 < nv; ++j)
+    for (int i = 0; i + 1 < nu; ++i) {
+      const int a = j * nu + i, b = a + 1, c = a + nu, d = c + 1;
+      if ((i + j) % 2 == 0) {
+        m.triangles.push_back({a, b, d});
+        m.triangles.push_back({a, d, c});
+      } else {
+        m.triangles.push_back({a, b, c});
+        m.triangles.push_back({b, d, c});
+      }
+    }
+  return m;
+}
+
+TriMesh load_obj(const std::string& path, double uv_scale) {
+  tinyobj::ObjReaderConfig config;
+  config.triangulate = true;
+  config.vertex_color = false;
+  tinyobj::ObjReader reader;
+  if (!reader.ParseFromFile(path, config)) {
+    std::string msg = reader.Error();
+    while (!msg.empty() && (msg.back() == '\n' || msg.back() == '\r')) msg.pop_back();
+    throw InputError(path + ": cannot read OBJ mesh" + (msg.empty() ? "" : ": " + msg));
+  }
+  const auto& attrib = reader.GetAttrib();
+  const int nv = static_cast<int>(attrib.vertices.size() / 3);
+  if (nv < 3) throw InputError(path + ": OBJ mesh has " + std::to_string(nv) + " vertices, needs at least 3");
+  TriMesh m;
+  m.positions.resize(nv, 3);
+  for (int i = 0; i < nv; ++i)
+    m.positions.row(i) = Vec3(attrib.vertices[3 * i], attrib.vertices[3 * i + 1], attrib.vertices[3 * i + 2]).transpose();
+  if (!m.positions.allFinite()) throw InputError(path + ": OBJ mesh has a non-finite vertex coordinate");
+  std::vector<int> uv_of(nv, -1);
+  bool has_uv = !attrib.texcoords.empty();
+  for (const auto& shape : reader.GetShapes()) {
+    const auto& idx = shape.mesh.indices;
+    for (size_t f = 0; f + 2 < idx.size(); f += 3) {
+      std::array<int, 3> t{idx[f].vertex_index, idx[f + 1].vertex_index, idx[f + 2].vertex_index};
+      for (int k = 0; k < 3; ++k) {
+        if (has_uv) {
+          const int ti = idx[f + k].texcoord_index;
+          if (ti < 0) {
+            has_uv = false;
+          } else if (uv_of[t[k]] >= 0 && uv_of[t[k]] != ti &&
+                     (attrib.texcoords[2 * uv_of[t[k]]] != attrib.texcoords[2 * ti] ||
+                      attrib.texcoords[2 * uv_of[t[k]] + 1] != attrib.texcoords[2 * ti + 1])) {
+            throw InputError(path + ": vertex " + std::to_string(t[k] + 1) +
+                             " has two different texture coordinates (split it into two vertices)");
+          } else {
+            uv_of[t[k]] = ti;
+          }
+        }
+      }
+      m.triangles.push_back(t);
+    }
+  }
+  if (m.triangles.empty()) throw InputError(path + ": OBJ mesh has no faces");
+  m.pattern.resize(nv);
+  if (has_uv) {
+    for (int i = 0; i < nv; ++i) {
+      if (uv_of[i] < 0) throw InputError(path + ": vertex " + std::to_string(i + 1) + " is used by no face");
+      m.pattern[i] = uv_scale * Vec2(attrib.texcoords[2 * uv_of[i]], attrib.texcoords[2 * uv_of[i] + 1]);
+    }
+  } else {
+    // Project onto the best-fit plane: the pattern of a flat piece is its own shape.
+    const Vec3 c = m.positions.colwise().mean().transpose();
+    const MatX centred = m.positions.rowwise() - c.transpose();
+    Eigen::JacobiSVD<MatX> svd(centred, Eigen::ComputeThinV);
+    const Vec3 e1 = svd.matrixV().col(0), e2 = svd.matrixV().col(1);
+    for (int i = 0; i < nv; ++i) {
+      const Vec3 p = m.positions.row(i).transpose() - c;
+      m.pattern[i] = Vec2(p.dot(e1), p.dot(e2));
+    }
+  }
+  // Orient every triangle counter-clockwise in the pattern.
+  for (auto& t : m.triangles) {
+    const Vec2 e1 = m.pattern[t[1]] - m.pattern[t[0]], e2 = m.pattern[t[2]] - m.pattern[t[0]];
+    if (e1.x() * e2.y() - e1.y() * e2.x() < 0) std::swap(t[1], t[2]);
+  }
+  return m;
+}
+
+std::vector<std::array<int, 4>> interior_edge_stencils(const TriMesh& mesh) {
+  std::map<std::pair<int, int>, std::pair<int, int>> edge_tips;  // (min,max) -> (tip, tip)
+  std::vector<std::array<int, 4>> out;
+  for (const auto& t : mesh.triangles) {
+    for (int k = 0; k < 3; ++k) {
+      const int c = t[k], d = t[(k + 1) % 3], tip = t[(k + 2) % 3];
+      auto key = std::minmax(c, d);
+      auto it = edge_tips.find(key);
+      if (it == edge_tips.end()) {
+        edge_tips[key] = {tip, -1};
+      } else if (it->second.second < 0) {
+        it->second.second = tip;
+      } else {
+        it->second.second = -2;  // non-manifold edge: no bending stencil
+      }
+    }
+  }
+  for (const auto& [edge, tips] : edge_tips)
+    if (tips.second >= 0) out.push_back({tips.first, tips.second, edge.first, edge.second});
+  return out;
+}
+
+void write_obj(const std::string& path, const VecX& x, const std::vector<std::array<int, 3>>& triangles) {
+  write_file_atomically(path, [&](std::ostream& out) {
+    char buf[96];
+    for (int i = 0; i < x.size() / 3; ++i) {
+      std::snprintf(buf, sizeof buf, "v %.9g %.9g %.9g\n", x[3 * i], x[3 * i + 1], x[3 * i + 2]);
+      out << buf;
+    }
+    for (const auto& t : triangles) out << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
+  });
+}
+
+}  // namespace weft

@@ -1,0 +1,36 @@
+#pragma once
+// Triangle meshes of cloth: 3D positions plus 2D pattern (material) coordinates per vertex,
+// u along the weft and v along the warp, in metres.
+#include <array>
+#include <string>
+#include <vector>
+
+#include "weft/types.hpp"
+
+namespace weft {
+
+struct TriMesh {
+  Points positions;                           ///< #V by 3 (m)
+  std::vector<Vec2> pattern;                  ///< #V pattern coordinates (m)
+  std::vector<std::array<int, 3>> triangles;  ///< #F vertex indices, counter-clockwise in the pattern
+  int num_vertices() const { return static_cast<int>(positions.rows()); }
+};
+
+/// A size_u by size_v rectangle in the z = 0 plane with nu by nv vertices; vertex (i, j)
+/// (i along u, j along v) has index j * nu + i. Cells are split along alternating
+/// diagonals so the mesh has no preferred shear direction.
+TriMesh make_grid(double size_u, double size_v, int nu, int nv);
+
+/// Reads an OBJ file (tinyobjloader). Pattern coordinates come from the texture coordinates
+/// times `uv_scale` (metres per texture unit) when present, otherwise from the positions
+/// projected onto their best-fit plane. Throws InputError naming the file.
+TriMesh load_obj(const std::string& path, double uv_scale = 1.0);
+
+/// Bending stencils: for every interior edge CD shared by triangles (C, D, A) and (D, C, B),
+/// the vertex indices (A, B, C, D).
+std::vector<std::array<int, 4>> interior_edge_stencils(const TriMesh& mesh);
+
+/// Writes positions and triangles as an OBJ file (atomically).
+void write_obj(const std::string& path, const VecX& x, const std::vector<std::array<int, 3>>& triangles);
+
+}  // namespace weft

@@ -1,0 +1,88 @@
+#pragma once
+// A piece of cloth as a mechanical system: membrane triangles, bending stencils, gravity
+// and pinned vertices (DESIGN.md: the Model is built once and never changed by a step).
+#include <array>
+#include <vector>
+
+#include "damping/adaptive.hpp"
+#include "elements/bending.hpp"
+#include "elements/membrane.hpp"
+#include "mesh/mesh.hpp"
+#include "system/system.hpp"
+#include "weft/material.hpp"
+
+namespace weft {
+
+struct ClothModel {
+  TriMesh mesh;              ///< rest pattern and initial positions
+  Material material;
+  Vec3 gravity{0, -9.81, 0};  ///< m/s^2
+  VecX mass;                 ///< lumped mass per vertex (kg)
+  VecX inverse_mass;         ///< 0 on pinned vertices
+  std::vector<char> fixed;   ///< pinned vertices
+  std::vector<MembraneGeometry> membranes;     ///< one per mesh triangle
+  std::vector<std::array<int, 4>> stencils;    ///< bending (A, B, C, D)
+  std::vector<BendingGeometry> bendings;
+  BlockPattern pattern;
+  std::vector<std::array<int, 9>> membrane_slots;   ///< block slots (i, j) row-major
+  std::vector<std::array<int, 16>> bending_slots;
+  std::vector<Vec3> membrane_mass_sums;             ///< per triangle (METHOD.md 4)
+  std::vector<double> bending_alpha_mass_sums;      ///< sum alpha_i^2 / m_i
+
+  int num_vertices() const { return mesh.num_vertices(); }
+  /// Initial positions as a 3n vector.
+  VecX initial_positions() const;
+};
+
+/// Builds the model; `pins` are vertex indices. Throws InputError for a degenerate triangle
+/// (naming its index and vertices), a bad pin index, or a non-positive density.
+ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3& gravity,
+                             const std::vector<int>& pins);
+
+struct DampingSettings {
+  /// Target damping ratio (fraction of critical); 0 disables adaptive damping.
+  double damping_ratio = 0.0;
+};
+
+/// Per-run statistics of the stiffness factors and of the added viscosity.
+struct DampingStatistics {
+  LogStatistics membrane_kappa;   ///< largest mode per element and step
+  LogStatistics membrane_lambda;  ///< lambda of that mode, with the viscosity used
+  LogStatistics bending_kappa;
+  LogStatistics added_viscosity;  ///< N s/m added over the material's, per element and step
+  long element_steps = 0;         ///< membrane element-steps observed
+  long raised_element_steps = 0;  ///< those whose viscosity was raised
+};
+
+class ClothSystem : public System {
+ public:
+  ClothSystem(const ClothModel& model, DampingSettings damping);
+
+  int num_nodes() const override { return model_.num_vertices(); }
+  const VecX& node_mass() const override { return model_.mass; }
+  const std::vector<char>& fixed() const override { return model_.fixed; }
+  const BlockPattern& pattern() const override { return model_.pattern; }
+  void begin_step(const VecX& x, const VecX& v, double dt) override;
+  void evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluation& out) override;
+
+  const ClothModel& model() const { return model_; }
+  const DampingSettings& damping_settings() const { return damping_; }
+  /// Viscosity per triangle and mode (N s/m) in use for the current step.
+  const std::vector<Vec3>& membrane_viscosity() const { return membrane_viscosity_; }
+  const std::vector<double>& bending_viscosity() const { return bending_viscosity_; }
+  /// Added viscosity per vertex (area-weighted mean over its triangles of the largest mode's
+  /// addition), for colouring frames.
+  VecX added_viscosity_per_vertex() const;
+  const DampingStatistics& statistics() const { return stats_; }
+  /// Per-element stiffness factors kappa (largest mode) at a state, for analysis.
+  std::vector<double> membrane_kappa_max(const VecX& x, double dt) const;
+
+ private:
+  const ClothModel& model_;
+  DampingSettings damping_;
+  std::vector<Vec3> membrane_viscosity_;
+  std::vector<double> bending_viscosity_;
+  DampingStatistics stats_;
+};
+
+}  // namespace weft

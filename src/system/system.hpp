@@ -1,0 +1,43 @@
+#pragma once
+// What an integrator sees: a mechanical system of n point masses that returns forces, their
+// Jacobians K = df/dx and D = df/dv, and its energies. Integrators know nothing about cloth:
+// the same integrator code steps a single spring and a garment.
+#include <vector>
+
+#include "linalg/block_sparse.hpp"
+
+namespace weft {
+
+/// One evaluation of the system at a state (x, v).
+struct Evaluation {
+  VecX force;                  ///< total force, 3n
+  BlockMatrix stiffness;       ///< K = df/dx, made negative semi-definite (METHOD.md 1)
+  BlockMatrix damping;         ///< D = df/dv, negative semi-definite
+  double elastic_energy = 0;   ///< membrane + bending + springs (J)
+  double gravity_energy = 0;   ///< gravitational potential (J), -sum m g.x
+  double viscous_power = 0;    ///< f_viscous . v (W), <= 0
+};
+
+class System {
+ public:
+  virtual ~System() = default;
+  virtual int num_nodes() const = 0;
+  /// Lumped mass per node (kg), n entries.
+  virtual const VecX& node_mass() const = 0;
+  /// Per-node constraint filter: 1 = the node does not move (pinned).
+  virtual const std::vector<char>& fixed() const = 0;
+  virtual const BlockPattern& pattern() const = 0;
+  /// Called once at the start of every step with the step's size (adaptive damping).
+  virtual void begin_step(const VecX& /*x*/, const VecX& /*v*/, double /*dt*/) {}
+  /// Fills `out` (force and energies always; Jacobians when `jacobians`).
+  virtual void evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluation& out) = 0;
+
+  /// Sets `out`'s matrices on this system's pattern.
+  void prepare(Evaluation& out) const {
+    out.force.resize(3 * num_nodes());
+    out.stiffness.reset(pattern());
+    out.damping.reset(pattern());
+  }
+};
+
+}  // namespace weft

@@ -1,0 +1,215 @@
+// Every element's forces against finite differences of its energy, and its stiffness
+// (df/dx) and damping (df/dv) against finite differences of its forces, at random
+// deformed states.
+#include <gtest/gtest.h>
+
+#include <random>
+#include <unsupported/Eigen/KroneckerProduct>
+
+#include "elements/bending.hpp"
+#include "elements/membrane.hpp"
+#include "elements/spring.hpp"
+
+using namespace weft;
+
+namespace {
+
+std::mt19937 rng(12345);
+double uniform(double a, double b) { return std::uniform_real_distribution<double>(a, b)(rng); }
+Vec3 random_vec(double s) { return Vec3(uniform(-s, s), uniform(-s, s), uniform(-s, s)); }
+
+Material test_material() {
+  Material m;
+  m.weft = StressCurve::linear(400);
+  m.warp = StressCurve::linear(250);
+  m.shear = StressCurve::linear(40);
+  m.poisson_ratio = 0.3;
+  return m;
+}
+
+// Relative error of a against b, with a floor on the scale.
+double rel_err(const MatX& a, const MatX& b) { return (a - b).norm() / std::max(1e-8, b.norm()); }
+
+}  // namespace
+
+TEST(MembraneElement, ForcesAreMinusEnergyGradientAndJacobiansMatchFiniteDifferences) {
+  const Material mat = test_material();
+  for (int trial = 0; trial < 20; ++trial) {
+    const Vec2 pa(uniform(-0.01, 0.01), uniform(-0.01, 0.01));
+    const Vec2 pb = pa + Vec2(0.02 + uniform(0, 0.01), uniform(-0.005, 0.005));
+    const Vec2 pc = pa + Vec2(uniform(-0.005, 0.005), 0.02 + uniform(0, 0.01));
+    MembraneGeometry g;
+    ASSERT_TRUE(make_membrane_geometry(pa, pb, pc, g));
+    // A random deformation: rotation, stretch or compression up to 15%, shear, noise.
+    const Mat3 R = Eigen::AngleAxisd(uniform(0, 6.28), random_vec(1).normalized()).toRotationMatrix();
+    Mat3 F = Mat3::Identity() + 0.15 * Mat3::Random();
+    std::array<Vec3, 3> x, v;
+    const Vec2 p[3] = {pa, pb, pc};
+    for (int i = 0; i < 3; ++i) {
+      x[i] = R * F * Vec3(p[i].x(), p[i].y(), 0) + random_vec(1e-3);
+      v[i] = random_vec(0.5);
+    }
+    const Vec3 eta(0.02, 0.03, 0.01);
+    MembraneResult r;
+    evaluate_membrane(g, mat, Vec3::Zero(), x, v, true, false, r);
+    const double h = 1e-7;
+    Eigen::Matrix<double, 9, 1> grad;
+    Eigen::Matrix<double, 9, 9> Kfd, Dfd;
+    for (int k = 0; k < 9; ++k) {
+      auto xp = x, xm = x;
+      xp[k / 3][k % 3] += h;
+      xm[k / 3][k % 3] -= h;
+      MembraneResult rp, rm;
+      evaluate_membrane(g, mat, Vec3::Zero(), xp, v, false, false, rp);
+      evaluate_membrane(g, mat, Vec3::Zero(), xm, v, false, false, rm);
+      grad[k] = (rp.energy - rm.energy) / (2 * h);
+      Kfd.col(k) = (rp.force - rm.force) / (2 * h);
+    }
+    EXPECT_LT(rel_err(r.force, -grad), 1e-6) << "trial " << trial;
+    EXPECT_LT(rel_err(r.stiffness, Kfd), 1e-6) << "trial " << trial;
+    EXPECT_LT((r.stiffness - r.stiffness.transpose()).norm(), 1e-9 * r.stiffness.norm());
+    // Damping: forces with viscosity against finite differences in velocity.
+    MembraneResult rv;
+    evaluate_membrane(g, mat, eta, x, v, true, false, rv);
+    for (int k = 0; k < 9; ++k) {
+      auto vp = v, vm = v;
+      vp[k / 3][k % 3] += h;
+      vm[k / 3][k % 3] -= h;
+      MembraneResult rp, rm;
+      evaluate_membrane(g, mat, eta, x, vp, false, false, rp);
+      evaluate_membrane(g, mat, eta, x, vm, false, false, rm);
+      Dfd.col(k) = (rp.force - rm.force) / (2 * h);
+    }
+    EXPECT_LT(rel_err(rv.damping, Dfd), 1e-6) << "trial " << trial;
+    // Viscous power equals viscous force . v.
+    Eigen::Matrix<double, 9, 1> vv;
+    for (int i = 0; i < 3; ++i) vv.segment<3>(3 * i) = v[i];
+    EXPECT_NEAR(rv.viscous_power, (rv.force - r.force).dot(vv), 1e-9 * std::abs(rv.viscous_power) + 1e-15);
+    EXPECT_LE(rv.viscous_power, 0.0);
+  }
+}
+
+TEST(MembraneElement, DefiniteStiffnessIsNegativeSemiDefiniteUnderCompression) {
+  const Material mat = test_material();
+  MembraneGeometry g;
+  ASSERT_TRUE(make_membrane_geometry(Vec2(0, 0), Vec2(0.02, 0), Vec2(0, 0.02), g));
+  int indefinite_exact = 0;
+  for (int trial = 0; trial < 50; ++trial) {
+    std::array<Vec3, 3> x{Vec3(0, 0, 0), Vec3(0.02 * uniform(0.7, 1.1), 0, 0), Vec3(0, 0.02 * uniform(0.7, 1.1), 0)};
+    for (auto& p : x) p += random_vec(2e-3);
+    std::array<Vec3, 3> v{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+    MembraneResult exact, definite;
+    evaluate_membrane(g, mat, Vec3::Zero(), x, v, true, false, exact);
+    evaluate_membrane(g, mat, Vec3::Zero(), x, v, true, true, definite);
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> es_d(definite.stiffness), es_e(exact.stiffness);
+    EXPECT_LE(es_d.eigenvalues().maxCoeff(), 1e-9 * definite.stiffness.norm());
+    if (es_e.eigenvalues().maxCoeff() > 1e-6 * exact.stiffness.norm()) ++indefinite_exact;
+  }
+  EXPECT_GT(indefinite_exact, 0) << "the test never reached a compressed (indefinite) state";
+}
+
+TEST(MembraneElement, RigidMotionHasNoStrainAndNoForce) {
+  const Material mat = test_material();
+  MembraneGeometry g;
+  ASSERT_TRUE(make_membrane_geometry(Vec2(0, 0), Vec2(0.03, 0.01), Vec2(0.005, 0.02), g));
+  const Mat3 R = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  const Vec3 w(0.3, -1.0, 2.0), c(1, 2, 3);
+  std::array<Vec3, 3> x, v;
+  const Vec2 p[3] = {Vec2(0, 0), Vec2(0.03, 0.01), Vec2(0.005, 0.02)};
+  for (int i = 0; i < 3; ++i) {
+    x[i] = R * Vec3(p[i].x(), p[i].y(), 0) + c;
+    v[i] = w.cross(x[i] - c) + Vec3(0.1, 0.2, 0.3);  // rigid rotation + translation
+  }
+  MembraneResult r;
+  evaluate_membrane(g, mat, Vec3(0.1, 0.1, 0.1), x, v, true, true, r);
+  EXPECT_LT(r.strain.norm(), 1e-12);
+  EXPECT_LT(r.force.norm(), 1e-10);
+  EXPECT_NEAR(r.viscous_power, 0.0, 1e-12);
+}
+
+TEST(BendingElement, ForcesAndJacobianMatchFiniteDifferences) {
+  for (int trial = 0; trial < 20; ++trial) {
+    const Vec2 c(0, 0), d(0.03 + uniform(0, 0.01), uniform(-0.005, 0.005));
+    const Vec2 a(uniform(0.005, 0.025), uniform(0.01, 0.03)), b(uniform(0.005, 0.025), -uniform(0.01, 0.03));
+    BendingGeometry g;
+    ASSERT_TRUE(make_bending_geometry(a, b, c, d, 2e-5, 5e-5, g));
+    // R vanishes on the flat rest shape, for any rigid placement.
+    const Vec2 pts[4] = {a, b, c, d};
+    std::array<Vec3, 4> x, v;
+    Vec3 R0 = Vec3::Zero();
+    for (int i = 0; i < 4; ++i) R0 += g.alpha[i] * Vec3(pts[i].x(), pts[i].y(), 0);
+    EXPECT_LT(R0.norm(), 1e-14);
+    EXPECT_NEAR(g.alpha.sum(), 0.0, 1e-14);
+    for (int i = 0; i < 4; ++i) {
+      x[i] = Vec3(pts[i].x(), pts[i].y(), 0) + random_vec(0.005);
+      v[i] = random_vec(0.3);
+    }
+    const double damping = 1e-3;
+    BendingResult r;
+    evaluate_bending(g, 0.0, x, v, r);
+    const double h = 1e-7;
+    Eigen::Matrix<double, 12, 12> Kfd, Dfd;
+    Eigen::Matrix<double, 12, 1> grad;
+    for (int k = 0; k < 12; ++k) {
+      auto xp = x, xm = x, vp = v, vm = v;
+      xp[k / 3][k % 3] += h;
+      xm[k / 3][k % 3] -= h;
+      vp[k / 3][k % 3] += h;
+      vm[k / 3][k % 3] -= h;
+      BendingResult rp, rm, rvp, rvm;
+      evaluate_bending(g, 0.0, xp, v, rp);
+      evaluate_bending(g, 0.0, xm, v, rm);
+      evaluate_bending(g, damping, x, vp, rvp);
+      evaluate_bending(g, damping, x, vm, rvm);
+      grad[k] = (rp.energy - rm.energy) / (2 * h);
+      Kfd.col(k) = (rp.force - rm.force) / (2 * h);
+      Dfd.col(k) = (rvp.force - rvm.force) / (2 * h);
+    }
+    Eigen::Matrix<double, 12, 12> K, D;
+    const Eigen::Matrix4d aa = g.alpha * g.alpha.transpose();
+    K = -g.stiffness * Eigen::kroneckerProduct(aa, Mat3::Identity());
+    D = -damping * Eigen::kroneckerProduct(aa, Mat3::Identity());
+    EXPECT_LT(rel_err(r.force, -grad), 1e-6);
+    EXPECT_LT(rel_err(K, Kfd), 1e-6);
+    EXPECT_LT(rel_err(D, Dfd), 1e-6);
+  }
+}
+
+TEST(BendingElement, StiffnessFollowsTheDirectionAcrossTheEdge) {
+  // An edge along u bends the warp yarns; along v it bends the weft yarns.
+  BendingGeometry along_u, along_v;
+  ASSERT_TRUE(make_bending_geometry(Vec2(0.01, 0.01), Vec2(0.01, -0.01), Vec2(0, 0), Vec2(0.02, 0), 1e-5, 4e-5, along_u));
+  ASSERT_TRUE(make_bending_geometry(Vec2(0.01, 0.01), Vec2(-0.01, 0.01), Vec2(0, 0.02), Vec2(0, 0), 1e-5, 4e-5, along_v));
+  EXPECT_NEAR(along_u.stiffness / along_v.stiffness, 4.0, 1e-12);
+  // Symmetric square stencil: k_b = (2/3)(h_A + h_B)/(h_A^2 h_B^2) |CD| B with h = 0.01, |CD| = 0.02.
+  EXPECT_NEAR(along_v.stiffness, (2.0 / 3.0) * 0.02 / 1e-8 * 0.02 * 1e-5, 1e-12 * along_v.stiffness);
+}
+
+TEST(SpringElement, ForcesAndJacobiansMatchFiniteDifferences) {
+  for (int trial = 0; trial < 20; ++trial) {
+    const double k = uniform(10, 100), L0 = uniform(0, 1) < 0.2 ? 0.0 : uniform(0.5, 1.5), l = uniform(0.2, 2);
+    const Vec3 x1 = random_vec(1), x2 = random_vec(1), v1 = random_vec(1), v2 = random_vec(1);
+    SpringResult r;
+    evaluate_spring(k, L0, 0.0, x1, x2, v1, v2, false, r);
+    const double h = 1e-7;
+    Mat3 Kfd, Dfd;
+    Vec3 grad;
+    for (int c = 0; c < 3; ++c) {
+      Vec3 e = Vec3::Zero();
+      e[c] = h;
+      SpringResult rp, rm, rvp, rvm;
+      evaluate_spring(k, L0, 0.0, x1 + e, x2, v1, v2, false, rp);
+      evaluate_spring(k, L0, 0.0, x1 - e, x2, v1, v2, false, rm);
+      evaluate_spring(k, L0, l, x1, x2, v1 + e, v2, false, rvp);
+      evaluate_spring(k, L0, l, x1, x2, v1 - e, v2, false, rvm);
+      grad[c] = (rp.energy - rm.energy) / (2 * h);
+      Kfd.col(c) = (rp.force - rm.force) / (2 * h);
+      Dfd.col(c) = (rvp.force - rvm.force) / (2 * h);
+    }
+    SpringResult rl;
+    evaluate_spring(k, L0, l, x1, x2, v1, v2, false, rl);
+    EXPECT_LT(rel_err(r.force, -grad), 1e-6);
+    EXPECT_LT(rel_err(r.stiffness, Kfd), 1e-6);
+    EXPECT_LT(rel_err(rl.damping, Dfd), 1e-6);
+  }
+}
