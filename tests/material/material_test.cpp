@@ -1,11 +1,15 @@
 // Material files: units, references (preset, file), validation messages and shipped presets.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
+
+#include <unistd.h>
 
 #include "weft/error.hpp"
 #include "weft/material.hpp"
@@ -16,13 +20,20 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-/// A fresh folder for the files of one test.
-fs::path scratch_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("weft_material_test_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+/// A fresh folder for the files of one test, removed at the end of the test.
+struct ScratchDir {
+  explicit ScratchDir(const std::string& name)
+      : dir(fs::temp_directory_path() /
+            ("weft_material_test_" + std::to_string(::getpid()) + "_" + name)) {
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+  const fs::path dir;
+};
 
 std::string write(const fs::path& path, const json& j) {
   std::ofstream(path) << j.dump(2);
@@ -57,7 +68,8 @@ json table_material(const std::string& stress_unit, double stress_scale) {
 }
 
 TEST(MaterialUnits, KawabataStressEqualsSiTimesFactor) {
-  const fs::path dir = scratch_dir("units_stress");
+  const ScratchDir scratch("units_stress");
+  const fs::path& dir = scratch.dir;
   const Material kes = load_material_file(write(dir / "kes.json", table_material("gf/cm", 1.0)));
   const Material si = load_material_file(write(dir / "si.json", table_material("N/m", 1.0)));
   for (int i = -20; i <= 100; ++i) {
@@ -120,7 +132,8 @@ TEST(MaterialUnits, StrainInPercentDegreesAndEngineeringMeasure) {
 }
 
 TEST(MaterialFile, RejectedWithFileAndFieldInTheMessage) {
-  const fs::path dir = scratch_dir("bad");
+  const ScratchDir scratch("bad");
+  const fs::path& dir = scratch.dir;
   json j = table_material("N/m", 1.0);
 
   json bad = j;
@@ -204,7 +217,8 @@ TEST(MaterialFile, RejectsKeysTypesAndTables) {
 }
 
 TEST(MaterialFile, NeedsVersionAndValidJson) {
-  const fs::path dir = scratch_dir("version");
+  const ScratchDir scratch("version");
+  const fs::path& dir = scratch.dir;
   const std::string no_version = write(dir / "noversion.json", json{{"surface_density", 0.1}});
   EXPECT_NE(error_of([&] { load_material_file(no_version); }).find("field weft_material"),
             std::string::npos);
@@ -228,7 +242,8 @@ TEST(MaterialFile, LoadAndUnloadBranchesAveraged) {
 }
 
 TEST(MaterialReference, PresetFileAndOverrides) {
-  const fs::path dir = scratch_dir("refs");
+  const ScratchDir scratch("refs");
+  const fs::path& dir = scratch.dir;
   fs::create_directories(dir / "sub");
   json j = table_material("N/m", 1.0);
   j["name"] = "mine";
@@ -303,11 +318,43 @@ TEST(MaterialPreset, ShippedPresetsAreSane) {
       EXPECT_GT(c->tangent(last), 5.0 * c->tangent(0.0));  // stiffens past a few percent
       for (int i = 0; i <= 1000; ++i) EXPECT_GT(c->tangent(last * i / 1000.0), 0.0);
     }
+    // Energy and tangent agree with stress (central differences) across and past the tables,
+    // sampled off the knots (the curves are C1, so the second derivative jumps there).
+    for (const StressCurve* c : {&m.weft, &m.warp, &m.shear}) {
+      for (int i = -50; i <= 200; ++i) {
+        const double e = 0.001 * i + 3.7e-5, h = 1e-6;
+        const auto& knots = c->strain_points();
+        if (std::any_of(knots.begin(), knots.end(), [&](double x) { return std::abs(x - e) < 2 * h; })) {
+          continue;
+        }
+        const double ds = (c->stress(e + h) - c->stress(e - h)) / (2 * h);
+        const double dw = (c->energy(e + h) - c->energy(e - h)) / (2 * h);
+        EXPECT_NEAR(ds, c->tangent(e), 1e-4 * (1 + std::abs(c->tangent(e)))) << e;
+        EXPECT_NEAR(dw, c->stress(e), 1e-6 * (1 + std::abs(c->stress(e)))) << e;
+      }
+    }
     const double shear_last = m.shear.strain_points().back();
     EXPECT_NEAR(m.shear.stress(0.0), 0.0, 1e-12);
     for (int i = -1000; i <= 1000; ++i) EXPECT_GT(m.shear.tangent(shear_last * i / 1000.0), 0.0);
   }
   EXPECT_NEAR(material_preset("cotton").surface_density_kg_m2, 0.150, 0.01);
+}
+
+TEST(MaterialFile, DocumentedExampleParses) {
+  // The JSON example in docs/materials.md is a valid material file.
+  std::ifstream in(std::string(WEFT_SOURCE_DIR) + "/docs/materials.md");
+  ASSERT_TRUE(in);
+  const std::string doc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t begin = doc.find("```json\n");
+  ASSERT_NE(begin, std::string::npos);
+  const std::size_t end = doc.find("```", begin + 8);
+  const ScratchDir scratch("doc_example");
+  const fs::path& dir = scratch.dir;
+  const std::string path = write_text(dir / "example.json", doc.substr(begin + 8, end - begin - 8));
+  const Material m = load_material_file(path);
+  EXPECT_EQ(m.name, "my_twill");
+  EXPECT_GT(m.weft.tangent(0.0), 0.0);
+  EXPECT_GT(m.bending_rigidity_warp_Nm, m.bending_rigidity_weft_Nm);
 }
 
 }  // namespace
