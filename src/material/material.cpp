@@ -1,28 +1,375 @@
+// Fabric materials: JSON format with units (docs/materials.md), presets from data/materials.
 #include "weft/material.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <numbers>
+#include <sstream>
+#include <tuple>
 
 #include "weft/error.hpp"
 
 namespace weft {
 
-StressCurve StressCurve::linear(double modulus_N_m) {
-  StressCurve c;
-  c.modulus_ = modulus_N_m;
-  return c;
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+/// Version of the material file format this code reads ("weft_material": 1).
+constexpr int kFormatVersion = 1;
+/// Limit on chains of {"file": ...} / {"preset": ...} references (guards against cycles).
+constexpr int kMaxReferenceDepth = 8;
+
+using UnitTable = std::map<std::string, double>;  // unit name -> factor to SI
+
+// Conversion factors to SI. 1 gf = 9.80665e-3 N, so gf/cm = 0.980665 N/m and
+// gf cm^2/cm = 9.80665e-5 N m (Kawabata KES-F units).
+const UnitTable kStressUnits = {
+    {"N/m", 1.0}, {"N/cm", 100.0}, {"kN/m", 1000.0}, {"gf/cm", 0.980665}};
+const UnitTable kDensityUnits = {{"kg/m2", 1.0},
+                                 {"g/m2", 1e-3},
+                                 {"mg/cm2", 1e-2},
+                                 {"oz/yd2", 28.349523125e-3 / 0.83612736}};
+const UnitTable kBendingUnits = {
+    {"N m", 1.0}, {"N m2/m", 1.0}, {"uN m", 1e-6}, {"gf cm2/cm", 9.80665e-5}};
+const UnitTable kViscosityUnits = {{"N s/m", 1.0}, {"gf s/cm", 0.980665}};
+
+std::string num(double x) {
+  std::ostringstream s;
+  s.precision(10);
+  s << x;
+  return s.str();
 }
 
-StressCurve StressCurve::tabulated(std::vector<double>, std::vector<double>, const std::string& where) {
-  throw InputError(where + ": tabulated curves are not implemented yet");
+std::string list(const UnitTable& units) {
+  std::string out;
+  for (const auto& [name, factor] : units) out += (out.empty() ? "\"" : ", \"") + name + "\"";
+  return out;
 }
 
-double StressCurve::stress(double e) const { return modulus_ * e; }
-double StressCurve::tangent(double) const { return modulus_; }
-double StressCurve::energy(double e) const { return 0.5 * modulus_ * e * e; }
+/// Builds error messages "WHERE: field FIELD: ...".
+struct Ctx {
+  std::string where;
+  std::string base_dir;
+  int depth = 0;
+
+  std::string prefix(const std::string& field) const { return where + ": field " + field; }
+  [[noreturn]] void fail(const std::string& field, const std::string& msg) const {
+    throw InputError(prefix(field) + ": " + msg);
+  }
+};
+
+void check_keys(const Ctx& c, const std::string& field, const json& j,
+                std::initializer_list<const char*> allowed) {
+  for (const auto& [key, value] : j.items()) {
+    if (std::none_of(allowed.begin(), allowed.end(), [&](const char* a) { return key == a; })) {
+      std::string names;
+      for (const char* a : allowed) names += (names.empty() ? "" : ", ") + std::string(a);
+      c.fail(field.empty() ? key : field + "." + key, "unknown key (expected one of: " + names + ")");
+    }
+  }
+}
+
+double number(const Ctx& c, const std::string& field, const json& v) {
+  if (!v.is_number()) c.fail(field, std::string("expected a number, got ") + v.type_name());
+  const double x = v.get<double>();
+  if (!std::isfinite(x)) c.fail(field, "not a finite number");
+  return x;
+}
+
+std::string text(const Ctx& c, const std::string& field, const json& v) {
+  if (!v.is_string()) c.fail(field, std::string("expected a string, got ") + v.type_name());
+  return v.get<std::string>();
+}
+
+double unit_factor(const Ctx& c, const std::string& field, const json& v, const UnitTable& units) {
+  const std::string u = text(c, field, v);
+  const auto it = units.find(u);
+  if (it == units.end()) c.fail(field, "unknown unit \"" + u + "\" (expected one of: " + list(units) + ")");
+  return it->second;
+}
+
+/// A scalar: a bare number (SI) or {"value": x, "unit": u}.
+double quantity(const Ctx& c, const std::string& field, const json& v, const UnitTable& units) {
+  if (v.is_number()) return number(c, field, v);
+  if (!v.is_object()) {
+    c.fail(field, std::string("expected a number (SI) or {\"value\", \"unit\"}, got ") +
+                      v.type_name());
+  }
+  check_keys(c, field, v, {"value", "unit"});
+  if (!v.contains("value")) c.fail(field + ".value", "missing");
+  const double factor = v.contains("unit") ? unit_factor(c, field + ".unit", v["unit"], units) : 1.0;
+  return number(c, field + ".value", v["value"]) * factor;
+}
+
+std::vector<double> column(const Ctx& c, const std::string& field, const json& v) {
+  if (!v.is_array()) c.fail(field, std::string("expected an array of numbers, got ") + v.type_name());
+  if (v.empty()) c.fail(field, "the table is empty");
+  std::vector<double> out;
+  out.reserve(v.size());
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    out.push_back(number(c, field + "[" + std::to_string(i) + "]", v[i]));
+  }
+  return out;
+}
+
+/// How the strain column of a table is written and converted to Green strain.
+struct StrainConvention {
+  double scale = 1.0;        // "1" or "%"
+  bool degrees = false;      // shear angle in degrees: e_uv = sin(angle)
+  bool engineering = false;  // engineering strain and force per original width
+};
+
+/// Reads one (strain, stress) branch and converts it to Green strain and its work-conjugate
+/// stress in N/m.
+std::pair<std::vector<double>, std::vector<double>> branch(const Ctx& c, const std::string& field,
+                                                           const json& v, double stress_factor,
+                                                           const StrainConvention& sc,
+                                                           bool allow_unload) {
+  if (allow_unload) {
+    check_keys(c, field, v, {"strain", "stress", "unit", "strain_unit", "strain_measure", "unload"});
+  } else {
+    check_keys(c, field, v, {"strain", "stress", "unit"});
+  }
+  if (!v.contains("strain")) c.fail(field + ".strain", "missing");
+  if (!v.contains("stress")) c.fail(field + ".stress", "missing");
+  if (v.contains("unit")) stress_factor = unit_factor(c, field + ".unit", v["unit"], kStressUnits);
+  std::vector<double> x = column(c, field + ".strain", v["strain"]);
+  std::vector<double> y = column(c, field + ".stress", v["stress"]);
+  if (x.size() != y.size()) {
+    c.fail(field, "strain has " + std::to_string(x.size()) + " points but stress has " +
+                      std::to_string(y.size()));
+  }
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    double e = x[i] * sc.scale;
+    double s = y[i] * stress_factor;
+    if (sc.degrees) {
+      if (std::abs(x[i]) >= 90.0) {
+        c.fail(field + ".strain", "shear angle " + num(x[i]) + " deg is not within (-90, 90)");
+      }
+      e = std::sin(x[i] * std::numbers::pi / 180.0);
+    }
+    if (sc.engineering) {
+      // Green strain e = eps + eps^2/2; the measured force per original width T pairs with eps,
+      // the model stress s = dW/de = T / (1 + eps) pairs with e.
+      if (e <= -1.0) c.fail(field + ".strain", "engineering strain " + num(e) + " is <= -1");
+      s /= 1.0 + e;
+      e += 0.5 * e * e;
+    }
+    x[i] = e;
+    y[i] = s;
+  }
+  return {std::move(x), std::move(y)};
+}
+
+StressCurve curve(const Ctx& c, const std::string& field, const json& v, bool shear) {
+  if (v.is_number()) {
+    const double k = number(c, field, v);
+    if (!(k > 0.0)) c.fail(field, "linear modulus must be positive, got " + num(k));
+    return StressCurve::linear(k);
+  }
+  if (!v.is_object()) {
+    c.fail(field, std::string("expected a number (N/m), {\"linear\": ...} or a table, got ") +
+                      v.type_name());
+  }
+  if (v.contains("linear")) {
+    check_keys(c, field, v, {"linear", "unit"});
+    const double factor =
+        v.contains("unit") ? unit_factor(c, field + ".unit", v["unit"], kStressUnits) : 1.0;
+    const double k = number(c, field + ".linear", v["linear"]) * factor;
+    if (!(k > 0.0)) c.fail(field + ".linear", "modulus must be positive, got " + num(k));
+    return StressCurve::linear(k);
+  }
+  check_keys(c, field, v, {"strain", "stress", "unit", "strain_unit", "strain_measure", "unload"});
+  const double factor =
+      v.contains("unit") ? unit_factor(c, field + ".unit", v["unit"], kStressUnits) : 1.0;
+  StrainConvention sc;
+  if (v.contains("strain_unit")) {
+    const std::string u = text(c, field + ".strain_unit", v["strain_unit"]);
+    if (u == "%") {
+      sc.scale = 0.01;
+    } else if (u == "deg" && shear) {
+      sc.degrees = true;
+    } else if (u != "1") {
+      c.fail(field + ".strain_unit", "unknown unit \"" + u + "\" (expected one of: \"1\", \"%\"" +
+                                         (shear ? ", \"deg\")" : ")"));
+    }
+  }
+  if (v.contains("strain_measure")) {
+    const std::string m = text(c, field + ".strain_measure", v["strain_measure"]);
+    if (m == "engineering" && !shear) {
+      sc.engineering = true;
+    } else if (m != "green") {
+      c.fail(field + ".strain_measure", "unknown strain measure \"" + m + "\" (expected \"green\"" +
+                                            (shear ? ")" : " or \"engineering\")"));
+    }
+  }
+  auto [x, y] = branch(c, field, v, factor, sc, true);
+  if (v.contains("unload")) {
+    auto [ux, uy] = branch(c, field + ".unload", v["unload"], factor, sc, false);
+    std::tie(x, y) = StressCurve::average_branches(std::move(x), std::move(y), std::move(ux),
+                                                   std::move(uy), c.prefix(field));
+  }
+  // A falling stress-strain curve has a negative tangent stiffness: unstable and unphysical.
+  for (std::size_t i = 1; i < y.size(); ++i) {
+    if (y[i] < y[i - 1] && x[i] > x[i - 1]) {
+      c.fail(field + ".stress", "must not decrease with strain, but stress " + num(y[i - 1]) +
+                                    " N/m at strain " + num(x[i - 1]) + " is followed by " +
+                                    num(y[i]) + " N/m at strain " + num(x[i]));
+    }
+  }
+  // Shear tables on strain >= 0 are mirrored (odd symmetry); tables reaching negative strain
+  // are used as given.
+  if (shear && !x.empty() && x.front() >= 0.0) {
+    return StressCurve::odd_symmetric(std::move(x), std::move(y), c.prefix(field));
+  }
+  return StressCurve::tabulated(std::move(x), std::move(y), c.prefix(field));
+}
+
+std::vector<std::string> preset_names_in(const std::string& dir) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    if (entry.is_regular_file() && entry.path().extension() == ".json") {
+      names.push_back(entry.path().stem().string());
+    }
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+/// Path of a shipped preset; throws "PREFIX: unknown material preset ..." if there is none.
+std::string preset_path(const std::string& name, const std::string& prefix) {
+  const std::vector<std::string> names = material_preset_names();
+  if (std::find(names.begin(), names.end(), name) == names.end()) {
+    std::string available;
+    for (const auto& n : names) available += (available.empty() ? "" : ", ") + n;
+    throw InputError(prefix + "unknown material preset \"" + name + "\" (available: " +
+                     (available.empty() ? "none found in " + data_dir() + "/materials" : available) +
+                     ")");
+  }
+  return data_dir() + "/materials/" + name + ".json";
+}
+
+Material load_file(const std::string& path, int depth);
+
+void parse_into(Material& m, const json& j, const Ctx& c) {
+  if (j.is_string()) {
+    m = load_file(preset_path(j.get<std::string>(), c.where + ": "), c.depth + 1);
+    return;
+  }
+  if (!j.is_object()) {
+    throw InputError(c.where + ": expected a material object or a preset name, got " +
+                     j.type_name());
+  }
+  check_keys(c, "", j,
+             {"weft_material", "name", "source", "notes", "preset", "file", "surface_density",
+              "weft", "warp", "shear", "poisson_ratio", "bending_rigidity", "viscosity"});
+  if (j.contains("weft_material")) {
+    const json& v = j["weft_material"];
+    if (!v.is_number_integer() || v.get<long long>() != kFormatVersion) {
+      c.fail("weft_material", "unsupported format version " + v.dump() + " (this weft reads " +
+                                  std::to_string(kFormatVersion) + ")");
+    }
+  }
+  if (j.contains("preset") && j.contains("file")) {
+    c.fail("preset", "give either \"preset\" or \"file\", not both");
+  }
+  if (c.depth > kMaxReferenceDepth) {
+    throw InputError(c.where + ": material references nested deeper than " +
+                     std::to_string(kMaxReferenceDepth) + " (a cycle?)");
+  }
+  if (j.contains("preset")) {
+    const std::string name = text(c, "preset", j["preset"]);
+    m = load_file(preset_path(name, c.prefix("preset") + ": "), c.depth + 1);
+  }
+  if (j.contains("file")) {
+    fs::path p = text(c, "file", j["file"]);
+    if (p.is_relative()) p = fs::path(c.base_dir) / p;
+    m = load_file(p.string(), c.depth + 1);
+  }
+  if (j.contains("name")) m.name = text(c, "name", j["name"]);
+  if (j.contains("source")) m.source = text(c, "source", j["source"]);
+  if (j.contains("notes")) text(c, "notes", j["notes"]);
+  if (j.contains("surface_density")) {
+    const double rho = quantity(c, "surface_density", j["surface_density"], kDensityUnits);
+    if (!(rho > 0.0)) c.fail("surface_density", "must be positive, got " + num(rho) + " kg/m2");
+    m.surface_density_kg_m2 = rho;
+  }
+  if (j.contains("weft")) m.weft = curve(c, "weft", j["weft"], false);
+  if (j.contains("warp")) m.warp = curve(c, "warp", j["warp"], false);
+  if (j.contains("shear")) m.shear = curve(c, "shear", j["shear"], true);
+  if (j.contains("poisson_ratio")) {
+    const double nu = number(c, "poisson_ratio", j["poisson_ratio"]);
+    // |nu| < 1 keeps the coupled weft-warp stiffness positive definite.
+    if (!(std::abs(nu) < 1.0)) c.fail("poisson_ratio", "must be within (-1, 1), got " + num(nu));
+    m.poisson_ratio = nu;
+  }
+  if (j.contains("bending_rigidity")) {
+    const json& v = j["bending_rigidity"];
+    const std::string f = "bending_rigidity";
+    double weft = 0.0, warp = 0.0;
+    if (v.is_number()) {
+      weft = warp = number(c, f, v);
+    } else if (v.is_object()) {
+      check_keys(c, f, v, {"weft", "warp", "value", "unit"});
+      const double factor =
+          v.contains("unit") ? unit_factor(c, f + ".unit", v["unit"], kBendingUnits) : 1.0;
+      if (v.contains("value")) {
+        if (v.contains("weft") || v.contains("warp")) {
+          c.fail(f + ".value", "give either \"value\" or \"weft\" and \"warp\", not both");
+        }
+        weft = warp = number(c, f + ".value", v["value"]) * factor;
+      } else {
+        if (!v.contains("weft")) c.fail(f + ".weft", "missing");
+        if (!v.contains("warp")) c.fail(f + ".warp", "missing");
+        weft = number(c, f + ".weft", v["weft"]) * factor;
+        warp = number(c, f + ".warp", v["warp"]) * factor;
+      }
+    } else {
+      c.fail(f, std::string("expected a number (N m) or {\"weft\", \"warp\", \"unit\"}, got ") +
+                    v.type_name());
+    }
+    if (weft < 0.0) c.fail(f + ".weft", "must not be negative, got " + num(weft) + " N m");
+    if (warp < 0.0) c.fail(f + ".warp", "must not be negative, got " + num(warp) + " N m");
+    m.bending_rigidity_weft_Nm = weft;
+    m.bending_rigidity_warp_Nm = warp;
+  }
+  if (j.contains("viscosity")) {
+    const double eta = quantity(c, "viscosity", j["viscosity"], kViscosityUnits);
+    if (eta < 0.0) c.fail("viscosity", "must not be negative, got " + num(eta) + " N s/m");
+    m.viscosity_Ns_m = eta;
+  }
+}
+
+Material load_file(const std::string& path, int depth) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot open material file");
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::parse_error& e) {
+    throw InputError(path + ": invalid JSON: " + e.what());
+  }
+  Ctx c{path, fs::path(path).parent_path().string(), depth};
+  if (c.base_dir.empty()) c.base_dir = ".";
+  if (!j.is_object()) throw InputError(path + ": expected a JSON object");
+  if (!j.contains("weft_material")) {
+    c.fail("weft_material", "missing (a material file starts with \"weft_material\": " +
+                                std::to_string(kFormatVersion) + ")");
+  }
+  Material m;
+  parse_into(m, j, c);
+  return m;
+}
+
+}  // namespace
 
 double Material::coupling_modulus() const {
   return poisson_ratio * std::sqrt(weft.tangent(0.0) * warp.tangent(0.0));
@@ -33,30 +380,19 @@ std::string data_dir() {
   return WEFT_DATA_DIR;
 }
 
-Material parse_material(const nlohmann::json& j, const std::string& where, const std::string&) {
-  if (!j.is_object()) throw InputError(where + ": expected an object");
+Material parse_material(const nlohmann::json& j, const std::string& where,
+                        const std::string& base_dir) {
   Material m;
-  if (j.contains("surface_density")) m.surface_density_kg_m2 = j.at("surface_density").get<double>();
-  if (j.contains("weft")) m.weft = StressCurve::linear(j.at("weft").get<double>());
-  if (j.contains("warp")) m.warp = StressCurve::linear(j.at("warp").get<double>());
-  if (j.contains("shear")) m.shear = StressCurve::linear(j.at("shear").get<double>());
-  if (j.contains("bending")) {
-    m.bending_rigidity_weft_Nm = m.bending_rigidity_warp_Nm = j.at("bending").get<double>();
-  }
-  if (j.contains("viscosity")) m.viscosity_Ns_m = j.at("viscosity").get<double>();
+  parse_into(m, j, Ctx{where, base_dir, 0});
   return m;
 }
 
-Material load_material_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path + ": cannot open material file");
-  return parse_material(nlohmann::json::parse(in), path);
-}
+Material load_material_file(const std::string& path) { return load_file(path, 0); }
 
-Material material_preset(const std::string& name) {
-  return load_material_file(data_dir() + "/materials/" + name + ".json");
-}
+Material material_preset(const std::string& name) { return load_file(preset_path(name, ""), 0); }
 
-std::vector<std::string> material_preset_names() { return {}; }
+std::vector<std::string> material_preset_names() {
+  return preset_names_in(data_dir() + "/materials");
+}
 
 }  // namespace weft

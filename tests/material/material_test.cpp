@@ -1,0 +1,361 @@
+// Material files: units, references (preset, file), validation messages and shipped presets.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include <unistd.h>
+
+#include "weft/error.hpp"
+#include "weft/material.hpp"
+
+namespace weft {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+/// A fresh folder for the files of one test, removed at the end of the test.
+struct ScratchDir {
+  explicit ScratchDir(const std::string& name)
+      : dir(fs::temp_directory_path() /
+            ("weft_material_test_" + std::to_string(::getpid()) + "_" + name)) {
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+  const fs::path dir;
+};
+
+std::string write(const fs::path& path, const json& j) {
+  std::ofstream(path) << j.dump(2);
+  return path.string();
+}
+
+std::string write_text(const fs::path& path, const std::string& text) {
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+/// The message of the InputError thrown by f, or "" if none was thrown.
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+json table_material(const std::string& stress_unit, double stress_scale) {
+  const std::vector<double> strain{0.0, 0.01, 0.02, 0.04, 0.06};
+  std::vector<double> stress{0.0, 4.0, 10.0, 40.0, 120.0};
+  for (double& s : stress) s *= stress_scale;
+  return {{"weft_material", 1},
+          {"weft", {{"strain", strain}, {"stress", stress}, {"unit", stress_unit}}},
+          {"shear", {{"strain", {0.0, 0.05, 0.1}}, {"stress", {0.0, stress[1], stress[3]}},
+                     {"unit", stress_unit}}},
+          {"warp", {{"linear", 300.0 * stress_scale}, {"unit", stress_unit}}}};
+}
+
+TEST(MaterialUnits, KawabataStressEqualsSiTimesFactor) {
+  const ScratchDir scratch("units_stress");
+  const fs::path& dir = scratch.dir;
+  const Material kes = load_material_file(write(dir / "kes.json", table_material("gf/cm", 1.0)));
+  const Material si = load_material_file(write(dir / "si.json", table_material("N/m", 1.0)));
+  for (int i = -20; i <= 100; ++i) {
+    const double e = 0.001 * i;
+    EXPECT_NEAR(kes.weft.stress(e), 0.980665 * si.weft.stress(e), 1e-9 * (1 + std::abs(si.weft.stress(e))));
+    EXPECT_NEAR(kes.weft.tangent(e), 0.980665 * si.weft.tangent(e), 1e-9 * si.weft.tangent(e));
+    EXPECT_NEAR(kes.weft.energy(e), 0.980665 * si.weft.energy(e), 1e-12);
+    EXPECT_NEAR(kes.shear.stress(e), 0.980665 * si.shear.stress(e), 1e-9);
+    EXPECT_NEAR(kes.warp.stress(e), 0.980665 * si.warp.stress(e), 1e-12);
+  }
+  // N/cm is 100 N/m.
+  const Material ncm = load_material_file(write(dir / "ncm.json", table_material("N/cm", 0.01)));
+  EXPECT_NEAR(ncm.weft.stress(0.03), si.weft.stress(0.03), 1e-9);
+}
+
+TEST(MaterialUnits, DensityBendingViscosity) {
+  const json si = {{"surface_density", 0.15},
+                   {"bending_rigidity", {{"weft", 0.05 * 9.80665e-5}, {"warp", 0.08 * 9.80665e-5}}},
+                   {"viscosity", 0.02 * 0.980665}};
+  const json kes = {{"surface_density", {{"value", 150}, {"unit", "g/m2"}}},
+                    {"bending_rigidity", {{"weft", 0.05}, {"warp", 0.08}, {"unit", "gf cm2/cm"}}},
+                    {"viscosity", {{"value", 0.02}, {"unit", "gf s/cm"}}}};
+  const Material a = parse_material(si, "si");
+  const Material b = parse_material(kes, "kes");
+  EXPECT_NEAR(b.surface_density_kg_m2, a.surface_density_kg_m2, 1e-15);
+  EXPECT_NEAR(b.bending_rigidity_weft_Nm, a.bending_rigidity_weft_Nm, 1e-18);
+  EXPECT_NEAR(b.bending_rigidity_warp_Nm, a.bending_rigidity_warp_Nm, 1e-18);
+  EXPECT_NEAR(b.viscosity_Ns_m, a.viscosity_Ns_m, 1e-15);
+  const Material c = parse_material(json{{"surface_density", {{"value", 15}, {"unit", "mg/cm2"}}}}, "c");
+  EXPECT_NEAR(c.surface_density_kg_m2, 0.15, 1e-15);
+  const Material d = parse_material(json{{"bending_rigidity", {{"value", 3.0}, {"unit", "uN m"}}}}, "d");
+  EXPECT_NEAR(d.bending_rigidity_weft_Nm, 3e-6, 1e-20);
+  EXPECT_NEAR(d.bending_rigidity_warp_Nm, 3e-6, 1e-20);
+}
+
+TEST(MaterialUnits, StrainInPercentDegreesAndEngineeringMeasure) {
+  const json percent = {{"weft", {{"strain", {0, 1, 2, 4}}, {"stress", {0, 3, 8, 30}},
+                                  {"strain_unit", "%"}}}};
+  const json fraction = {{"weft", {{"strain", {0, 0.01, 0.02, 0.04}}, {"stress", {0, 3, 8, 30}}}}};
+  const Material p = parse_material(percent, "p"), f = parse_material(fraction, "f");
+  for (double e : {0.005, 0.015, 0.03, 0.05}) EXPECT_NEAR(p.weft.stress(e), f.weft.stress(e), 1e-12);
+
+  const Material deg = parse_material(
+      json{{"shear", {{"strain", {0, 2, 4}}, {"stress", {0, 1, 3}}, {"strain_unit", "deg"}}}}, "deg");
+  EXPECT_NEAR(deg.shear.stress(std::sin(4.0 * M_PI / 180.0)), 3.0, 1e-12);
+  EXPECT_NEAR(deg.shear.stress(-std::sin(2.0 * M_PI / 180.0)), -1.0, 1e-12);
+
+  // Engineering strain eps and force per original width T become Green strain
+  // e = eps + eps^2 / 2 and stress T / (1 + eps).
+  const Material eng = parse_material(
+      json{{"warp", {{"strain", {0, 2, 5}}, {"stress", {0, 10, 60}}, {"unit", "gf/cm"},
+                     {"strain_unit", "%"}, {"strain_measure", "engineering"}}}}, "eng");
+  const auto& x = eng.warp.strain_points();
+  const auto& y = eng.warp.stress_points();
+  ASSERT_EQ(x.size(), 3u);
+  EXPECT_NEAR(x[2], 0.05 + 0.5 * 0.05 * 0.05, 1e-15);
+  EXPECT_NEAR(y[2], 60 * 0.980665 / 1.05, 1e-12);
+  EXPECT_NEAR(x[1], 0.02 + 0.5 * 0.02 * 0.02, 1e-15);
+  EXPECT_NEAR(y[1], 10 * 0.980665 / 1.02, 1e-12);
+}
+
+TEST(MaterialFile, RejectedWithFileAndFieldInTheMessage) {
+  const ScratchDir scratch("bad");
+  const fs::path& dir = scratch.dir;
+  json j = table_material("N/m", 1.0);
+
+  json bad = j;
+  bad["weft"]["strain"] = {0.0, 0.02, 0.01, 0.04, 0.06};
+  std::string path = write(dir / "nonmonotone.json", bad);
+  std::string msg = error_of([&] { load_material_file(path); });
+  EXPECT_NE(msg.find(path), std::string::npos) << msg;
+  EXPECT_NE(msg.find("field weft.strain"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("increasing"), std::string::npos) << msg;
+
+  bad = j;
+  bad["surface_density"] = -0.2;
+  path = write(dir / "negative.json", bad);
+  msg = error_of([&] { load_material_file(path); });
+  EXPECT_NE(msg.find(path + ": field surface_density"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("positive"), std::string::npos) << msg;
+
+  bad = j;
+  bad["weft"]["unit"] = "lbf/in";
+  path = write(dir / "unit.json", bad);
+  msg = error_of([&] { load_material_file(path); });
+  EXPECT_NE(msg.find(path + ": field weft.unit"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("lbf/in"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("gf/cm"), std::string::npos) << msg;  // lists what is accepted
+
+  bad = j;
+  bad["bending_rigidity"] = {{"weft", 1.0}, {"warp", 1.0}, {"unit", "N"}};
+  path = write(dir / "bending_unit.json", bad);
+  msg = error_of([&] { load_material_file(path); });
+  EXPECT_NE(msg.find(path + ": field bending_rigidity.unit"), std::string::npos) << msg;
+}
+
+TEST(MaterialFile, RejectsKeysTypesAndTables) {
+  const json j = table_material("N/m", 1.0);
+  auto msg_for = [](json m) { return error_of([&] { parse_material(m, "scene.json: cloth.material"); }); };
+  auto expect_msg = [](const std::string& msg, const std::string& part) {
+    EXPECT_NE(msg.find("scene.json: cloth.material: field " + part), std::string::npos) << msg;
+  };
+
+  json bad = j;
+  bad["weft"]["stres"] = {1, 2};
+  expect_msg(msg_for(bad), "weft.stres");
+  bad = j;
+  bad["density"] = 0.1;
+  expect_msg(msg_for(bad), "density");
+  bad = j;
+  bad["poisson_ratio"] = "0.2";
+  expect_msg(msg_for(bad), "poisson_ratio");
+  bad = j;
+  bad["poisson_ratio"] = 1.5;
+  expect_msg(msg_for(bad), "poisson_ratio");
+  bad = j;
+  bad["weft"]["stress"] = {0.0, 1.0};
+  expect_msg(msg_for(bad), "weft");
+  EXPECT_NE(msg_for(bad).find("5 points but stress has 2"), std::string::npos);
+  bad = j;
+  bad["weft"]["strain"] = json::array();
+  expect_msg(msg_for(bad), "weft.strain");
+  bad = j;
+  bad["weft"]["stress"][2] = std::nan("");
+  expect_msg(msg_for(bad), "weft.stress[2]");
+  bad = j;
+  bad["weft"]["stress"][3] = 1.0;  // falls after 10 N/m
+  expect_msg(msg_for(bad), "weft.stress");
+  bad = j;
+  bad["weft"]["strain"][1] = "x";
+  expect_msg(msg_for(bad), "weft.strain[1]");
+  bad = j;
+  bad["warp"] = -5.0;
+  expect_msg(msg_for(bad), "warp");
+  bad = j;
+  bad["weft_material"] = 2;
+  expect_msg(msg_for(bad), "weft_material");
+  bad = j;
+  bad["weft"]["strain_unit"] = "deg";  // degrees only for shear
+  expect_msg(msg_for(bad), "weft.strain_unit");
+  bad = j;
+  bad["shear"]["strain"] = {0.0, 0.05, 0.1};
+  bad["shear"]["stress"] = {1.0, 2.0, 3.0};  // mirrored table needs stress 0 at strain 0
+  expect_msg(msg_for(bad), "shear.stress");
+}
+
+TEST(MaterialFile, NeedsVersionAndValidJson) {
+  const ScratchDir scratch("version");
+  const fs::path& dir = scratch.dir;
+  const std::string no_version = write(dir / "noversion.json", json{{"surface_density", 0.1}});
+  EXPECT_NE(error_of([&] { load_material_file(no_version); }).find("field weft_material"),
+            std::string::npos);
+  const std::string broken = write_text(dir / "broken.json", "{ \"weft_material\": 1, ");
+  EXPECT_NE(error_of([&] { load_material_file(broken); }).find(broken + ": invalid JSON"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { load_material_file((dir / "missing.json").string()); }).find("cannot open"),
+            std::string::npos);
+}
+
+TEST(MaterialFile, LoadAndUnloadBranchesAveraged) {
+  const json j = {{"weft", {{"strain", {0.0, 0.02, 0.04}}, {"stress", {0.0, 20.0, 80.0}},
+                            {"unload", {{"strain", {0.04, 0.03, 0.0}}, {"stress", {80.0, 20.0, 0.0}}}}}}};
+  const Material m = parse_material(j, "m");
+  const StressCurve load = StressCurve::tabulated({0.0, 0.02, 0.04}, {0.0, 20.0, 80.0});
+  const StressCurve unload = StressCurve::tabulated({0.0, 0.03, 0.04}, {0.0, 20.0, 80.0});
+  ASSERT_EQ(m.weft.strain_points().size(), 4u);  // union of {0, 0.02, 0.04} and {0, 0.03, 0.04}
+  for (double e : m.weft.strain_points()) {
+    EXPECT_NEAR(m.weft.stress(e), 0.5 * (load.stress(e) + unload.stress(e)), 1e-12) << e;
+  }
+}
+
+TEST(MaterialReference, PresetFileAndOverrides) {
+  const ScratchDir scratch("refs");
+  const fs::path& dir = scratch.dir;
+  fs::create_directories(dir / "sub");
+  json j = table_material("N/m", 1.0);
+  j["name"] = "mine";
+  j["surface_density"] = 0.2;
+  write(dir / "sub" / "mine.json", j);
+
+  const Material by_file = parse_material(json{{"file", "sub/mine.json"}}, "scene", dir.string());
+  EXPECT_EQ(by_file.name, "mine");
+  EXPECT_DOUBLE_EQ(by_file.surface_density_kg_m2, 0.2);
+  const Material absolute =
+      parse_material(json{{"file", (dir / "sub" / "mine.json").string()}}, "scene", "/nonexistent");
+  EXPECT_EQ(absolute.name, "mine");
+  // A file may itself refer to another, relative to its own folder.
+  write(dir / "sub" / "wrapper.json", json{{"weft_material", 1}, {"file", "mine.json"}, {"viscosity", 0.5}});
+  const Material wrapped = parse_material(json{{"file", "sub/wrapper.json"}}, "scene", dir.string());
+  EXPECT_EQ(wrapped.name, "mine");
+  EXPECT_DOUBLE_EQ(wrapped.viscosity_Ns_m, 0.5);
+  // A cycle is stopped.
+  write(dir / "loop.json", json{{"weft_material", 1}, {"file", "loop.json"}});
+  EXPECT_THROW(parse_material(json{{"file", "loop.json"}}, "scene", dir.string()), InputError);
+
+  const Material denim = material_preset("denim");
+  const Material by_string = parse_material(json("denim"), "scene");
+  const Material by_key = parse_material(json{{"preset", "denim"}}, "scene");
+  const Material overridden = parse_material(json{{"preset", "denim"}, {"viscosity", 0.25}}, "scene");
+  for (const Material* m : {&by_string, &by_key, &overridden}) {
+    EXPECT_EQ(m->name, "denim");
+    EXPECT_DOUBLE_EQ(m->surface_density_kg_m2, denim.surface_density_kg_m2);
+    EXPECT_DOUBLE_EQ(m->weft.stress(0.03), denim.weft.stress(0.03));
+  }
+  EXPECT_DOUBLE_EQ(overridden.viscosity_Ns_m, 0.25);
+
+  const std::string msg = error_of([] { parse_material(json{{"preset", "velvet"}}, "scene.json: cloth.material"); });
+  EXPECT_NE(msg.find("scene.json: cloth.material: field preset"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("velvet"), std::string::npos) << msg;
+  for (const std::string& name : material_preset_names()) {
+    EXPECT_NE(msg.find(name), std::string::npos) << msg;
+  }
+  EXPECT_NE(error_of([] { material_preset("velvet"); }).find("cotton"), std::string::npos);
+  EXPECT_THROW(parse_material(json{{"preset", "denim"}, {"file", "x.json"}}, "scene"), InputError);
+}
+
+TEST(MaterialPreset, ShippedPresetsAreSane) {
+  const std::vector<std::string> names = material_preset_names();
+  for (const char* required : {"cotton", "denim", "wool", "silk", "polyester"}) {
+    EXPECT_NE(std::find(names.begin(), names.end(), required), names.end()) << required;
+  }
+  for (const std::string& name : names) {
+    SCOPED_TRACE(name);
+    const Material m = material_preset(name);
+    EXPECT_EQ(m.name, name);
+    EXPECT_FALSE(m.source.empty());
+    EXPECT_GT(m.surface_density_kg_m2, 0.0);
+    EXPECT_LT(m.surface_density_kg_m2, 1.0);
+    // METHOD.md section 5 ranges.
+    for (double b : {m.bending_rigidity_weft_Nm, m.bending_rigidity_warp_Nm}) {
+      EXPECT_GE(b, 1e-6);
+      EXPECT_LE(b, 1e-4);
+    }
+    EXPECT_GE(m.shear.tangent(0.0), 20.0);
+    EXPECT_LE(m.shear.tangent(0.0), 120.0);
+    EXPECT_GE(m.viscosity_Ns_m, 0.0);
+    EXPECT_GE(m.poisson_ratio, 0.0);
+    EXPECT_LT(m.poisson_ratio, 0.5);
+    for (const StressCurve* c : {&m.weft, &m.warp}) {
+      ASSERT_FALSE(c->is_linear());
+      EXPECT_NEAR(c->stress(0.0), 0.0, 1e-9);  // stress-free at rest
+      EXPECT_GE(c->tangent(0.0), 100.0);
+      EXPECT_LE(c->tangent(0.0), 1000.0);
+      const double last = c->strain_points().back();
+      EXPECT_LE(last, 0.15);
+      EXPECT_GT(c->tangent(last), 5.0 * c->tangent(0.0));  // stiffens past a few percent
+      for (int i = 0; i <= 1000; ++i) EXPECT_GT(c->tangent(last * i / 1000.0), 0.0);
+    }
+    // Energy and tangent agree with stress (central differences) across and past the tables,
+    // sampled off the knots (the curves are C1, so the second derivative jumps there).
+    for (const StressCurve* c : {&m.weft, &m.warp, &m.shear}) {
+      for (int i = -50; i <= 200; ++i) {
+        const double e = 0.001 * i + 3.7e-5, h = 1e-6;
+        const auto& knots = c->strain_points();
+        if (std::any_of(knots.begin(), knots.end(), [&](double x) { return std::abs(x - e) < 2 * h; })) {
+          continue;
+        }
+        const double ds = (c->stress(e + h) - c->stress(e - h)) / (2 * h);
+        const double dw = (c->energy(e + h) - c->energy(e - h)) / (2 * h);
+        EXPECT_NEAR(ds, c->tangent(e), 1e-4 * (1 + std::abs(c->tangent(e)))) << e;
+        EXPECT_NEAR(dw, c->stress(e), 1e-6 * (1 + std::abs(c->stress(e)))) << e;
+      }
+    }
+    const double shear_last = m.shear.strain_points().back();
+    EXPECT_NEAR(m.shear.stress(0.0), 0.0, 1e-12);
+    for (int i = -1000; i <= 1000; ++i) EXPECT_GT(m.shear.tangent(shear_last * i / 1000.0), 0.0);
+  }
+  EXPECT_NEAR(material_preset("cotton").surface_density_kg_m2, 0.150, 0.01);
+}
+
+TEST(MaterialFile, DocumentedExampleParses) {
+  // The JSON example in docs/materials.md is a valid material file.
+  std::ifstream in(std::string(WEFT_SOURCE_DIR) + "/docs/materials.md");
+  ASSERT_TRUE(in);
+  const std::string doc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t begin = doc.find("```json\n");
+  ASSERT_NE(begin, std::string::npos);
+  const std::size_t end = doc.find("```", begin + 8);
+  const ScratchDir scratch("doc_example");
+  const fs::path& dir = scratch.dir;
+  const std::string path = write_text(dir / "example.json", doc.substr(begin + 8, end - begin - 8));
+  const Material m = load_material_file(path);
+  EXPECT_EQ(m.name, "my_twill");
+  EXPECT_GT(m.weft.tangent(0.0), 0.0);
+  EXPECT_GT(m.bending_rigidity_warp_Nm, m.bending_rigidity_weft_Nm);
+}
+
+}  // namespace
+}  // namespace weft
