@@ -40,7 +40,8 @@ void require_positive_finite(const char* option, double value) {
 
 std::string scheme_title(const std::string& method, const StabilityScheme& scheme) {
   char buffer[128];
-  std::snprintf(buffer, sizeof buffer, "%s alpha=%.4g", method.c_str(), scheme.alpha);
+  std::snprintf(buffer, sizeof buffer, "%s, alpha=%.4g",
+                method == "alpha" ? "alpha family" : method.c_str(), scheme.alpha);
   return buffer;
 }
 

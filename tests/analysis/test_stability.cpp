@@ -124,6 +124,15 @@ TEST(StabilityAlphaFamily, AnalyticConditionsAgreeWithSpectralRadius) {
   }
 }
 
+TEST(StabilityAlphaFamily, ConditionsAssumeNonNegativeViscosity) {
+  // (10) omits 4 - 2 (1 - 2 alpha) lambda + (1 - 2 alpha)^2 kappa > 0, which only binds for
+  // alpha > 1/2 when lambda < 0: Backward Euler with kappa = 10, lambda = -9 passes (10b)
+  // (lambda > -kappa) yet is unstable. The predicate is documented for lambda >= 0.
+  EXPECT_TRUE(alpha_family_is_stable(1.0, 10.0, -9.0));
+  EXPECT_GT(alpha_family_spectral_radius(1.0, 10.0, -9.0), 1.0);
+  EXPECT_LT(4.0 - 2.0 * (1.0 - 2.0) * -9.0 + (1.0 - 2.0) * (1.0 - 2.0) * 10.0, 0.0);
+}
+
 TEST(StabilityAlphaFamily, MethodSpecialCases) {
   // METHOD.md 3: FE needs kappa < lambda < 2 + kappa/2, IM lambda > 0, BE always stable.
   for (double kappa : {0.5, 2.0, 3.5}) {
