@@ -19,7 +19,9 @@ void write_files_atomically(const std::vector<PendingFile>& files) {
       if (file.path.has_parent_path()) fs::create_directories(file.path.parent_path());
       // The temporary sits in the same folder, so the rename below cannot cross file systems.
       fs::path temporary = file.path;
-      temporary += "." + std::to_string(::getpid()) + ".tmp";
+      temporary += ".";
+      temporary += std::to_string(::getpid());
+      temporary += ".tmp";
       temporaries.push_back(temporary);
       file.write(temporary);
     }

@@ -238,6 +238,18 @@ TEST(StabilityMap, GridAndStableFlags) {
     }
 }
 
+TEST(StabilityMap, LargeMapsMatchPointwiseValues) {
+  // Large maps are filled by several threads; every entry must still be the pointwise value.
+  const auto scheme = weft::stability_scheme_by_name("bdf2-alpha", NAN);
+  const int size = 301;
+  const weft::StabilityMap map = weft::compute_stability_map(scheme, 20.0, 10.0, size);
+  int mismatches = 0;
+  for (int i = 0; i < size; ++i)
+    for (int j = 0; j < size; ++j)
+      mismatches += map.spectral_radius(i, j) != bdf2_spectral_radius(scheme.alpha, map.kappa[i], map.lambda[j]);
+  EXPECT_EQ(mismatches, 0);
+}
+
 TEST(StabilityMap, SchemeNames) {
   using Kind = weft::StabilityScheme::Kind;
   EXPECT_EQ(weft::stability_scheme_by_name("backward-euler", NAN).alpha, 1.0);
