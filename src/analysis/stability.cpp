@@ -4,7 +4,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-#include <complex>
+#include <cstdio>
 #include <stdexcept>
 #include <thread>
 
