@@ -5,7 +5,7 @@
 #include <memory>
 
 #include "command.hpp"
-#include "io/atomic_file.hpp"
+#include "weft/atomic_file.hpp"
 #include "progress.hpp"
 #include "weft/error.hpp"
 #include "weft/simulation.hpp"

@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <map>
 
-#include "io/atomic_file.hpp"
+#include "weft/atomic_file.hpp"
 #include "weft/error.hpp"
 
 namespace weft {
