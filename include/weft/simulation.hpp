@@ -35,6 +35,9 @@ class Simulation {
   State& state() { return state_; }
   const State& state() const { return state_; }
   const StepStatistics& statistics() const { return stats_; }
+  /// Replaces positions and velocities (e.g. a perturbed start) and makes it the reference of
+  /// the energy accounting: time 0, no dissipation yet, no BDF-2 history.
+  void reset_state(const VecX& x, const VecX& v);
   /// Advances to time t (s).
   void advance_to(double t) { integrator_->advance(state_, t, stats_); }
   /// Energies at the current state.
@@ -51,6 +54,7 @@ class Simulation {
   StepStatistics stats_;
   Evaluation eval_;
   double gravity0_ = 0, total0_ = 0, energy_scale_ = 0;
+  void set_energy_reference();
 };
 
 struct RunResult {

@@ -19,12 +19,29 @@ Simulation::Simulation(const Scene& scene) : scene_(scene) {
     if (!model_->fixed[i]) node(state_.v, i) = scene.cloth.initial_velocity;
   state_.t = 0;
   system_->prepare(eval_);
+  set_energy_reference();
+}
+
+void Simulation::reset_state(const VecX& x, const VecX& v) {
+  state_ = State{};
+  state_.x = x;
+  state_.v = v;
+  set_energy_reference();
+}
+
+void Simulation::set_energy_reference() {
+  gravity0_ = 0;
+  total0_ = 0;
   system_->evaluate(state_.x, state_.v, false, eval_);
   gravity0_ = eval_.gravity_energy;
   const EnergyRow e0 = energies();
   total0_ = e0.total();
-  const Vec3 extent = (model_->mesh.positions.colwise().maxCoeff() - model_->mesh.positions.colwise().minCoeff()).transpose();
-  energy_scale_ = e0.kinetic + e0.elastic + model_->mass.sum() * scene.gravity.norm() * extent.norm() + 1e-12;
+  Vec3 lo = node(state_.x, 0), hi = lo;
+  for (int i = 1; i < model_->num_vertices(); ++i) {
+    lo = lo.cwiseMin(node(state_.x, i));
+    hi = hi.cwiseMax(node(state_.x, i));
+  }
+  energy_scale_ = e0.kinetic + e0.elastic + model_->mass.sum() * scene_.gravity.norm() * (hi - lo).norm() + 1e-12;
 }
 
 EnergyRow Simulation::energies() {
