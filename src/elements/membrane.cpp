@@ -17,6 +17,24 @@ bool make_membrane_geometry(const Vec2& pa, const Vec2& pb, const Vec2& pc, Memb
   return true;
 }
 
+void project_positive_2x2(double& a, double& b, double& c) {
+  if (a >= 0 && b >= 0 && a * b >= c * c) return;
+  const double mean = 0.5 * (a + b), r = std::hypot(0.5 * (a - b), c);
+  const double l1 = mean + r;  // the larger eigenvalue; the smaller one is negative here
+  if (l1 <= 0) {
+    a = b = c = 0;
+    return;
+  }
+  // Eigenvector of l1: the better conditioned of (c, l1 - a) and (l1 - b, c).
+  Vec2 e1(c, l1 - a), e2(l1 - b, c);
+  Vec2 e = e1.squaredNorm() > e2.squaredNorm() ? e1 : e2;
+  if (e.squaredNorm() == 0) e = Vec2(1, 0);
+  e.normalize();
+  a = l1 * e.x() * e.x();
+  b = l1 * e.y() * e.y();
+  c = l1 * e.x() * e.y();
+}
+
 Vec3 membrane_tangent_moduli(const Material& m, const Vec3& e) {
   return Vec3(m.weft.tangent(e[0]), m.warp.tangent(e[1]), m.shear.tangent(e[2]));
 }
@@ -42,48 +60,53 @@ void evaluate_membrane(const MembraneGeometry& g, const Material& m, const Vec3&
   out.viscous_power = -g.area * sv.dot(rate);
 
   // g_i = (r_u,i U, r_v,i V, r_u,i V + r_v,i U): gradients of the three strains.
-  std::array<std::array<Vec3, 3>, 3> grad;  // grad[i][mode]
-  for (int i = 0; i < 3; ++i) {
-    grad[i][0] = g.ru[i] * U;
-    grad[i][1] = g.rv[i] * V;
-    grad[i][2] = g.ru[i] * V + g.rv[i] * U;
-    out.force.segment<3>(3 * i) = -g.area * ((suu + sv[0]) * grad[i][0] + (svv + sv[1]) * grad[i][1] +
-                                             (suv + sv[2]) * grad[i][2]);
-  }
+  const double fu = suu + sv[0], fv = svv + sv[1], fs = suv + sv[2];
+  for (int i = 0; i < 3; ++i)
+    out.force.segment<3>(3 * i) = -g.area * ((fu * g.ru[i] + fs * g.rv[i]) * U + (fv * g.rv[i] + fs * g.ru[i]) * V);
   if (!jacobians) return;
 
-  // Material tangent T = d s / d e (3x3) and the geometric stress matrix S = [[suu, suv], [suv, svv]].
-  Mat3 T = Mat3::Zero();
-  T(0, 0) = m.weft.tangent(euu);
-  T(1, 1) = m.warp.tangent(evv);
-  T(2, 2) = m.shear.tangent(euv);
-  T(0, 1) = T(1, 0) = C;
+  // Material tangent d s / d e: diagonal (weft, warp, shear) plus the weft-warp coupling C;
+  // geometric stress matrix S = [[s_uu, s_uv], [s_uv, s_vv]].
+  double tu = m.weft.tangent(euu), tv = m.warp.tangent(evv), ts = m.shear.tangent(euv), tc = C;
   double s00 = suu, s11 = svv, s01 = suv;
   if (definite) {
     // Keep the Hessian positive semi-definite: clamp the tangent and project S onto its
     // positive part (compressed membranes otherwise make the step matrix indefinite).
-    for (int k = 0; k < 3; ++k) T(k, k) = std::max(T(k, k), 0.0);
-    const double cmax = std::sqrt(T(0, 0) * T(1, 1));
-    T(0, 1) = T(1, 0) = std::clamp(C, -cmax, cmax);
-    Eigen::SelfAdjointEigenSolver<Mat2> es(Mat2{{suu, suv}, {suv, svv}});
-    const Vec2 lam = es.eigenvalues().cwiseMax(0.0);
-    const Mat2 P = es.eigenvectors() * lam.asDiagonal() * es.eigenvectors().transpose();
-    s00 = P(0, 0), s11 = P(1, 1), s01 = P(0, 1);
+    tu = std::max(tu, 0.0);
+    tv = std::max(tv, 0.0);
+    ts = std::max(ts, 0.0);
+    const double cmax = std::sqrt(tu * tv);
+    tc = std::clamp(tc, -cmax, cmax);
+    project_positive_2x2(s00, s11, s01);
   }
+  // With g as above, sum_ab T_ab g_i,a g_j,b^T expands into the four outer products
+  // UU^T, VV^T, UV^T and VU^T with scalar weights; the same holds for the viscosity.
+  const double eu = viscosity[0], ev = viscosity[1], es = viscosity[2];
+  double UU[3][3], VV[3][3], UV[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      UU[r][c] = U[r] * U[c];
+      VV[r][c] = V[r] * V[c];
+      UV[r][c] = U[r] * V[c];
+    }
+  const double mA = -g.area;
   for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) {
-      Mat3 Kij = Mat3::Zero();
-      Mat3 Dij = Mat3::Zero();
-      for (int a = 0; a < 3; ++a) {
-        Dij.noalias() += viscosity[a] * grad[i][a] * grad[j][a].transpose();
-        for (int b = 0; b < 3; ++b)
-          if (T(a, b) != 0.0) Kij.noalias() += T(a, b) * grad[i][a] * grad[j][b].transpose();
-      }
-      const double geometric = s00 * g.ru[i] * g.ru[j] + s11 * g.rv[i] * g.rv[j] +
-                               s01 * (g.ru[i] * g.rv[j] + g.rv[i] * g.ru[j]);
-      Kij.diagonal().array() += geometric;
-      out.stiffness.block<3, 3>(3 * i, 3 * j) = -g.area * Kij;
-      out.damping.block<3, 3>(3 * i, 3 * j) = -g.area * Dij;
+    for (int j = i; j < 3; ++j) {
+      const double uu = g.ru[i] * g.ru[j], vv = g.rv[i] * g.rv[j];
+      const double uv = g.ru[i] * g.rv[j], vu = g.rv[i] * g.ru[j];
+      const double geometric = s00 * uu + s11 * vv + s01 * (uv + vu);
+      // Weights of UU^T, VV^T, UV^T and VU^T in the stiffness and the damping blocks.
+      const double ka = tu * uu + ts * vv, kb = tv * vv + ts * uu, kc = tc * uv + ts * vu, kd = tc * vu + ts * uv;
+      const double da = eu * uu + es * vv, db = ev * vv + es * uu, dc = es * vu, dd = es * uv;
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) {
+          const double k = mA * (ka * UU[r][c] + kb * VV[r][c] + kc * UV[r][c] + kd * UV[c][r] + (r == c ? geometric : 0.0));
+          const double d = mA * (da * UU[r][c] + db * VV[r][c] + dc * UV[r][c] + dd * UV[c][r]);
+          out.stiffness(3 * i + r, 3 * j + c) = k;
+          out.damping(3 * i + r, 3 * j + c) = d;
+          out.stiffness(3 * j + c, 3 * i + r) = k;
+          out.damping(3 * j + c, 3 * i + r) = d;
+        }
     }
   }
 }

@@ -37,6 +37,9 @@ void evaluate_membrane(const MembraneGeometry& g, const Material& m, const Vec3&
                        const std::array<Vec3, 3>& x, const std::array<Vec3, 3>& v,
                        bool jacobians, bool definite, MembraneResult& out);
 
+/// Replaces the symmetric 2x2 matrix [[a, c], [c, b]] by its positive semi-definite part.
+void project_positive_2x2(double& a, double& b, double& c);
+
 /// Tangent stiffness per mode (N/m) at the given strains: (weft, warp, shear).
 Vec3 membrane_tangent_moduli(const Material& m, const Vec3& strain);
 

@@ -136,8 +136,17 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   }
   // Matrix M - alpha dt_b D - alpha^2 dt_b^2 K, assembled into the shared pattern.
   const double cd = alpha * dt_b, ck = alpha * alpha * dt_b * dt_b;
-  for (int b = 0; b < P.num_blocks(); ++b)
-    matrix_.block[b] = implicit ? Mat3(-cd * eval_.damping.block[b] - ck * eval_.stiffness.block[b]) : Mat3::Zero();
+  {
+    double* a = matrix_.block.front().data();
+    const double* d = eval_.damping.block.front().data();
+    const double* k = eval_.stiffness.block.front().data();
+    const size_t count = 9 * static_cast<size_t>(P.num_blocks());
+    if (implicit) {
+      for (size_t q = 0; q < count; ++q) a[q] = -cd * d[q] - ck * k[q];
+    } else {
+      std::fill(a, a + count, 0.0);
+    }
+  }
   for (int i = 0; i < n; ++i) matrix_.block[P.diagonal_slot(i)].diagonal().array() += m[i];
   stats.assembly_seconds += seconds_since(t0);
 

@@ -39,10 +39,23 @@ void BlockMatrix::multiply(const VecX& x, VecX& y) const {
   const auto& col = pattern->column();
   const int n = pattern->num_nodes();
   y.resize(3 * n);
+  static_assert(sizeof(Mat3) == 9 * sizeof(double), "blocks are stored as 9 contiguous doubles");
+  const double* a = block.empty() ? nullptr : block.front().data();  // column-major 3x3 blocks
+  const double* xp = x.data();
+  double* yp = y.data();
   for (int i = 0; i < n; ++i) {
-    Vec3 acc = Vec3::Zero();
-    for (int s = rs[i]; s < rs[i + 1]; ++s) acc.noalias() += block[s] * node(x, col[s]);
-    node(y, i) = acc;
+    double y0 = 0, y1 = 0, y2 = 0;
+    for (int s = rs[i]; s < rs[i + 1]; ++s) {
+      const double* m = a + 9 * s;
+      const double* v = xp + 3 * col[s];
+      const double v0 = v[0], v1 = v[1], v2 = v[2];
+      y0 += m[0] * v0 + m[3] * v1 + m[6] * v2;
+      y1 += m[1] * v0 + m[4] * v1 + m[7] * v2;
+      y2 += m[2] * v0 + m[5] * v1 + m[8] * v2;
+    }
+    yp[3 * i] = y0;
+    yp[3 * i + 1] = y1;
+    yp[3 * i + 2] = y2;
   }
 }
 

@@ -18,9 +18,9 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
   for (int i = 0; i < n; ++i) {
     const Mat3& d = A.block[A.pattern->diagonal_slot(i)];
     // The diagonal blocks of an SPD matrix are SPD; fall back to the diagonal if singular.
-    Eigen::LLT<Mat3> llt(d);
-    if (llt.info() == Eigen::Success) {
-      ws.inverse_diagonal[i] = llt.solve(Mat3::Identity());
+    const double det = d.determinant();
+    if (det > 0 && std::isfinite(det)) {
+      ws.inverse_diagonal[i] = d.inverse();
     } else {
       ws.inverse_diagonal[i] = d.diagonal().cwiseAbs().cwiseMax(1e-300).cwiseInverse().asDiagonal();
     }
@@ -39,30 +39,51 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
   ws.r = bf - ws.q;
   filter(fixed, ws.r);
   ws.z.resize(3 * n);
+  const Mat3* inv = ws.inverse_diagonal.data();
+  // z = P^-1 r on free nodes; returns r . z.
   auto precondition = [&](const VecX& r, VecX& z) {
-    for (int i = 0; i < n; ++i) node(z, i) = ws.inverse_diagonal[i] * node(r, i);
-    filter(fixed, z);
+    double rz = 0;
+    for (int i = 0; i < n; ++i) {
+      if (fixed[i]) {
+        z.segment<3>(3 * i).setZero();
+        continue;
+      }
+      const Vec3 zi = inv[i] * r.segment<3>(3 * i);
+      z.segment<3>(3 * i) = zi;
+      rz += zi.dot(r.segment<3>(3 * i));
+    }
+    return rz;
   };
-  precondition(ws.r, ws.z);
+  double rz = precondition(ws.r, ws.z);
   ws.p = ws.z;
-  double rz = ws.r.dot(ws.z);
   double rnorm = ws.r.norm();
   const double target = settings.relative_tolerance * bnorm;
   int it = 0;
+  const long size = 3L * n;
   while (rnorm > target && it < settings.max_iterations) {
     A.multiply(ws.p, ws.q);
     filter(fixed, ws.q);
     const double pq = ws.p.dot(ws.q);
     if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown
     const double a = rz / pq;
-    x.noalias() += a * ws.p;
-    ws.r.noalias() -= a * ws.q;
-    rnorm = ws.r.norm();
+    double rr = 0;
+    double* xp = x.data();
+    double* rp = ws.r.data();
+    const double* pp = ws.p.data();
+    const double* qp = ws.q.data();
+    for (long k = 0; k < size; ++k) {
+      xp[k] += a * pp[k];
+      rp[k] -= a * qp[k];
+      rr += rp[k] * rp[k];
+    }
+    rnorm = std::sqrt(rr);
     ++it;
     if (rnorm <= target) break;
-    precondition(ws.r, ws.z);
-    const double rz_new = ws.r.dot(ws.z);
-    ws.p = ws.z + (rz_new / rz) * ws.p;
+    const double rz_new = precondition(ws.r, ws.z);
+    const double beta = rz_new / rz;
+    double* pw = ws.p.data();
+    const double* zp = ws.z.data();
+    for (long k = 0; k < size; ++k) pw[k] = zp[k] + beta * pw[k];
     rz = rz_new;
   }
   result.iterations = it;

@@ -188,8 +188,13 @@ void ClothSystem::evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluat
       const auto& slots = model_.membrane_slots[t];
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) {
-          out.stiffness.block[slots[3 * a + b]] += mr.stiffness.block<3, 3>(3 * a, 3 * b);
-          out.damping.block[slots[3 * a + b]] += mr.damping.block<3, 3>(3 * a, 3 * b);
+          double* k = out.stiffness.block[slots[3 * a + b]].data();
+          double* d = out.damping.block[slots[3 * a + b]].data();
+          for (int c = 0; c < 3; ++c)
+            for (int r = 0; r < 3; ++r) {
+              k[3 * c + r] += mr.stiffness(3 * a + r, 3 * b + c);
+              d[3 * c + r] += mr.damping(3 * a + r, 3 * b + c);
+            }
         }
     }
   }

@@ -1,0 +1,60 @@
+// Time per step of a 1 m x 1 m cloth pinned at two corners, at 33x33, 65x65 and 129x129
+// vertices, Implicit Midpoint and backward Euler at dt = 5 ms, one thread.
+// Counters: CG iterations per step, assembly and solve milliseconds per step, and memory
+// (process peak resident set, and the bytes of the step's matrices and vectors).
+// Run one configuration per process for a clean peak-memory figure, e.g.
+//   build/weft_bench --benchmark_filter='Step/ImplicitMidpoint/33'
+#include <benchmark/benchmark.h>
+#include <sys/resource.h>
+
+#include "weft/simulation.hpp"
+
+using namespace weft;
+
+namespace {
+
+Scene bench_scene(int n, const std::string& method) {
+  Scene s;
+  s.duration = 1.0;
+  s.frame_interval = 0.005;
+  s.cloth.grid = GridSpec{1.0, 1.0, n, n};
+  s.cloth.rotation_deg = Vec3(-90, 0, 0);
+  s.cloth.pin_grid_nodes = {{0, 0}, {-1, 0}};
+  // The default scene's cotton-like linear material (scenes/swing.json).
+  s.cloth.material.surface_density_kg_m2 = 0.15;
+  s.cloth.material.weft = StressCurve::linear(100);
+  s.cloth.material.warp = StressCurve::linear(100);
+  s.cloth.material.shear = StressCurve::linear(10);
+  s.cloth.material.bending_rigidity_weft_Nm = s.cloth.material.bending_rigidity_warp_Nm = 1e-4;
+  set_method(s, method, std::nullopt, "benchmark");
+  s.integrator.dt = 0.005;
+  s.integrator.cg_tolerance = 1e-6;
+  return s;
+}
+
+void Step(benchmark::State& bs, const std::string& method) {
+  const int n = static_cast<int>(bs.range(0));
+  Simulation sim(bench_scene(n, method));
+  // Let the cloth start moving so the measured steps are representative.
+  sim.advance_to(0.05);
+  StepStatistics stats;
+  for (auto _ : bs) sim.integrator().step(sim.state(), sim.scene().integrator.dt, stats);
+  const double per = 1.0 / std::max(1L, stats.steps);
+  bs.counters["cg_iterations"] = stats.cg_iterations * per;
+  bs.counters["assembly_ms"] = 1e3 * stats.assembly_seconds * per;
+  bs.counters["solve_ms"] = 1e3 * stats.solve_seconds * per;
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  bs.counters["peak_rss_MB"] = ru.ru_maxrss / 1024.0;
+  const double blocks = sim.model().pattern.num_blocks();
+  bs.counters["matrix_MB"] = 3 * blocks * sizeof(Mat3) / 1e6;  // K, D and the step matrix
+  bs.counters["vertices"] = n * n;
+  bs.SetLabel(method);
+}
+
+}  // namespace
+
+BENCHMARK_CAPTURE(Step, ImplicitMidpoint, std::string("implicit-midpoint"))
+    ->Arg(33)->Arg(65)->Arg(129)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(Step, BackwardEuler, std::string("backward-euler"))
+    ->Arg(33)->Arg(65)->Arg(129)->Unit(benchmark::kMillisecond)->MinTime(1.0);
