@@ -1,0 +1,130 @@
+// `weft run` end to end: the files it promises, exit statuses, and error messages that name
+// the problem for bad scene files.
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "support/command.hpp"
+
+using weft::test::CommandTest;
+using weft::test::read_text;
+
+namespace {
+
+// A small valid scene; `integrator` and `mesh` can be replaced to make it bad.
+std::string scene(const std::string& integrator = R"({"method": "implicit-midpoint", "dt": 0.01})",
+                  const std::string& mesh = R"({"grid": {"size": [0.2, 0.2], "vertices": [5, 5]}})",
+                  const std::string& duration = "0.1") {
+  return R"({"weft_scene": 1, "duration": )" + duration + R"(, "frame_interval": 0.02,
+  "integrator": )" + integrator + R"(,
+  "cloth": {"mesh": )" + mesh + R"(,
+            "placement": {"rotation_deg": [-90, 0, 0]},
+            "material": {"surface_density": 0.15, "weft": 100, "warp": 100, "shear": 10, "bending_rigidity": 1e-4},
+            "pins": {"grid": [[0, 0], [-1, 0]]}}})";
+}
+
+}  // namespace
+
+class RunCommand : public CommandTest {};
+
+TEST_F(RunCommand, WritesFramesEnergyAndSummary) {
+  const auto s = write("scene.json", scene());
+  const auto out = folder_ / "out";
+  const auto r = weft("run '" + s.string() + "' --out '" + out.string() + "' --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
+  // 0.1 s at 0.02 s per frame: frames 0..5, the first at time 0.
+  for (int f = 0; f <= 5; ++f) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%05d.obj", f);
+    EXPECT_TRUE(std::filesystem::exists(out / "frames" / name)) << name;
+  }
+  EXPECT_FALSE(std::filesystem::exists(out / "frames" / "frame_00006.obj"));
+  const std::string csv = read_text(out / "energy.csv");
+  EXPECT_EQ(csv.substr(0, csv.find('\n')), "time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,total");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 7);  // header + 6 frames
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  for (const char* key : {"method", "alpha", "dt", "steps", "wall_seconds", "solver_iterations_mean", "status"})
+    EXPECT_TRUE(summary.contains(key)) << key;
+  EXPECT_EQ(summary["method"], "implicit-midpoint");
+  EXPECT_EQ(summary["alpha"], 0.5);
+  EXPECT_EQ(summary["steps"], 10);
+  EXPECT_EQ(summary["status"], "ok");
+  // No temporary file is left behind.
+  for (const auto& e : std::filesystem::recursive_directory_iterator(out))
+    EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+}
+
+TEST_F(RunCommand, OverridesApply) {
+  const auto s = write("scene.json", scene());
+  const auto out = folder_ / "out";
+  const auto r = weft("run '" + s.string() + "' --out '" + out.string() +
+                      "' --quiet --no-frames --method bdf2-alpha --dt 0.005 --duration 0.04 --damping-ratio 0");
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(summary["method"], "bdf2-alpha");
+  EXPECT_NEAR(summary["alpha"].get<double>(), 1 / std::sqrt(3.0), 1e-15);
+  EXPECT_EQ(summary["steps"], 8);
+  EXPECT_EQ(summary["damping_ratio"], 0.0);
+  EXPECT_FALSE(std::filesystem::exists(out / "frames" / "frame_00000.obj"));
+}
+
+TEST_F(RunCommand, BadScenesExitTwoWithAMessageNamingTheProblemAndWriteNothing) {
+  struct Case {
+    std::string name, text, expected;
+  };
+  const std::vector<Case> cases{
+      {"malformed", "{\"weft_scene\": 1,\n \"duration\": 1,,\n}", ":2: malformed JSON"},
+      {"method", scene(R"({"method": "leapfrog", "dt": 0.01})"), "key integrator.method: unknown method 'leapfrog'"},
+      {"negative_dt", scene(R"({"method": "implicit-midpoint", "dt": -0.01})"),
+       "key integrator.dt: value -0.01 is out of range"},
+      {"missing_mesh", scene(R"({"method": "implicit-midpoint", "dt": 0.01})", R"({"obj": "no_such_mesh.obj"})"),
+       "no_such_mesh.obj' does not exist"},
+      {"unknown_key", scene(R"({"method": "implicit-midpoint", "dt": 0.01, "dtt": 1})"),
+       "key integrator.dtt: unknown key"},
+      {"wrong_type", scene(R"({"method": "implicit-midpoint", "dt": "fast"})"),
+       "key integrator.dt: expected a number, got \"fast\" (string)"},
+      {"frame_interval", scene(R"({"method": "implicit-midpoint", "dt": 0.03})"),
+       "frame_interval 0.02 s is not a whole number of steps of dt 0.03 s"},
+  };
+  for (const auto& c : cases) {
+    const auto s = write(c.name + ".json", c.text);
+    const auto out = folder_ / ("out_" + c.name);
+    const auto r = weft("run '" + s.string() + "' --out '" + out.string() + "'");
+    EXPECT_EQ(r.exit_code, 2) << c.name << ": " << r.error_output;
+    EXPECT_NE(r.error_output.find(c.expected), std::string::npos) << c.name << ": " << r.error_output;
+    EXPECT_NE(r.error_output.find(s.string()), std::string::npos) << c.name << " should name the file: " << r.error_output;
+    EXPECT_FALSE(std::filesystem::exists(out)) << c.name << ": output written for bad input";
+  }
+  const auto r = weft("run '" + (folder_ / "absent.json").string() + "' --out '" + (folder_ / "o").string() + "'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.error_output.find("absent.json: cannot open scene file"), std::string::npos) << r.error_output;
+}
+
+TEST_F(RunCommand, BadOverridesExitTwo) {
+  const auto s = write("scene.json", scene());
+  const auto out = folder_ / "out";
+  auto r = weft("run '" + s.string() + "' --out '" + out.string() + "' --method alpha --alpha 1.5");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.error_output.find("alpha must be in [0, 1], got 1.5"), std::string::npos) << r.error_output;
+  r = weft("run '" + s.string() + "' --out '" + out.string() + "' --dt nan");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.error_output.find("dt must be a positive finite number"), std::string::npos) << r.error_output;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+TEST_F(RunCommand, UnstableRunExitsThreeAndKeepsFramesSoFar) {
+  // Forward Euler far beyond its stability limit (kappa >> 4).
+  const auto s = write("scene.json", scene(R"({"method": "forward-euler", "dt": 0.02})",
+                                           R"({"grid": {"size": [0.2, 0.2], "vertices": [9, 9]}})", "2.0"));
+  const auto out = folder_ / "out";
+  const auto r = weft("run '" + s.string() + "' --out '" + out.string() + "' --quiet");
+  EXPECT_EQ(r.exit_code, 3) << r.error_output;
+  EXPECT_NE(r.error_output.find("became unstable"), std::string::npos) << r.error_output;
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(summary["status"], "unstable");
+  const long frames = summary["frames"].get<long>();
+  EXPECT_GE(frames, 1);
+  EXPECT_LT(frames, 101);
+  EXPECT_TRUE(std::filesystem::exists(out / "frames" / "frame_00000.obj"));
+  const std::string csv = read_text(out / "energy.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), frames + 1);
+}
