@@ -17,6 +17,29 @@ bool make_membrane_geometry(const Vec2& pa, const Vec2& pb, const Vec2& pc, Memb
   return true;
 }
 
+Mat3 MembraneJacobian::block(int p, double ck, double cd) const {
+  const auto& w = stiffness[p];
+  const auto& e = damping[p];
+  const double a = area * (ck * w[0] + cd * e[0]), b = area * (ck * w[1] + cd * e[1]);
+  const double c = area * (ck * w[2] + cd * e[2]), d = area * (ck * w[3] + cd * e[3]);
+  Mat3 out;
+  for (int col = 0; col < 3; ++col)
+    for (int row = 0; row < 3; ++row)
+      out(row, col) = a * U[row] * U[col] + b * V[row] * V[col] + c * U[row] * V[col] + d * V[row] * U[col];
+  out.diagonal().array() += area * ck * w[4];
+  return out;
+}
+
+Vec3 MembraneJacobian::stiffness_times(int p, const Vec3& w_j) const {
+  const auto& k = stiffness[p];
+  return -area * ((k[0] * U.dot(w_j) + k[2] * V.dot(w_j)) * U + (k[1] * V.dot(w_j) + k[3] * U.dot(w_j)) * V + k[4] * w_j);
+}
+
+Vec3 MembraneJacobian::stiffness_transpose_times(int p, const Vec3& w_i) const {
+  const auto& k = stiffness[p];
+  return -area * ((k[0] * U.dot(w_i) + k[3] * V.dot(w_i)) * U + (k[1] * V.dot(w_i) + k[2] * U.dot(w_i)) * V + k[4] * w_i);
+}
+
 void project_positive_2x2(double& a, double& b, double& c) {
   if (a >= 0 && b >= 0 && a * b >= c * c) return;
   const double mean = 0.5 * (a + b), r = std::hypot(0.5 * (a - b), c);
@@ -41,7 +64,7 @@ Vec3 membrane_tangent_moduli(const Material& m, const Vec3& e) {
 
 void evaluate_membrane(const MembraneGeometry& g, const Material& m, const Vec3& viscosity,
                        const std::array<Vec3, 3>& x, const std::array<Vec3, 3>& v,
-                       bool jacobians, bool definite, MembraneResult& out) {
+                       bool jacobians, bool definite, MembraneResult& out, bool expand) {
   const Vec3 U = g.ru[0] * x[0] + g.ru[1] * x[1] + g.ru[2] * x[2];
   const Vec3 V = g.rv[0] * x[0] + g.rv[1] * x[1] + g.rv[2] * x[2];
   const Vec3 Ud = g.ru[0] * v[0] + g.ru[1] * v[1] + g.ru[2] * v[2];
@@ -82,32 +105,26 @@ void evaluate_membrane(const MembraneGeometry& g, const Material& m, const Vec3&
   // With g as above, sum_ab T_ab g_i,a g_j,b^T expands into the four outer products
   // UU^T, VV^T, UV^T and VU^T with scalar weights; the same holds for the viscosity.
   const double eu = viscosity[0], ev = viscosity[1], es = viscosity[2];
-  double UU[3][3], VV[3][3], UV[3][3];
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) {
-      UU[r][c] = U[r] * U[c];
-      VV[r][c] = V[r] * V[c];
-      UV[r][c] = U[r] * V[c];
-    }
-  const double mA = -g.area;
-  for (int i = 0; i < 3; ++i) {
-    for (int j = i; j < 3; ++j) {
-      const double uu = g.ru[i] * g.ru[j], vv = g.rv[i] * g.rv[j];
-      const double uv = g.ru[i] * g.rv[j], vu = g.rv[i] * g.ru[j];
-      const double geometric = s00 * uu + s11 * vv + s01 * (uv + vu);
-      // Weights of UU^T, VV^T, UV^T and VU^T in the stiffness and the damping blocks.
-      const double ka = tu * uu + ts * vv, kb = tv * vv + ts * uu, kc = tc * uv + ts * vu, kd = tc * vu + ts * uv;
-      const double da = eu * uu + es * vv, db = ev * vv + es * uu, dc = es * vu, dd = es * uv;
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) {
-          const double k = mA * (ka * UU[r][c] + kb * VV[r][c] + kc * UV[r][c] + kd * UV[c][r] + (r == c ? geometric : 0.0));
-          const double d = mA * (da * UU[r][c] + db * VV[r][c] + dc * UV[r][c] + dd * UV[c][r]);
-          out.stiffness(3 * i + r, 3 * j + c) = k;
-          out.damping(3 * i + r, 3 * j + c) = d;
-          out.stiffness(3 * j + c, 3 * i + r) = k;
-          out.damping(3 * j + c, 3 * i + r) = d;
-        }
-    }
+  MembraneJacobian& J = out.jacobian;
+  J.U = U;
+  J.V = V;
+  J.area = g.area;
+  for (int p = 0; p < 6; ++p) {
+    const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
+    const double uu = g.ru[i] * g.ru[j], vv = g.rv[i] * g.rv[j];
+    const double uv = g.ru[i] * g.rv[j], vu = g.rv[i] * g.ru[j];
+    J.stiffness[p] = {tu * uu + ts * vv, tv * vv + ts * uu, tc * uv + ts * vu, tc * vu + ts * uv,
+                      s00 * uu + s11 * vv + s01 * (uv + vu)};
+    J.damping[p] = {eu * uu + es * vv, ev * vv + es * uu, es * vu, es * uv};
+  }
+  if (!expand) return;
+  for (int p = 0; p < 6; ++p) {
+    const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
+    const Mat3 K = J.block(p, 1.0, 0.0), D = J.block(p, 0.0, 1.0);
+    out.stiffness.block<3, 3>(3 * i, 3 * j) = -K;
+    out.damping.block<3, 3>(3 * i, 3 * j) = -D;
+    out.stiffness.block<3, 3>(3 * j, 3 * i) = -K.transpose();
+    out.damping.block<3, 3>(3 * j, 3 * i) = -D.transpose();
   }
 }
 

@@ -20,6 +20,25 @@ struct MembraneGeometry {
 /// Fails (returns false) for a degenerate pattern triangle.
 bool make_membrane_geometry(const Vec2& pa, const Vec2& pb, const Vec2& pc, MembraneGeometry& g);
 
+/// Vertex pairs (i, j), i <= j, of a triangle's Jacobian blocks.
+constexpr int kMembranePairs[6][2] = {{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}};
+
+/// A triangle's Jacobians in factored form. For pair p = (i, j):
+///   d f_i / d x_j = -A (k0 UU^T + k1 VV^T + k2 UV^T + k3 VU^T + k4 I),
+///   d f_i / d v_j = -A (e0 UU^T + e1 VV^T + e2 UV^T + e3 VU^T),
+/// with k = stiffness[p], e = damping[p]; block (j, i) is the transpose of block (i, j).
+struct MembraneJacobian {
+  Vec3 U, V;
+  double area = 0;
+  std::array<std::array<double, 5>, 6> stiffness;
+  std::array<std::array<double, 4>, 6> damping;
+  /// -(ck d f_i/d x_j + cd d f_i/d v_j): block (i, j) of the step matrix contribution.
+  Mat3 block(int p, double ck, double cd) const;
+  /// (d f_i / d x_j) w_j and (d f_j / d x_i) w_i = (d f_i / d x_j)^T w_i.
+  Vec3 stiffness_times(int p, const Vec3& w_j) const;
+  Vec3 stiffness_transpose_times(int p, const Vec3& w_i) const;
+};
+
 struct MembraneResult {
   double energy = 0;
   Eigen::Matrix<double, 9, 1> force;     ///< elastic + viscous
@@ -27,15 +46,16 @@ struct MembraneResult {
   Eigen::Matrix<double, 9, 9> damping;   ///< d force / d v
   double viscous_power = 0;              ///< viscous force . v
   Vec3 strain;                           ///< (e_uu, e_vv, e_uv)
+  MembraneJacobian jacobian;             ///< factored Jacobians (when requested)
 };
 
 /// Evaluates one triangle. `viscosity` holds the strain-rate viscosity (N s/m) of the
 /// three modes (weft, warp, shear). With `definite` the stiffness is projected to be
 /// negative semi-definite (compressed membranes, METHOD.md 1); without, it is the exact
-/// Jacobian of the elastic force.
+/// Jacobian of the elastic force. With `expand` false only the factored form is filled.
 void evaluate_membrane(const MembraneGeometry& g, const Material& m, const Vec3& viscosity,
                        const std::array<Vec3, 3>& x, const std::array<Vec3, 3>& v,
-                       bool jacobians, bool definite, MembraneResult& out);
+                       bool jacobians, bool definite, MembraneResult& out, bool expand = true);
 
 /// Replaces the symmetric 2x2 matrix [[a, c], [c, b]] by its positive semi-definite part.
 void project_positive_2x2(double& a, double& b, double& c);

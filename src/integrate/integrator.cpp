@@ -44,7 +44,7 @@ std::string method_names() {
 Integrator::Integrator(System& system, IntegratorSettings settings)
     : system_(system), settings_(settings) {
   system_.prepare(eval_);
-  matrix_.reset(system_.pattern());
+  step_.matrix.reset(system_.pattern());
   const int n = system_.num_nodes();
   mass3_.resize(3 * n);
   for (int i = 0; i < n; ++i) mass3_.segment<3>(3 * i).setConstant(system_.node_mass()[i]);
@@ -120,42 +120,28 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
                              StepStatistics& stats) {
   const auto t0 = Clock::now();
   system_.begin_step(s.x, s.v, dt);
-  const bool implicit = alpha > 0;
-  system_.evaluate(s.x, s.v, implicit, eval_);
   const BlockPattern& P = system_.pattern();
   const int n = system_.num_nodes();
   const VecX& m = system_.node_mass();
-  // Right-hand side: beta M dv_p + dt_b f + alpha dt_b K (beta dx_p + dt_b v)
-  rhs_ = dt_b * eval_.force;
+  // w = beta dx_p + dt_b v, so that the right-hand side is
+  //   beta M dv_p + dt_b f + alpha dt_b K w
+  // and the matrix M - alpha dt_b D - alpha^2 dt_b^2 K (METHOD.md 1-2).
+  tmp_ = dt_b * s.v;
+  if (beta != 0.0) tmp_ += beta * s.dx_prev;
+  step_.ck = alpha * alpha * dt_b * dt_b;
+  step_.cd = alpha * dt_b;
+  system_.assemble_step(s.x, s.v, tmp_, step_);
+  rhs_ = dt_b * step_.force;
   if (beta != 0.0) rhs_ += beta * mass3_.cwiseProduct(s.dv_prev);
-  if (implicit) {
-    tmp_ = dt_b * s.v;
-    if (beta != 0.0) tmp_ += beta * s.dx_prev;
-    eval_.stiffness.multiply(tmp_, tmp2_);
-    rhs_ += alpha * dt_b * tmp2_;
-  }
-  // Matrix M - alpha dt_b D - alpha^2 dt_b^2 K, assembled into the shared pattern.
-  const double cd = alpha * dt_b, ck = alpha * alpha * dt_b * dt_b;
-  {
-    double* a = matrix_.block.front().data();
-    const double* d = eval_.damping.block.front().data();
-    const double* k = eval_.stiffness.block.front().data();
-    const size_t count = 9 * static_cast<size_t>(P.num_blocks());
-    if (implicit) {
-      for (size_t q = 0; q < count; ++q) a[q] = -cd * d[q] - ck * k[q];
-    } else {
-      std::fill(a, a + count, 0.0);
-    }
-  }
-  for (int i = 0; i < n; ++i) matrix_.block[P.diagonal_slot(i)].diagonal().array() += m[i];
+  if (alpha > 0.0) rhs_ += alpha * dt_b * step_.stiffness_times_w;
+  for (int i = 0; i < n; ++i) step_.matrix.block[P.diagonal_slot(i)].diagonal().array() += m[i];
   stats.assembly_seconds += seconds_since(t0);
 
   const auto t1 = Clock::now();
-  if (dv_.size() != 3 * n) dv_ = VecX::Zero(3 * n);
   // Warm start from the previous change in velocity.
-  if (s.dv_prev.size() == 3 * n) dv_ = s.dv_prev; else dv_.setZero();
+  if (s.dv_prev.size() == 3 * n) dv_ = s.dv_prev; else dv_ = VecX::Zero(3 * n);
   PcgSettings ps{settings_.cg_tolerance, settings_.cg_max_iterations};
-  PcgResult r = solve_pcg(matrix_, rhs_, system_.fixed(), ps, dv_, pcg_);
+  PcgResult r = solve_pcg(step_.matrix, rhs_, system_.fixed(), ps, dv_, pcg_);
   stats.cg_iterations += r.iterations;
   ++stats.cg_solves;
   if (!r.converged) ++stats.cg_failures;
@@ -164,13 +150,12 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   // dx = beta dx_p + dt_b (v + alpha dv)
   VecX dx = dt_b * (s.v + alpha * dv_);
   if (beta != 0.0) dx += beta * s.dx_prev;
-  // Viscous work over the step, with the step's mean velocity dx/dt (METHOD.md 6).
-  if (implicit) {
-    tmp_ = dx / dt;
-    eval_.damping.multiply(tmp_, tmp2_);
-    s.viscous_dissipated -= dt * tmp_.dot(tmp2_);
+  // Viscous work over the step, at the start's positions with the step's mean velocity
+  // dx/dt (METHOD.md 6); for forward Euler the start's velocity.
+  if (alpha > 0.0) {
+    s.viscous_dissipated -= dt * system_.viscous_power(s.x, dx / dt);
   } else {
-    s.viscous_dissipated -= dt * eval_.viscous_power;
+    s.viscous_dissipated -= dt * step_.viscous_power;
   }
   s.x += dx;
   s.v += dv_;

@@ -66,8 +66,6 @@ class Integrator {
   /// One step of size dt (fixed-step methods).
   void step(State& state, double dt, StepStatistics& stats);
   const IntegratorSettings& settings() const { return settings_; }
-  /// The evaluation made at the start of the last step (forces, energies, Jacobians).
-  const Evaluation& last_evaluation() const { return eval_; }
 
  private:
   void linear_step(State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
@@ -78,7 +76,7 @@ class Integrator {
   System& system_;
   IntegratorSettings settings_;
   Evaluation eval_;
-  BlockMatrix matrix_;
+  StepAssembly step_;
   PcgWorkspace pcg_;
   VecX rhs_, dv_, tmp_, tmp2_;
   VecX mass3_;  ///< mass per coordinate

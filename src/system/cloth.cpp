@@ -157,6 +157,93 @@ VecX ClothSystem::added_viscosity_per_vertex() const {
   return sum.cwiseQuotient(weight);
 }
 
+void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) {
+  const int n = num_nodes();
+  const bool jacobians = out.ck != 0.0 || out.cd != 0.0;
+  out.force.resize(3 * n);
+  out.force.setZero();
+  out.stiffness_times_w = VecX::Zero(3 * n);
+  if (out.matrix.pattern != &model_.pattern) out.matrix.reset(model_.pattern);
+  out.matrix.set_zero();
+  out.elastic_energy = out.gravity_energy = out.viscous_power = 0;
+  for (int i = 0; i < n; ++i) {
+    node(out.force, i) += model_.mass[i] * model_.gravity;
+    out.gravity_energy -= model_.mass[i] * model_.gravity.dot(node(x, i));
+  }
+  MembraneResult mr;
+  std::array<Vec3, 3> xe, ve;
+  for (size_t t = 0; t < model_.membranes.size(); ++t) {
+    const auto& tri = model_.mesh.triangles[t];
+    for (int k = 0; k < 3; ++k) {
+      xe[k] = node(x, tri[k]);
+      ve[k] = node(v, tri[k]);
+    }
+    evaluate_membrane(model_.membranes[t], model_.material, membrane_viscosity_[t], xe, ve, jacobians, true, mr, false);
+    out.elastic_energy += mr.energy;
+    out.viscous_power += mr.viscous_power;
+    for (int k = 0; k < 3; ++k) node(out.force, tri[k]) += mr.force.segment<3>(3 * k);
+    if (!jacobians) continue;
+    const auto& slots = model_.membrane_slots[t];
+    for (int p = 0; p < 6; ++p) {
+      const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
+      const Mat3 b = mr.jacobian.block(p, out.ck, out.cd);
+      out.matrix.block[slots[3 * i + j]] += b;
+      node(out.stiffness_times_w, tri[i]) += mr.jacobian.stiffness_times(p, node(w, tri[j]));
+      if (i != j) {
+        out.matrix.block[slots[3 * j + i]] += b.transpose();
+        node(out.stiffness_times_w, tri[j]) += mr.jacobian.stiffness_transpose_times(p, node(w, tri[i]));
+      }
+    }
+  }
+  BendingResult br;
+  std::array<Vec3, 4> xb, vb;
+  for (size_t e = 0; e < model_.bendings.size(); ++e) {
+    const auto& s = model_.stencils[e];
+    const auto& g = model_.bendings[e];
+    Vec3 aw = Vec3::Zero();
+    for (int k = 0; k < 4; ++k) {
+      xb[k] = node(x, s[k]);
+      vb[k] = node(v, s[k]);
+      aw += g.alpha[k] * node(w, s[k]);
+    }
+    evaluate_bending(g, bending_viscosity_[e], xb, vb, br);
+    out.elastic_energy += br.energy;
+    out.viscous_power += br.viscous_power;
+    for (int k = 0; k < 4; ++k) node(out.force, s[k]) += br.force.segment<3>(3 * k);
+    if (!jacobians) continue;
+    // K = -k_b alpha alpha^T (x) I3, D = -c_b alpha alpha^T (x) I3.
+    const double c = out.ck * g.stiffness + out.cd * bending_viscosity_[e];
+    const auto& slots = model_.bending_slots[e];
+    for (int a = 0; a < 4; ++a) {
+      node(out.stiffness_times_w, s[a]) -= g.stiffness * g.alpha[a] * aw;
+      for (int b = 0; b < 4; ++b) out.matrix.block[slots[4 * a + b]].diagonal().array() += c * g.alpha[a] * g.alpha[b];
+    }
+  }
+}
+
+double ClothSystem::viscous_power(const VecX& x, const VecX& v) {
+  double power = 0;
+  for (size_t t = 0; t < model_.membranes.size(); ++t) {
+    const auto& g = model_.membranes[t];
+    const auto& tri = model_.mesh.triangles[t];
+    Vec3 U = Vec3::Zero(), V = Vec3::Zero(), Ud = Vec3::Zero(), Vd = Vec3::Zero();
+    for (int k = 0; k < 3; ++k) {
+      U += g.ru[k] * node(x, tri[k]);
+      V += g.rv[k] * node(x, tri[k]);
+      Ud += g.ru[k] * node(v, tri[k]);
+      Vd += g.rv[k] * node(v, tri[k]);
+    }
+    const Vec3 rate(U.dot(Ud), V.dot(Vd), U.dot(Vd) + V.dot(Ud));
+    power -= g.area * membrane_viscosity_[t].dot(rate.cwiseAbs2());
+  }
+  for (size_t e = 0; e < model_.bendings.size(); ++e) {
+    Vec3 Rd = Vec3::Zero();
+    for (int k = 0; k < 4; ++k) Rd += model_.bendings[e].alpha[k] * node(v, model_.stencils[e][k]);
+    power -= bending_viscosity_[e] * Rd.squaredNorm();
+  }
+  return power;
+}
+
 void ClothSystem::evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluation& out) {
   const int n = num_nodes();
   if (out.force.size() != 3 * n || out.stiffness.pattern != &model_.pattern) prepare(out);

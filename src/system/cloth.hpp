@@ -64,6 +64,9 @@ class ClothSystem : public System {
   const BlockPattern& pattern() const override { return model_.pattern; }
   void begin_step(const VecX& x, const VecX& v, double dt) override;
   void evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluation& out) override;
+  /// Fused assembly: forces, step matrix and K w in one pass over the elements.
+  void assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) override;
+  double viscous_power(const VecX& x, const VecX& v) override;
 
   const ClothModel& model() const { return model_; }
   const DampingSettings& damping_settings() const { return damping_; }

@@ -18,6 +18,17 @@ struct Evaluation {
   double viscous_power = 0;    ///< f_viscous . v (W), <= 0
 };
 
+/// What one semi-implicit step needs, assembled in one pass: the forces, the step matrix
+/// A = M - cd D - ck K (METHOD.md 1-2) and the product K w for the right-hand side.
+struct StepAssembly {
+  double ck = 0, cd = 0;       ///< alpha^2 dt_b^2 and alpha dt_b
+  VecX force;                  ///< f, 3n
+  BlockMatrix matrix;          ///< A
+  VecX stiffness_times_w;      ///< K w
+  double elastic_energy = 0, gravity_energy = 0, viscous_power = 0;
+  Evaluation scratch;          ///< used by the generic implementation
+};
+
 class System {
  public:
   virtual ~System() = default;
@@ -31,6 +42,12 @@ class System {
   virtual void begin_step(const VecX& /*x*/, const VecX& /*v*/, double /*dt*/) {}
   /// Fills `out` (force and energies always; Jacobians when `jacobians`).
   virtual void evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluation& out) = 0;
+
+  /// Fills `out` for coefficients out.ck, out.cd and the vector w. The generic version
+  /// evaluates K and D and combines them; systems may fuse the work.
+  virtual void assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out);
+  /// Power of the viscous forces at (x, v) (W, <= 0).
+  virtual double viscous_power(const VecX& x, const VecX& v);
 
   /// Sets `out`'s matrices on this system's pattern.
   void prepare(Evaluation& out) const {
