@@ -2,6 +2,7 @@
 // The walking mannequin (docs/body.md): MakeHuman's CC0 base mesh, a CMU-named rig whose joints
 // are computed from the mesh, a BVH motion retargeted onto it, and linear-blend or
 // dual-quaternion skinning. Positions in metres, Y up, the body faces +Z; time in seconds.
+#include <functional>
 #include <iosfwd>
 #include <memory>
 #include <nlohmann/json_fwd.hpp>
@@ -132,15 +133,22 @@ BvhMotion parse_bvh(std::istream& in, const std::string& name);
 // ---------------------------------------------------------------------------------------------
 // Retargeted animation
 
+/// Height (y, metres) of a body's lowest point given bind -> posed bone transforms.
+using LowestPoint = std::function<double(const std::vector<BonePose>& poses)>;
+
 struct AnimationOptions {
   double speed_scale = 0.75;  ///< 0.75 plays the walk at three quarters of its recorded speed
-  double start_time_s = 0.0;  ///< animation time at which play time 0 starts
+  double start_time_s = 0.0;  ///< seconds into the motion (after the reference frame) at play time 0
+  /// What touches the floor; by default the rig's lowest joint. WalkingBody uses its skinned mesh.
+  LowestPoint lowest_point;
 };
 
 /// A BVH motion retargeted by joint name onto a rig. Frame 0 of the BVH is its reference pose
 /// and corresponds to the rig's bind pose; play time 0 is frame 1. Each bone's world rotation is
 /// G(t) G(0)^-1 with G the BVH joint's world rotation; joints follow the rig's own bone vectors;
-/// the root translation is scaled by the ratio of hip heights.
+/// the root translation is scaled by the ratio of hip heights, and lifted per frame so that the
+/// body's lowest point follows the performer's lowest joint (feet stay on the floor although the
+/// rig's legs are not the performer's).
 class Animation {
  public:
   Animation(const Rig& rig, const BvhMotion& motion, const AnimationOptions& options = {});
@@ -154,10 +162,14 @@ class Animation {
 
  private:
   const Rig* rig_;
+  /// Poses at fractional frame f0 + a (0 <= a <= 1) with the root lifted by lift_m.
+  void frame_poses(int f0, double a, double lift_m, std::vector<BonePose>& poses) const;
+
   std::vector<int> joint_of_bone_;  ///< BVH joint per rig bone (-1: follows its parent)
   std::vector<int> bvh_parent_;
   std::vector<std::vector<Eigen::Quaterniond>> local_;  ///< [frame][joint]
   std::vector<Vec3> root_position_;                     ///< per frame, BVH units
+  std::vector<double> ground_lift_m_;                   ///< per frame, see the constructor
   std::vector<Eigen::Quaterniond> reference_world_inverse_;
   double frame_time_s_ = 0.0, speed_scale_ = 1.0, start_time_s_ = 0.0;
   double duration_s_ = 0.0, length_scale_ = 1.0;

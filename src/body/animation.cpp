@@ -24,11 +24,30 @@ void compose(const std::vector<int>& parent, const std::vector<Eigen::Quaternion
     world[j] = parent[j] < 0 ? local[j] : world[parent[j]] * local[j];
 }
 
+// Joint positions (then end sites) of a BVH skeleton from world rotations and root position.
+std::vector<Vec3> skeleton_points(const BvhMotion& motion,
+                                  const std::vector<Eigen::Quaterniond>& world, const Vec3& root) {
+  const size_t joints = motion.joints.size();
+  std::vector<Vec3> points(joints);
+  for (size_t j = 0; j < joints; ++j) {
+    const int p = motion.joints[j].parent;
+    points[j] = p < 0 ? root : Vec3(points[p] + world[p] * motion.joints[j].offset);
+  }
+  for (size_t j = 0; j < joints; ++j)
+    if (motion.joints[j].has_end_site)
+      points.push_back(points[j] + world[j] * motion.joints[j].end_site);
+  return points;
+}
+
+double lowest(const std::vector<Vec3>& points) {
+  double y = points.front().y();
+  for (const Vec3& p : points) y = std::min(y, p.y());
+  return y;
+}
+
 // Height of joint `top` above the lowest joint or end site of a skeleton.
 double height_above_lowest(const std::vector<Vec3>& points, int top) {
-  double lowest = points[top].y();
-  for (const Vec3& p : points) lowest = std::min(lowest, p.y());
-  return points[top].y() - lowest;
+  return points[top].y() - lowest(points);
 }
 
 }  // namespace
@@ -64,20 +83,50 @@ Animation::Animation(const Rig& rig, const BvhMotion& motion, const AnimationOpt
   for (int j = 0; j < joints; ++j) reference_world_inverse_[j] = reference[j].conjugate();
 
   // Ratio of hip heights (above each skeleton's lowest joint) in the reference pose.
-  std::vector<Vec3> bvh_points(joints);
-  for (int j = 0; j < joints; ++j) {
-    const int p = motion.joints[j].parent;
-    bvh_points[j] = p < 0 ? root_position_[0] : Vec3(bvh_points[p] + reference[p] * motion.joints[j].offset);
-  }
-  for (int j = 0; j < joints; ++j)
-    if (motion.joints[j].has_end_site)
-      bvh_points.push_back(bvh_points[j] + reference[j] * motion.joints[j].end_site);
+  const std::vector<Vec3> bvh_points = skeleton_points(motion, reference, root_position_[0]);
   std::vector<Vec3> rig_points = rig.head_bind;
   rig_points.insert(rig_points.end(), rig.tail_bind.begin(), rig.tail_bind.end());
   const double bvh_hip = height_above_lowest(bvh_points, root);
   const double rig_hip = height_above_lowest(rig_points, root);
   if (!(bvh_hip > 0)) throw InputError("motion's reference pose has its root at the lowest point");
   length_scale_ = rig_hip / bvh_hip;
+
+  // Grounding: the rig's legs are not the performer's, so scaling the root alone lets the feet
+  // sink or float. The performer's floor is the lowest its lowest joint gets during the motion;
+  // per frame, the root is lifted so that the body's lowest point is as high above the bind
+  // pose's lowest point as the performer's lowest joint is above its floor (scaled). Between
+  // frames the lift is interpolated like the rest of the motion.
+  LowestPoint lowest_point = options.lowest_point;
+  if (!lowest_point) {
+    lowest_point = [&rig](const std::vector<BonePose>& poses) {
+      std::vector<Vec3> posed;
+      for (int b = 0; b < rig.bone_count(); ++b) {
+        posed.push_back(poses[b].apply(rig.head_bind[b]));
+        posed.push_back(poses[b].apply(rig.tail_bind[b]));
+      }
+      return lowest(posed);
+    };
+  }
+  std::vector<double> performer_lowest(frames, 0.0);
+  for (int f = 1; f < frames; ++f) {
+    std::vector<Eigen::Quaterniond> world;
+    compose(bvh_parent_, local_[f], world);
+    performer_lowest[f] = lowest(skeleton_points(motion, world, root_position_[f]));
+  }
+  const double performer_floor =
+      *std::min_element(performer_lowest.begin() + 1, performer_lowest.end());
+  std::vector<BonePose> poses(rig.bone_names.size());
+  const double bind_lowest = lowest_point(poses);
+  ground_lift_m_.assign(frames, 0.0);
+  for (int f = 1; f < frames; ++f) {
+    if (f + 1 < frames)
+      frame_poses(f, 0.0, 0.0, poses);
+    else
+      frame_poses(f - 1, 1.0, 0.0, poses);
+    ground_lift_m_[f] = bind_lowest + length_scale_ * (performer_lowest[f] - performer_floor) -
+                        lowest_point(poses);
+  }
+  ground_lift_m_[0] = ground_lift_m_[1];
 
   duration_s_ = ((frames - 2) * frame_time_s_ - start_time_s_) / speed_scale_;
   if (!(duration_s_ > 0) || start_time_s_ < 0)
@@ -86,13 +135,17 @@ Animation::Animation(const Rig& rig, const BvhMotion& motion, const AnimationOpt
 }
 
 void Animation::bone_poses(double t, std::vector<BonePose>& poses) const {
-  const Rig& rig = *rig_;
   // Play time -> fractional frame index; frame 1 is the first frame of the motion.
   const double last = static_cast<double>(local_.size() - 1);
   const double u = std::clamp(1.0 + (start_time_s_ + speed_scale_ * t) / frame_time_s_, 1.0, last);
   const int f0 = std::min(static_cast<int>(std::floor(u)), static_cast<int>(last) - 1);
   const double a = u - f0;
+  const double lift_m = (1 - a) * ground_lift_m_[f0] + a * ground_lift_m_[f0 + 1];
+  frame_poses(f0, a, lift_m, poses);
+}
 
+void Animation::frame_poses(int f0, double a, double lift_m, std::vector<BonePose>& poses) const {
+  const Rig& rig = *rig_;
   const size_t joints = bvh_parent_.size();
   std::vector<Eigen::Quaterniond> local(joints), world;
   for (size_t j = 0; j < joints; ++j) local[j] = local_[f0][j].slerp(a, local_[f0 + 1][j]);
@@ -109,7 +162,7 @@ void Animation::bone_poses(double t, std::vector<BonePose>& poses) const {
                : (p >= 0 ? poses[p].rotation : Eigen::Quaterniond::Identity());
     rotation.normalize();
     if (p < 0) {
-      head[b] = rig.head_bind[b] + length_scale_ * (root - root_position_[0]);
+      head[b] = rig.head_bind[b] + length_scale_ * (root - root_position_[0]) + lift_m * Vec3::UnitY();
     } else {
       head[b] = head[p] + poses[p].rotation * (rig.head_bind[b] - rig.head_bind[p]);
     }

@@ -75,8 +75,16 @@ WalkingBody::WalkingBody(const BodyColliderSpec& spec)
   const std::string motion_file = spec.motion_file.empty() ? default_motion_file() : spec.motion_file;
   motion_ = read_bvh(motion_file);
   try {
-    animation_ = std::make_unique<Animation>(rig_, motion_,
-                                             AnimationOptions{spec.speed, spec.start_time});
+    AnimationOptions options{spec.speed, spec.start_time, {}};
+    // The skinned mesh's lowest point touches the floor; the poses it gets are bind -> posed.
+    options.lowest_point = [this](const std::vector<BonePose>& poses) {
+      std::vector<BonePose> from_rest(poses.size());
+      for (size_t b = 0; b < poses.size(); ++b) from_rest[b] = poses[b] * rig_.rest_to_bind[b];
+      Points posed;
+      skin(from_rest, posed);
+      return posed.col(1).minCoeff();
+    };
+    animation_ = std::make_unique<Animation>(rig_, motion_, options);
   } catch (const InputError& e) {
     throw InputError(motion_file + ": " + e.what());
   }
