@@ -87,7 +87,10 @@ int run_body(const BodyOptions& o) {
     char name[64];
     std::snprintf(name, sizeof name, "body_%05d.obj", f);
     weft::write_obj((frames_dir / name).string(), positions, body.triangles());
-    if (bar) show_progress(f + 1, frame_count);
+    if (bar)
+      show_progress(f + 1, frame_count);
+    else if ((f + 1) * 4 / frame_count != f * 4 / frame_count)
+      std::fprintf(stderr, "weft body: %d/%d frames\n", f + 1, frame_count);
   }
   const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
   const weft::Vec3 travel = root_last - root_first;
