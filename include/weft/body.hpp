@@ -141,11 +141,15 @@ struct AnimationOptions {
   double start_time_s = 0.0;  ///< seconds into the motion (after the reference frame) at play time 0
   /// What touches the floor; by default the rig's lowest joint. WalkingBody uses its skinned mesh.
   LowestPoint lowest_point;
+  /// Turn the limb segments (upper/lower arm and leg) of the bind pose onto the performer's
+  /// reference-pose directions, so that joint angles are the performer's.
+  bool align_limbs = true;
 };
 
 /// A BVH motion retargeted by joint name onto a rig. Frame 0 of the BVH is its reference pose
 /// and corresponds to the rig's bind pose; play time 0 is frame 1. Each bone's world rotation is
-/// G(t) G(0)^-1 with G the BVH joint's world rotation; joints follow the rig's own bone vectors;
+/// G(t) G(0)^-1 A with G the BVH joint's world rotation and A a fixed alignment of limb segments
+/// (see AnimationOptions::align_limbs); joints follow the rig's own bone vectors;
 /// the root translation is scaled by the ratio of hip heights, and lifted per frame so that the
 /// body's lowest point follows the performer's lowest joint (feet stay on the floor although the
 /// rig's legs are not the performer's).
@@ -171,6 +175,7 @@ class Animation {
   std::vector<Vec3> root_position_;                     ///< per frame, BVH units
   std::vector<double> ground_lift_m_;                   ///< per frame, see the constructor
   std::vector<Eigen::Quaterniond> reference_world_inverse_;
+  std::vector<Eigen::Quaterniond> reference_to_bind_;  ///< per rig bone, see the constructor
   double frame_time_s_ = 0.0, speed_scale_ = 1.0, start_time_s_ = 0.0;
   double duration_s_ = 0.0, length_scale_ = 1.0;
 };

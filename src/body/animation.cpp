@@ -79,6 +79,24 @@ Animation::Animation(const Rig& rig, const BvhMotion& motion, const AnimationOpt
   // Frame 0 is the reference pose (the T-pose that matches the rig's bind pose).
   std::vector<Eigen::Quaterniond> reference;
   compose(bvh_parent_, local_[0], reference);
+  // A bone's world rotation is G(t) G(0)^-1 A: A turns the rig's bind direction of a limb
+  // segment onto the performer's reference direction of it (the rig's T-pose keeps the elbows
+  // bent by about 15 degrees, the performer's are straight); other bones keep A = I, since their
+  // directions differ by skeleton design (spine curve, hip and shoulder girdles, hand shape).
+  reference_to_bind_.assign(rig.bone_names.size(), Eigen::Quaterniond::Identity());
+  for (int b = 0; b < rig.bone_count() && options.align_limbs; ++b) {
+    const std::string& name = rig.bone_names[b];
+    const bool limb = name.ends_with("Leg") || name.ends_with("Arm");  // UpLeg, Leg, Arm, ForeArm
+    const int j = joint_of_bone_[b];
+    if (!limb || j < 0) continue;
+    Vec3 segment = Vec3::Zero();  // the joint's longest child offset
+    for (int c = 0; c < joints; ++c)
+      if (motion.joints[c].parent == j && motion.joints[c].offset.norm() > segment.norm())
+        segment = motion.joints[c].offset;
+    if (segment.norm() == 0) continue;
+    reference_to_bind_[b] = Eigen::Quaterniond::FromTwoVectors(
+        rig.tail_bind[b] - rig.head_bind[b], reference[j] * segment);
+  }
   reference_world_inverse_.resize(joints);
   for (int j = 0; j < joints; ++j) reference_world_inverse_[j] = reference[j].conjugate();
 
@@ -158,7 +176,7 @@ void Animation::frame_poses(int f0, double a, double lift_m, std::vector<BonePos
     const int p = rig.parent[b];
     const int j = joint_of_bone_[b];
     Eigen::Quaterniond rotation =
-        j >= 0 ? world[j] * reference_world_inverse_[j]
+        j >= 0 ? world[j] * reference_world_inverse_[j] * reference_to_bind_[b]
                : (p >= 0 ? poses[p].rotation : Eigen::Quaterniond::Identity());
     rotation.normalize();
     if (p < 0) {

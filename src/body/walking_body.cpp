@@ -75,7 +75,7 @@ WalkingBody::WalkingBody(const BodyColliderSpec& spec)
   const std::string motion_file = spec.motion_file.empty() ? default_motion_file() : spec.motion_file;
   motion_ = read_bvh(motion_file);
   try {
-    AnimationOptions options{spec.speed, spec.start_time, {}};
+    AnimationOptions options{spec.speed, spec.start_time, {}, true};
     // The skinned mesh's lowest point touches the floor; the poses it gets are bind -> posed.
     options.lowest_point = [this](const std::vector<BonePose>& poses) {
       std::vector<BonePose> from_rest(poses.size());

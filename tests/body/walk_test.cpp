@@ -78,6 +78,12 @@ TEST(BodyWalk, StaysWholeGroundedAndWalksForward) {
       EXPECT_LT(hand.y(), shoulder.y() - 0.3) << "t = " << t;
     }
     const Vec3 hips = poses[0].apply(rig.head_rest[0]);
+    // Upright, and the left leg stays on the left (+X when facing +Z with Y up).
+    const int head = rig.find("Head");
+    EXPECT_GT(poses[head].apply(rig.head_rest[head]).y(), hips.y() + 0.5) << "t = " << t;
+    EXPECT_GT(poses[feet[0]].apply(rig.head_rest[feet[0]]).x(),
+              poses[feet[1]].apply(rig.head_rest[feet[1]]).x())
+        << "t = " << t;
     if (f == 0) hips_first = hips;
     hips_last = hips;
   }
@@ -87,6 +93,42 @@ TEST(BodyWalk, StaysWholeGroundedAndWalksForward) {
   EXPECT_LT(travel.z(), 5.0);
   EXPECT_LT(std::abs(travel.x()), 0.1 * travel.z());  // straight ahead
   EXPECT_LT(correlation(foot_height[0], foot_height[1]), 0.0);
+}
+
+TEST(BodyWalk, ReferencePoseAlignsLimbsOnly) {
+  // Holding the performer's reference pose: limb segments point where the performer's do,
+  // every other bone keeps its bind orientation.
+  const WalkingBody& body = test::shipped_body();
+  const Rig& rig = body.rig();
+  BvhMotion still = read_bvh(default_motion_file());
+  for (int f = 1; f < still.frame_count(); ++f) still.frames.row(f) = still.frames.row(0);
+  const Animation animation(rig, still, {});
+  std::vector<BonePose> poses;
+  animation.bone_poses(0.5, poses);
+  std::vector<Eigen::Quaterniond> world(still.joints.size());
+  for (size_t j = 0; j < still.joints.size(); ++j) {
+    const int p = still.joints[j].parent;
+    world[j] = p < 0 ? still.local_rotation(0, j) : world[p] * still.local_rotation(0, j);
+  }
+  int limbs = 0;
+  for (int b = 0; b < rig.bone_count(); ++b) {
+    const std::string& name = rig.bone_names[b];
+    const Vec3 posed = poses[b].rotation * (rig.tail_bind[b] - rig.head_bind[b]);
+    if (name.ends_with("Leg") || name.ends_with("Arm")) {
+      const int j = still.find(name);
+      const int child = still.find(name.ends_with("UpLeg")     ? name.substr(0, name.size() - 5) + "Leg"
+                                   : name.ends_with("Leg")     ? name.substr(0, name.size() - 3) + "Foot"
+                                   : name.ends_with("ForeArm") ? name.substr(0, name.size() - 7) + "Hand"
+                                                               : name.substr(0, name.size() - 3) + "ForeArm");
+      ASSERT_GE(child, 0) << name;
+      const Vec3 performer = world[j] * still.joints[child].offset;
+      EXPECT_LT((posed.normalized() - performer.normalized()).norm(), 1e-9) << name;
+      ++limbs;
+    } else {
+      EXPECT_LT(poses[b].rotation.angularDistance(Eigen::Quaterniond::Identity()), 1e-9) << name;
+    }
+  }
+  EXPECT_EQ(limbs, 8);
 }
 
 TEST(BodyWalk, SpeedScaleAndStartTimeRemapTime) {
