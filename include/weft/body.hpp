@@ -165,7 +165,7 @@ class Animation {
   double length_scale() const { return length_scale_; }
 
  private:
-  const Rig* rig_;
+  Rig rig_;  ///< a copy (31 bones), so an Animation never dangles
   /// Poses at fractional frame f0 + a (0 <= a <= 1) with the root lifted by lift_m.
   void frame_poses(int f0, double a, double lift_m, std::vector<BonePose>& poses) const;
 

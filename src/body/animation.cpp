@@ -53,7 +53,7 @@ double height_above_lowest(const std::vector<Vec3>& points, int top) {
 }  // namespace
 
 Animation::Animation(const Rig& rig, const BvhMotion& motion, const AnimationOptions& options)
-    : rig_(&rig),
+    : rig_(rig),
       frame_time_s_(motion.frame_time_s),
       speed_scale_(options.speed_scale),
       start_time_s_(options.start_time_s) {
@@ -163,7 +163,7 @@ void Animation::bone_poses(double t, std::vector<BonePose>& poses) const {
 }
 
 void Animation::frame_poses(int f0, double a, double lift_m, std::vector<BonePose>& poses) const {
-  const Rig& rig = *rig_;
+  const Rig& rig = rig_;
   const size_t joints = bvh_parent_.size();
   std::vector<Eigen::Quaterniond> local(joints), world;
   for (size_t j = 0; j < joints; ++j) local[j] = local_[f0][j].slerp(a, local_[f0 + 1][j]);

@@ -54,14 +54,15 @@ void skin_dqs(const Points& rest, const SkinWeights& weights, const std::vector<
       const double sign = first.head<4>().dot(d.head<4>()) < 0 ? -1.0 : 1.0;
       blend += (sign * weights.weight(v, k)) * d;
     }
-    const double norm = blend.head<4>().norm();
-    const Eigen::Quaterniond q0(blend[0] / norm, blend[1] / norm, blend[2] / norm,
-                                blend[3] / norm);
-    const Eigen::Quaterniond qe(blend[4] / norm, blend[5] / norm, blend[6] / norm,
-                                blend[7] / norm);
-    // Translation t = 2 qe conj(q0); its vector part, for a normalised q0 and qe.
-    const Vec3 t = 2.0 * (qe * q0.conjugate()).vec();
-    out.row(v) = (q0 * rest.row(v).transpose() + t).transpose();
+    const double inverse_norm = 1.0 / blend.head<4>().norm();
+    const double w = blend[0] * inverse_norm, ew = blend[4] * inverse_norm;
+    const Vec3 qv = blend.segment<3>(1) * inverse_norm;
+    const Vec3 ev = blend.segment<3>(5) * inverse_norm;
+    // Translation: the vector part of 2 qe conj(q0); rotation: x + 2 w (v x x) + 2 v x (v x x).
+    const Vec3 t = 2.0 * (w * ev - ew * qv + qv.cross(ev));
+    const Vec3 x = rest.row(v).transpose();
+    const Vec3 vx = qv.cross(x);
+    out.row(v) = (x + 2.0 * (w * vx + qv.cross(vx)) + t).transpose();
   }
 }
 
