@@ -193,7 +193,9 @@ struct BodyColliderSpec {
 };
 
 /// Validates keys and types; errors name `where` and the key. "type" may be present ("body").
-BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string& where);
+/// A relative "motion" path is taken relative to base_dir (the scene file's folder).
+BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string& where,
+                                     const std::string& base_dir = ".");
 
 /// The skinned, walking mannequin.
 class WalkingBody {

@@ -2,6 +2,7 @@
 // description for scenes.
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -27,7 +28,8 @@ nlohmann::json read_json(const std::string& path) {
 
 std::string default_motion_file() { return data_dir() + "/motion/35_01.bvh"; }
 
-BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string& where) {
+BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string& where,
+                                     const std::string& base_dir) {
   if (!j.is_object()) throw InputError(where + ": a body collider must be an object");
   BodyColliderSpec spec;
   for (const auto& [key, value] : j.items()) {
@@ -37,7 +39,11 @@ BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string&
         throw InputError(at + ": expected \"body\"");
     } else if (key == "motion") {
       if (!value.is_string()) throw InputError(at + ": expected a file name (string)");
-      spec.motion_file = value.get<std::string>();
+      const std::filesystem::path motion = value.get<std::string>();
+      if (motion.empty()) throw InputError(at + ": expected a file name, got \"\"");
+      spec.motion_file = (motion.is_absolute() ? motion : std::filesystem::path(base_dir) / motion)
+                             .lexically_normal()
+                             .string();
     } else if (key == "speed") {
       if (!value.is_number()) throw InputError(at + ": expected a number");
       spec.speed = value.get<double>();

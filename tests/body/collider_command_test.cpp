@@ -33,6 +33,12 @@ TEST(BodyCollider, ParsesAndValidatesKeys) {
                      {"skinning", "dqs"}, {"start_time", 0.5}},
       "c");
   EXPECT_EQ(spec.motion_file, "walk.bvh");
+  const BodyColliderSpec relative =
+      parse_body_collider(nlohmann::json{{"motion", "motions/walk.bvh"}}, "c", "/scenes/coat");
+  EXPECT_EQ(relative.motion_file, "/scenes/coat/motions/walk.bvh");
+  const BodyColliderSpec absolute =
+      parse_body_collider(nlohmann::json{{"motion", "/data/walk.bvh"}}, "c", "/scenes/coat");
+  EXPECT_EQ(absolute.motion_file, "/data/walk.bvh");
   EXPECT_EQ(spec.speed, 1.0);
   EXPECT_EQ(spec.skinning, "dqs");
   EXPECT_EQ(spec.start_time, 0.5);
