@@ -1,0 +1,134 @@
+// The walking mannequin: shipped body data + a motion, skinned at any time; and its collider
+// description for scenes.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "weft/body.hpp"
+#include "weft/error.hpp"
+#include "weft/material.hpp"
+
+namespace weft {
+
+namespace {
+
+nlohmann::json read_json(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot open");
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(path + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+std::string default_motion_file() { return data_dir() + "/motion/35_01.bvh"; }
+
+BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string& where,
+                                     const std::string& base_dir) {
+  if (!j.is_object()) throw InputError(where + ": a body collider must be an object");
+  BodyColliderSpec spec;
+  for (const auto& [key, value] : j.items()) {
+    const std::string at = where + "." + key;
+    if (key == "type") {
+      if (!value.is_string() || value.get<std::string>() != "body")
+        throw InputError(at + ": expected \"body\"");
+    } else if (key == "motion") {
+      if (!value.is_string()) throw InputError(at + ": expected a file name (string)");
+      const std::filesystem::path motion = value.get<std::string>();
+      if (motion.empty()) throw InputError(at + ": expected a file name, got \"\"");
+      spec.motion_file = (motion.is_absolute() ? motion : std::filesystem::path(base_dir) / motion)
+                             .lexically_normal()
+                             .string();
+    } else if (key == "speed") {
+      if (!value.is_number()) throw InputError(at + ": expected a number");
+      spec.speed = value.get<double>();
+      if (!(spec.speed > 0)) throw InputError(at + ": must be positive, got " + value.dump());
+    } else if (key == "skinning") {
+      if (!value.is_string()) throw InputError(at + ": expected \"lbs\" or \"dqs\"");
+      spec.skinning = value.get<std::string>();
+      parse_skinning(spec.skinning, at);
+    } else if (key == "start_time") {
+      if (!value.is_number()) throw InputError(at + ": expected a number (seconds)");
+      spec.start_time = value.get<double>();
+      if (!(spec.start_time >= 0)) throw InputError(at + ": must be >= 0, got " + value.dump());
+    } else {
+      throw InputError(where + ": unknown key \"" + key +
+                       "\" (expected type, motion, speed, skinning, start_time)");
+    }
+  }
+  return spec;
+}
+
+WalkingBody::WalkingBody(const BodyColliderSpec& spec)
+    : skinning_(parse_skinning(spec.skinning, "skinning")) {
+  const std::string dir = data_dir() + "/body/";
+  ObjMesh body = read_obj(dir + "body_tri_m.obj");
+  rest_ = std::move(body.positions);
+  triangles_ = std::move(body.triangles);
+  rig_ = build_rig(read_json(dir + "rig.cmu_mb.json"), read_obj(dir + "joint_cubes.obj"), rest_,
+                   dir + "rig.cmu_mb.json");
+  const std::string tpose = dir + "t-pose.cmu_mb.json";
+  apply_bind_pose(rig_, read_json(tpose).at("bone_rotations"), tpose);
+  weights_ = reduce_weights(read_json(dir + "weights.cmu_mb.json"), rig_,
+                            static_cast<int>(rest_.rows()), dir + "weights.cmu_mb.json");
+  skin_lbs(rest_, weights_, rig_.rest_to_bind, bind_);
+
+  const std::string motion_file = spec.motion_file.empty() ? default_motion_file() : spec.motion_file;
+  motion_ = read_bvh(motion_file);
+  try {
+    AnimationOptions options{spec.speed, spec.start_time, {}, true};
+    // The skinned mesh's lowest point touches the floor; the poses it gets are bind -> posed.
+    options.lowest_point = [this](const std::vector<BonePose>& poses) {
+      std::vector<BonePose> from_rest(poses.size());
+      for (size_t b = 0; b < poses.size(); ++b) from_rest[b] = poses[b] * rig_.rest_to_bind[b];
+      Points posed;
+      skin(from_rest, posed);
+      return posed.col(1).minCoeff();
+    };
+    animation_ = std::make_unique<Animation>(rig_, motion_, options);
+  } catch (const InputError& e) {
+    throw InputError(motion_file + ": " + e.what());
+  }
+  motion_interval_s_ = motion_.frame_time_s / spec.speed;
+  start_time_s_ = spec.start_time;
+}
+
+void WalkingBody::bone_poses(double t, std::vector<BonePose>& poses) const {
+  animation_->bone_poses(t, poses);
+  for (int b = 0; b < rig_.bone_count(); ++b) poses[b] = poses[b] * rig_.rest_to_bind[b];
+}
+
+void WalkingBody::skin(const std::vector<BonePose>& poses, Points& out) const {
+  if (skinning_ == Skinning::kDualQuaternion)
+    skin_dqs(rest_, weights_, poses, out);
+  else
+    skin_lbs(rest_, weights_, poses, out);
+}
+
+void WalkingBody::positions(double t, Points& out) const {
+  std::vector<BonePose> poses;
+  bone_poses(t, poses);
+  skin(poses, out);
+}
+
+void WalkingBody::velocities(double t, Points& out) const {
+  // The motion interpolates between frames, so it is smooth inside a frame interval and kinked
+  // at its ends: difference inside the interval that holds t.
+  const double offset_s = start_time_s_ * (motion_interval_s_ / motion_.frame_time_s);
+  const double phase = (t + offset_s) / motion_interval_s_;
+  const double lo = (std::floor(phase) * motion_interval_s_) - offset_s;
+  const double hi = lo + motion_interval_s_;
+  const double h = 1e-4 * motion_interval_s_;
+  const double centre = std::clamp(t, std::max(lo + h, h), std::max(hi - h, h));
+  Points ahead, behind;
+  positions(centre + h, ahead);
+  positions(centre - h, behind);
+  out = (ahead - behind) / (2 * h);
+}
+
+}  // namespace weft

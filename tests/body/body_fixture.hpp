@@ -1,0 +1,24 @@
+#pragma once
+// Shared, loaded-once mannequin for the body tests, and a scratch folder helper.
+#include <filesystem>
+#include <string>
+
+#include "weft/body.hpp"
+
+namespace weft::test {
+
+/// The shipped mannequin walking the shipped motion (speed 0.75, LBS).
+inline const WalkingBody& shipped_body() {
+  static const WalkingBody body{BodyColliderSpec{}};
+  return body;
+}
+
+/// A fresh, empty folder under the system's temporary folder.
+inline std::filesystem::path scratch_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("weft_body_tests_" + name);
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+}  // namespace weft::test
