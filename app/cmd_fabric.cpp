@@ -99,9 +99,11 @@ bool run_gnuplot(const fs::path& dir, const std::string& script, const std::stri
 }
 
 // Writes the same plot body to a PNG and an SVG terminal (temporary names, see run_gnuplot).
-std::string gnuplot_two_terminals(const std::string& name, const std::string& body) {
-  return "set terminal pngcairo size 900,640 enhanced font 'Sans,11'\nset output '" + name + ".png.tmp'\n" + body +
-         "set terminal svg size 900,640 enhanced font 'Sans,11'\nset output '" + name + ".svg.tmp'\nreplot\nunset output\n";
+std::string gnuplot_two_terminals(const std::string& name, const std::string& body,
+                                  const std::string& size = "900,640") {
+  return "set terminal pngcairo size " + size + " enhanced font 'Sans,10'\nset output '" + name + ".png.tmp'\n" + body +
+         "unset multiplot\nset terminal svg size " + size + " enhanced font 'Sans,10'\nset output '" + name + ".svg.tmp'\n" +
+         body + "unset multiplot\nunset output\n";
 }
 
 // ------------------------------------------------------------------------------ tensile
@@ -166,30 +168,34 @@ int run_tensile(const TensileArgs& a) {
     for (const auto& p : r.points) dat << num(100 * p.gauge_strain) << ' ' << num(p.measured_stress) << '\n';
     dat << "\n\n";
   }
-  std::ostringstream body;
-  body << "set title 'weft tensile test: " << material.name
-       << " (sliding clamps, quasi-static)' noenhanced\nset xlabel 'Green strain (%)'\n"
-          "set ylabel 'stress S (N/m)'\nset key top left\nset grid\n"
-          "set datafile commentschars '#'\nplot \\\n";
+  std::ostringstream plot;
+  plot << "plot \\\n";
   const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c"};
   for (size_t i = 0; i < results.size(); ++i) {
     const auto& r = results[i];
     const std::string c = colours[i % 3];
     const std::string curve_title = r.direction == "bias" ? "bias: model uniaxial response at 45 deg"
                                                           : r.direction + ": input curve";
-    body << "  'tensile.dat' index " << 2 * i << " using 1:3 with lines lw 2 lc rgb '" << c << "' title '"
+    plot << "  'tensile.dat' index " << 2 * i << " using 1:3 with lines lw 2 lc rgb '" << c << "' title '"
          << curve_title << "', \\\n";
     if (r.direction != "bias" && material.poisson_ratio != 0.0)
-      body << "  'tensile.dat' index " << 2 * i << " using 1:2 with lines dt 2 lc rgb '" << c << "' title '"
+      plot << "  'tensile.dat' index " << 2 * i << " using 1:2 with lines dt 2 lc rgb '" << c << "' title '"
            << r.direction << ": uniaxial response with Poisson coupling', \\\n";
-    body << "  'tensile.dat' index " << 2 * i + 1 << " using 1:2 with points pt 7 ps 1.1 lc rgb '" << c
+    plot << "  'tensile.dat' index " << 2 * i + 1 << " using 1:2 with points pt 7 ps 1.1 lc rgb '" << c
          << "' title '" << r.direction << ": simulated strip'" << (i + 1 < results.size() ? ", \\\n" : "\n");
   }
+  std::ostringstream body;
+  body << "set multiplot layout 1,2 title 'weft tensile test: " << material.name
+       << " (sliding clamps, quasi-static equilibria)' noenhanced\n"
+          "set xlabel 'Green strain (%)'\nset ylabel 'stress S (N/m)'\nset key top left Left reverse font ',9'\n"
+          "set grid\nset datafile commentschars '#'\n"
+       << plot.str() << "set logscale y\nset key bottom right Right noreverse font ',9'\n"
+       << "set ylabel 'stress S (N/m), logarithmic'\n" << plot.str() << "unset logscale y\n";
   write_files_atomically({
             text_file(dir / "tensile.csv", table.str()),
             text_file(dir / "tensile_model.csv", model_curves.str()),
             text_file(dir / "tensile.dat", dat.str()),
-            text_file(dir / "tensile.gp", gnuplot_two_terminals("tensile", body.str())),
+            text_file(dir / "tensile.gp", gnuplot_two_terminals("tensile", body.str(), "1400,620")),
   });
   const bool plotted = run_gnuplot(dir, "tensile.gp", "tensile");
 
@@ -197,8 +203,12 @@ int run_tensile(const TensileArgs& a) {
               material.name.c_str(), material.poisson_ratio, o.length_m, o.width_m, o.cells_along, o.cells_across,
               o.increments);
   for (const auto& r : results)
-    std::printf("  %-4s (%2.0f deg): strain to %.4g, largest |measured - expected| / expected = %.3g%%\n",
-                r.direction.c_str(), r.angle_deg, r.max_strain, 100 * r.max_relative_error);
+    std::printf("  %-4s (%2.0f deg): Green strain to %.4g; largest deviation from the model's uniaxial response "
+                "%.3g%%%s\n",
+                r.direction.c_str(), r.angle_deg, r.max_strain, 100 * r.max_relative_error,
+                std::isnan(r.max_relative_error_input_curve)
+                    ? ""
+                    : (", from the input curve " + num(100 * r.max_relative_error_input_curve) + "%").c_str());
   if (!all_converged) std::printf("  warning: some equilibria did not reach the force tolerance (see tensile.csv)\n");
   std::printf("  wrote %s (tensile.csv, tensile_model.csv, tensile.gp%s)\n", dir.string().c_str(),
               plotted ? ", tensile.png, tensile.svg" : "");
@@ -229,13 +239,13 @@ int run_cantilever(const CantileverArgs& a) {
 
   std::ostringstream summary, sweep, dat, body;
   summary << "direction,bending_rigidity_Nm,weight_N_m2,analytic_bending_length_m,overhang_at_target_m,"
-             "bending_length_m,relative_error\n";
+             "bending_length_m,relative_error,effective_rigidity_ratio\n";
   sweep << "direction,overhang_m,overhang_over_analytic_c,chord_angle_deg,elastica_angle_deg,converged\n";
   bool all_converged = true;
   for (const auto& r : results) {
     summary << r.direction << ',' << num(r.rigidity_Nm) << ',' << num(r.weight_N_m2) << ','
             << num(r.analytic_bending_length_m) << ',' << num(r.overhang_m) << ',' << num(r.bending_length_m) << ','
-            << num(r.relative_error) << '\n';
+            << num(r.relative_error) << ',' << num(r.effective_rigidity_ratio) << '\n';
     for (const auto& p : r.sweep) {
       sweep << r.direction << ',' << num(p.overhang_m) << ',' << num(p.overhang_m / r.analytic_bending_length_m) << ','
             << num(p.chord_angle_deg) << ',' << num(p.elastica_angle_deg) << ',' << (p.converged ? 1 : 0) << '\n';
@@ -284,9 +294,9 @@ int run_cantilever(const CantileverArgs& a) {
               o.target_angle_deg, material.name.c_str(), o.width_m, o.cells_along, o.cells_across);
   for (const auto& r : results)
     std::printf("  %s strip: B = %.4g N m, w g = %.4g N/m^2: bending length %.5g m (overhang %.5g m), analytic %.5g m, "
-                "error %+.3f%%\n",
+                "error %+.3f%% (the strip behaves as if B were %.3g times the material's)\n",
                 r.direction.c_str(), r.rigidity_Nm, r.weight_N_m2, r.bending_length_m, r.overhang_m,
-                r.analytic_bending_length_m, 100 * r.relative_error);
+                r.analytic_bending_length_m, 100 * r.relative_error, r.effective_rigidity_ratio);
   if (!all_converged) std::printf("  warning: some equilibria did not reach the force tolerance (see cantilever_sweep.csv)\n");
   std::printf("  wrote %s (cantilever.csv, cantilever_sweep.csv, cantilever.gp%s)\n", dir.string().c_str(),
               plotted ? ", cantilever.png, cantilever.svg" : "");

@@ -49,6 +49,9 @@ struct TensileResult {
   std::vector<TensilePoint> points;
   /// Largest |measured - expected| / max(|expected|, 1% of the largest expected stress).
   double max_relative_error = 0;
+  /// The same against the input curve (weft and warp; NaN for the bias). Differs from
+  /// max_relative_error by the lateral contraction that Poisson coupling allows.
+  double max_relative_error_input_curve = 0;
   double max_strain = 0;
 };
 
@@ -95,6 +98,8 @@ struct CantileverResult {
   double overhang_m = 0;                 ///< overhang at the target chord angle
   double bending_length_m = 0;           ///< overhang / 2 (ASTM D1388)
   double relative_error = 0;             ///< bending_length / analytic - 1
+  /// Rigidity the strip behaves with, B (bending_length / analytic)^3, over B.
+  double effective_rigidity_ratio = 0;
   std::vector<CantileverPoint> sweep;    ///< every equilibrium computed, by overhang
 };
 

@@ -59,6 +59,16 @@ void require(bool ok, const std::string& what) {
   if (!ok) throw InputError(what);
 }
 
+// Largest |measured - reference| / |reference| over the points, the reference floored at 1% of
+// its largest value (the curves start from 0).
+double worst_relative_error(const std::vector<TensilePoint>& points, double TensilePoint::*reference) {
+  double largest = 0, worst = 0;
+  for (const auto& p : points) largest = std::max(largest, std::abs(p.*reference));
+  for (const auto& p : points)
+    worst = std::max(worst, std::abs(p.measured_stress - p.*reference) / std::max(std::abs(p.*reference), 0.01 * largest));
+  return worst;
+}
+
 }  // namespace
 
 double tensile_direction_angle(const std::string& direction) {
@@ -170,12 +180,10 @@ TensileResult run_tensile_test(const Material& material, const std::string& dire
                                                  : std::numeric_limits<double>::quiet_NaN();
     result.points.push_back(p);
   }
-  double largest = 0;
-  for (const auto& p : result.points) largest = std::max(largest, std::abs(p.expected_stress));
-  for (const auto& p : result.points)
-    result.max_relative_error =
-        std::max(result.max_relative_error,
-                 std::abs(p.measured_stress - p.expected_stress) / std::max(std::abs(p.expected_stress), 0.01 * largest));
+  result.max_relative_error = worst_relative_error(result.points, &TensilePoint::expected_stress);
+  result.max_relative_error_input_curve =
+      direction == "bias" ? std::numeric_limits<double>::quiet_NaN()
+                          : worst_relative_error(result.points, &TensilePoint::input_curve_stress);
   return result;
 }
 
@@ -239,7 +247,7 @@ CantileverPoint cantilever_equilibrium(const CantileverSetup& s, double overhang
       for (int c = 0; c < 3; ++c) fixed[3 * (j * nu + i) + c] = 1;
   VecX x = model.initial_positions();
   StaticSolveOptions so;
-  so.force_tolerance_N = 1e-10 * model.mass.sum() * kGravity;
+  so.force_tolerance_N = 1e-9 * model.mass.sum() * kGravity;
   CantileverPoint p;
   p.overhang_m = overhang;
   p.converged = true;
@@ -289,7 +297,8 @@ CantileverResult run_cantilever_test(const Material& material, const std::string
   size_t k = 0;
   while (k + 1 < sweep.size() && sweep[k + 1].chord_angle_deg < o.target_angle_deg) ++k;
   if (k + 1 >= sweep.size() || sweep[k].chord_angle_deg > o.target_angle_deg) {
-    r.overhang_m = r.bending_length_m = r.relative_error = std::numeric_limits<double>::quiet_NaN();
+    r.overhang_m = r.bending_length_m = r.relative_error = r.effective_rigidity_ratio =
+        std::numeric_limits<double>::quiet_NaN();
   } else {
     // Illinois regula falsi on the chord angle against the overhang.
     double a = sweep[k].overhang_m, fa = sweep[k].chord_angle_deg - o.target_angle_deg;
@@ -313,6 +322,7 @@ CantileverResult run_cantilever_test(const Material& material, const std::string
     r.overhang_m = best;
     r.bending_length_m = best / 2;
     r.relative_error = r.bending_length_m / c - 1;
+    r.effective_rigidity_ratio = std::pow(r.bending_length_m / c, 3);
   }
   std::sort(r.sweep.begin(), r.sweep.end(),
             [](const CantileverPoint& p, const CantileverPoint& q) { return p.overhang_m < q.overhang_m; });
