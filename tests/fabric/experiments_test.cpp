@@ -134,6 +134,17 @@ TEST(CantileverExperiment, BendingLengthScalesAsCubeRootOfRigidityOverWeightAndC
   for (int m = 0; m < 2; ++m) EXPECT_NEAR(ratio[m][0], ratio[m][1], 0.03 * ratio[m][1]);  // 12 vs 24 cells
 }
 
+TEST(CantileverExperiment, StripBendsTheYarnsAlongIt) {
+  // A material much stiffer against bending the warp: a warp strip is stiffer than a weft
+  // strip, its bending length larger by the cube root of the rigidity ratio.
+  Material m = material_preset("silk");
+  m.bending_rigidity_weft_Nm = 1e-6;
+  m.bending_rigidity_warp_Nm = 8e-6;
+  const double weft = run_cantilever_test(m, "weft", small_cantilever(16)).bending_length_m;
+  const double warp = run_cantilever_test(m, "warp", small_cantilever(16)).bending_length_m;
+  EXPECT_NEAR(warp / weft, 2.0, 0.1);
+}
+
 TEST(ElasticaReference, PeircesCriterionAtFortyOneAndAHalfDegrees) {
   // ASTM D1388 reads the bending length as half the overhang at a 41.5 degree chord: the
   // exact elastica must cross 41.5 degrees near an overhang of two bending lengths, and the
