@@ -255,9 +255,13 @@ int run_cantilever(const CantileverArgs& a) {
   double ratio_max = 0;
   for (const auto& r : results)
     for (const auto& p : r.sweep) ratio_max = std::max(ratio_max, p.overhang_m / r.analytic_bending_length_m);
+  // The table also reaches far enough for the elastica drawn at the effective rigidity.
+  double table_max = ratio_max;
+  if (!results.empty() && results[0].bending_length_m > 0)
+    table_max = ratio_max * std::max(1.0, results[0].analytic_bending_length_m / results[0].bending_length_m);
   dat << "# overhang / analytic bending length, exact elastica chord angle (deg)\n";
-  for (int k = 0; k <= 120; ++k) {
-    const double ratio = ratio_max * k / 120;
+  for (int k = 0; k <= 160; ++k) {
+    const double ratio = table_max * k / 160;
     dat << num(ratio) << ' ' << num(ratio > 0 ? elastica_chord_angle_deg(ratio) : 0.0) << '\n';
   }
   dat << "\n\n";
@@ -269,6 +273,7 @@ int run_cantilever(const CantileverArgs& a) {
   body << "set title 'weft cantilever test (ASTM D1388): " << material.name << "' noenhanced\n"
        << "set xlabel 'overhang L / analytic bending length (B/(w g))^{1/3}  (-)'\n"
        << "set ylabel 'chord angle clamp edge to tip (deg below horizontal)'\nset key bottom right font ',9'\nset grid\n"
+       << "set xrange [0:" << num(1.05 * ratio_max) << "]\n"
        << "set arrow from graph 0, first " << o.target_angle_deg << " to graph 1, first " << o.target_angle_deg
        << " nohead dt 3 lc rgb '#777777'\n"
        << "plot 'cantilever.dat' index 0 using 1:2 with lines lw 2 lc rgb 'black' title 'exact elastica', \\\n";

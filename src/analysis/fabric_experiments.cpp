@@ -189,30 +189,36 @@ TensileResult run_tensile_test(const Material& material, const std::string& dire
 
 double elastica_chord_angle_deg(double ratio) {
   // Units of the bending length: theta'' = -(r - s) cos(theta), theta(0) = 0, theta'(r) = 0,
-  // theta the downward slope angle. Shooting on theta'(0) by bisection (theta'(r) increases
-  // with it); RK4 along s; the chord from the tip position (x, y) = int (cos, sin) theta ds.
+  // theta the downward slope angle. Shooting from the free end is well conditioned (from the
+  // clamp it is not for long overhangs): with sigma = r - s and phi(sigma) = theta(r - sigma),
+  // phi'' = -sigma cos(phi), phi(0) = tip angle, phi'(0) = 0; bisection on the tip angle in
+  // (0, 90 degrees) until phi(r) = 0 (a tip angle of 90 degrees keeps phi at 90 degrees, a small
+  // one reaches 0 too early). RK4 along sigma; the chord from the tip offset int (cos, sin) phi.
   const double r = ratio;
-  const int steps = 400;
-  auto shoot = [&](double k, double& chord) {
+  const int steps = 800;
+  auto shoot = [&](double tip, double& chord) {
     const double h = r / steps;
-    double th = 0, m = k, x = 0, y = 0;
-    auto f = [&](double s, double a, double b) { return std::pair{b, -(r - s) * std::cos(a)}; };
+    double ph = tip, m = 0, x = 0, y = 0;
+    auto f = [](double sg, double a, double b) { return std::pair{b, -sg * std::cos(a)}; };
     for (int i = 0; i < steps; ++i) {
-      const double s = i * h;
-      const auto k1 = f(s, th, m);
-      const auto k2 = f(s + h / 2, th + h / 2 * k1.first, m + h / 2 * k1.second);
-      const auto k3 = f(s + h / 2, th + h / 2 * k2.first, m + h / 2 * k2.second);
-      const auto k4 = f(s + h, th + h * k3.first, m + h * k3.second);
-      const double t1 = th, t2 = th + h / 2 * k1.first, t3 = th + h / 2 * k2.first, t4 = th + h * k3.first;
-      x += h / 6 * (std::cos(t1) + 2 * std::cos(t2) + 2 * std::cos(t3) + std::cos(t4));
-      y += h / 6 * (std::sin(t1) + 2 * std::sin(t2) + 2 * std::sin(t3) + std::sin(t4));
-      th += h / 6 * (k1.first + 2 * k2.first + 2 * k3.first + k4.first);
+      const double sg = i * h;
+      const auto k1 = f(sg, ph, m);
+      const auto k2 = f(sg + h / 2, ph + h / 2 * k1.first, m + h / 2 * k1.second);
+      const auto k3 = f(sg + h / 2, ph + h / 2 * k2.first, m + h / 2 * k2.second);
+      const auto k4 = f(sg + h, ph + h * k3.first, m + h * k3.second);
+      const double p1 = ph, p2 = ph + h / 2 * k1.first, p3 = ph + h / 2 * k2.first, p4 = ph + h * k3.first;
+      x += h / 6 * (std::cos(p1) + 2 * std::cos(p2) + 2 * std::cos(p3) + std::cos(p4));
+      y += h / 6 * (std::sin(p1) + 2 * std::sin(p2) + 2 * std::sin(p3) + std::sin(p4));
+      ph += h / 6 * (k1.first + 2 * k2.first + 2 * k3.first + k4.first);
       m += h / 6 * (k1.second + 2 * k2.second + 2 * k3.second + k4.second);
+      // The physical strip slopes down all along: reaching 0 before the clamp means the tip
+      // angle is too small (past that point phi can swing back and cross 0 again).
+      if (ph < 0 && i + 1 < steps) return -1.0;
     }
     chord = degrees(std::atan2(y, x));
-    return m;
+    return ph;  // theta at the clamp
   };
-  double lo = 0, hi = 0.5 * r * r, chord = 0;  // the small-deflection root curvature bounds it
+  double lo = 0, hi = std::numbers::pi / 2, chord = 0;
   for (int it = 0; it < 60; ++it) {
     const double mid = 0.5 * (lo + hi);
     if (shoot(mid, chord) > 0) hi = mid;

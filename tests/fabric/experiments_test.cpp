@@ -154,6 +154,14 @@ TEST(ElasticaReference, PeircesCriterionAtFortyOneAndAHalfDegrees) {
   EXPECT_LT(elastica_chord_angle_deg(1.9), 41.5);
   EXPECT_GT(elastica_chord_angle_deg(2.1), 41.5);
   EXPECT_NEAR(elastica_chord_angle_deg(0.3), std::atan(0.3 * 0.3 * 0.3 / 8) * 180 / M_PI, 1e-3);
+  // Long overhangs hang towards the vertical without reaching it.
+  double previous = 0;
+  for (double ratio = 0.5; ratio <= 8; ratio += 0.5) {
+    const double angle = elastica_chord_angle_deg(ratio);
+    EXPECT_GT(angle, previous) << ratio;
+    EXPECT_LT(angle, 90.0) << ratio;
+    previous = angle;
+  }
 }
 
 TEST(FabricCommands, WriteTablesAndRejectBadInputNamingTheOption) {
