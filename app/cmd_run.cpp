@@ -49,6 +49,11 @@ int run(const RunArgs& a) {
   if (a.damping_ratio) scene.damping_ratio = *a.damping_ratio;
   validate_timing(scene, where);
   Simulation sim(scene);  // validates the mesh, material and pins before anything is written
+  std::vector<std::unique_ptr<WalkingBody>> bodies;
+  for (const auto& b : scene.bodies) bodies.push_back(std::make_unique<WalkingBody>(b));
+  if (!bodies.empty() && !a.quiet)
+    std::fprintf(stderr, "note: the scene's body colliders are animated and written as frames/body<k>_NNNNN.obj; "
+                         "the cloth does not collide with them in this version\n");
 
   const fs::path out(a.out);
   std::error_code ec;
@@ -57,7 +62,8 @@ int run(const RunArgs& a) {
   if (!a.no_frames) {
     // Remove frames of an earlier run so the folder holds one consistent run.
     for (const auto& e : fs::directory_iterator(out / "frames"))
-      if (e.path().filename().string().rfind("frame_", 0) == 0) fs::remove(e.path());
+      if (e.path().filename().string().rfind("frame_", 0) == 0 || e.path().filename().string().rfind("body", 0) == 0)
+        fs::remove(e.path());
   }
 
   app::Progress progress("weft run " + scene.method_name, !a.quiet);
@@ -68,6 +74,12 @@ int run(const RunArgs& a) {
     std::snprintf(name, sizeof name, "frame_%05d.%s", f, a.frame_format.c_str());
     const std::string path = (out / "frames" / name).string();
     if (a.frame_format == "ply") write_ply(path, s); else write_obj(path, s.state().x, s.model().mesh.triangles);
+    Points body_positions;
+    for (size_t k = 0; k < bodies.size(); ++k) {
+      std::snprintf(name, sizeof name, "body%zu_%05d.obj", k, f);
+      bodies[k]->positions(s.state().t, body_positions);
+      write_obj((out / "frames" / name).string(), body_positions, bodies[k]->triangles());
+    }
   };
   cb.on_progress = [&](double fr) { progress.update(fr); };
   RunResult r = run_simulation(sim, cb);

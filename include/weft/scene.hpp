@@ -7,6 +7,7 @@
 
 #include "integrate/integrator.hpp"
 #include "mesh/mesh.hpp"
+#include "weft/body.hpp"
 #include "weft/material.hpp"
 #include "weft/types.hpp"
 
@@ -43,7 +44,9 @@ struct Scene {
   /// BDF-2 variants, 0 otherwise).
   std::optional<double> damping_ratio;
   ClothSpec cloth;
-  nlohmann::json colliders = nlohmann::json::array();
+  /// Colliders of type "body": the walking mannequin (docs/body.md). Described and animated
+  /// alongside the cloth; the cloth does not collide with them yet.
+  std::vector<BodyColliderSpec> bodies;
 
   /// The damping ratio that applies (explicit value or the method's default).
   double effective_damping_ratio() const;

@@ -182,8 +182,14 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
   if (r.has("colliders")) {
     const auto& c = r.raw("colliders");
     if (!c.is_array()) r.fail("colliders", "expected an array, got " + json_util::describe(c));
-    if (!c.empty()) r.fail("colliders", "colliders are not supported by this version of weft yet; leave the array empty");
-    s.colliders = c;
+    for (size_t k = 0; k < c.size(); ++k) {
+      const std::string where = file + ": key colliders[" + std::to_string(k) + "]";
+      if (!c[k].is_object() || !c[k].contains("type") || !c[k]["type"].is_string())
+        throw InputError(where + ": expected an object with a \"type\" string");
+      const std::string type = c[k]["type"].get<std::string>();
+      if (type != "body") throw InputError(where + ".type: unknown collider type '" + type + "' (expected: body)");
+      s.bodies.push_back(parse_body_collider(c[k], where, base_dir));
+    }
   }
   if (r.has("patterns")) {
     const auto& p = r.raw("patterns");

@@ -128,3 +128,27 @@ TEST_F(RunCommand, UnstableRunExitsThreeAndKeepsFramesSoFar) {
   const std::string csv = read_text(out / "energy.csv");
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), frames + 1);
 }
+
+TEST_F(RunCommand, BodyCollidersAreValidatedAndAnimatedAlongsideTheCloth) {
+  std::string text = scene();
+  text.insert(text.rfind('}'), R"(, "colliders": [{"type": "body", "speed": 0.75}])");
+  const auto s = write("scene.json", text);
+  const auto out = folder_ / "out";
+  auto r = weft("run '" + s.string() + "' --out '" + out.string() + "' --quiet --duration 0.04");
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
+  EXPECT_TRUE(std::filesystem::exists(out / "frames" / "body0_00000.obj"));
+  EXPECT_TRUE(std::filesystem::exists(out / "frames" / "body0_00002.obj"));
+
+  std::string bad = scene();
+  bad.insert(bad.rfind('}'), R"(, "colliders": [{"type": "sphere"}])");
+  const auto b = write("bad.json", bad);
+  r = weft("run '" + b.string() + "' --out '" + (folder_ / "bad").string() + "'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.error_output.find("colliders[0].type: unknown collider type 'sphere'"), std::string::npos) << r.error_output;
+  std::string bad_key = scene();
+  bad_key.insert(bad_key.rfind('}'), R"(, "colliders": [{"type": "body", "sped": 1}])");
+  const auto k = write("bad_key.json", bad_key);
+  r = weft("run '" + k.string() + "' --out '" + (folder_ / "bad_key").string() + "'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.error_output.find("sped"), std::string::npos) << r.error_output;
+}
