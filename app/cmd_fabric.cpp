@@ -353,6 +353,8 @@ const RegisterCommand register_cantilever{CommandSpec{
       sub.add_option("--cells-along", a->options.cells_along, "Cells along the overhang (default 40)");
       sub.add_option("--cells-across", a->options.cells_across, "Cells across the strip (default 6)");
       sub.add_option("--clamp-cells", a->options.clamp_cells, "Cells held flat behind the clamp edge (default 1)");
+      sub.add_option("--bending-model", a->options.bending_model, "Bending element: hinge (default) or plate")
+          ->check(CLI::IsMember({"hinge", "plate"}));
       sub.add_option("--sweep-points", a->options.sweep_points, "Overhangs swept for the plot (default 8)");
       return [a] { return run_cantilever(*a); };
     },

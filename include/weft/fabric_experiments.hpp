@@ -81,6 +81,7 @@ struct CantileverOptions {
   int sweep_points = 8;   ///< overhangs from 0.8 to 3.2 bending lengths, for the plot
   double angle_tolerance_deg = 0.01;
   int load_steps = 4;     ///< gravity ramp of each equilibrium from the flat strip
+  std::string bending_model = "hinge";  ///< "hinge" (METHOD.md 5) or "plate"
 };
 
 struct CantileverPoint {

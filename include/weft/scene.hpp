@@ -28,6 +28,7 @@ struct ClothSpec {
   Vec3 translation = Vec3::Zero();
   Vec3 initial_velocity = Vec3::Zero();
   Material material;
+  std::string bending_model = "hinge";  ///< "hinge" or "plate" (docs/scene-format.md)
   std::vector<int> pin_vertices;                  ///< explicit vertex indices
   std::vector<std::pair<int, int>> pin_grid_nodes;///< (i, j) on a grid, negative counts from the end
 };

@@ -243,7 +243,7 @@ CantileverPoint cantilever_equilibrium(const CantileverSetup& s, double overhang
   const int nu = cells + 1, nv = o.cells_across + 1;
   const ClothModel model = build_cloth_model(
       make_strip(-o.clamp_cells * h, cells * h, o.width_m, cells, o.cells_across, s.angle_rad), s.material,
-      Vec3(0, 0, -kGravity), {});
+      Vec3(0, 0, -kGravity), {}, parse_bending_model(o.bending_model, "--bending-model"));
   ClothSystem system(model, DampingSettings{0.0});
   const int n = model.num_vertices();
   // Clamped flat: every vertex at or behind the clamp edge (column clamp_cells) is held.

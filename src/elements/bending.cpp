@@ -49,3 +49,24 @@ void evaluate_bending(const BendingGeometry& g, double damping, const std::array
 }
 
 }  // namespace weft
+
+namespace weft {
+
+double LinearBendingStencil::stiffness_mass_sum(const VecX& inverse_mass) const {
+  double s = 0;
+  for (Eigen::Index m = 0; m < measures.rows(); ++m)
+    for (Eigen::Index k = 0; k < measures.cols(); ++k)
+      s += weights[m] * measures(m, k) * measures(m, k) * inverse_mass[vertices[k]];
+  return s;
+}
+
+LinearBendingStencil hinge_stencil(const std::array<int, 4>& vertices, const BendingGeometry& g) {
+  LinearBendingStencil s;
+  s.vertices.assign(vertices.begin(), vertices.end());
+  s.measures = g.alpha.transpose();
+  s.weights = VecX::Constant(1, g.stiffness);
+  s.finish();
+  return s;
+}
+
+}  // namespace weft

@@ -3,6 +3,7 @@
 // R = sum_i alpha_i x_i vanishes on the flat rest shape and measures the bend;
 // energy k_b |R|^2 / 2, forces F_i = -k_b alpha_i R, constant Jacobian -k_b alpha alpha^T (x) I3.
 #include <array>
+#include <vector>
 
 #include "weft/types.hpp"
 
@@ -32,5 +33,27 @@ struct BendingResult {
 /// Forces of the element with bending viscosity `damping` (N s/m, acts on dR/dt).
 void evaluate_bending(const BendingGeometry& g, double damping, const std::array<Vec3, 4>& x,
                       const std::array<Vec3, 4>& v, BendingResult& out);
+
+}  // namespace weft
+
+namespace weft {
+
+/// A linear bending element in general form: measures R_m = sum_k c_mk x_k (3D vectors)
+/// that vanish on the flat rest shape and under rigid motion, with energy
+/// E = 1/2 sum_m w_m |R_m|^2 = 1/2 sum_ij Q_ij x_i . x_j, Q = sum_m w_m c_m c_m^T.
+/// Forces F_i = -sum_j Q_ij x_j; constant Jacobian -Q (x) I3. Damping adds -gamma Q v.
+/// The hinge element above is one measure (alpha) with weight k_b.
+struct LinearBendingStencil {
+  std::vector<int> vertices;  ///< k vertex indices
+  MatX measures;              ///< m by k coefficients c_mk
+  VecX weights;               ///< m weights w_m (N/m)
+  MatX Q;                     ///< k by k, sum_m w_m c_m c_m^T
+  void finish() { Q = measures.transpose() * weights.asDiagonal() * measures; }
+  /// sum_m w_m sum_k c_mk^2 / m_k: kappa = dt^2 times this (METHOD.md 4 per-mode bound).
+  double stiffness_mass_sum(const VecX& inverse_mass) const;
+};
+
+/// The hinge element as a general stencil (vertices A, B, C, D).
+LinearBendingStencil hinge_stencil(const std::array<int, 4>& vertices, const BendingGeometry& g);
 
 }  // namespace weft

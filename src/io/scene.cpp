@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "io/json_util.hpp"
+#include "system/cloth.hpp"
 #include "weft/error.hpp"
 
 namespace weft {
@@ -76,7 +77,11 @@ void validate_timing(const Scene& s, const std::string& where) {
 namespace {
 
 void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
-  r.allow_only({"mesh", "placement", "material", "pins", "initial_velocity"});
+  r.allow_only({"mesh", "placement", "material", "bending_model", "pins", "initial_velocity"});
+  if (r.has("bending_model")) {
+    c.bending_model = r.string("bending_model");
+    parse_bending_model(c.bending_model, r.where("bending_model"));
+  }
   const Reader mesh = r.object("mesh");
   mesh.allow_only({"grid", "obj", "uv_scale"});
   if (mesh.has("grid") == mesh.has("obj")) mesh.fail("grid", "give exactly one of 'grid' or 'obj'");

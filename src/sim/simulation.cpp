@@ -10,7 +10,8 @@ namespace weft {
 Simulation::Simulation(const Scene& scene) : scene_(scene) {
   TriMesh mesh = build_cloth_mesh(scene.cloth);
   const std::vector<int> pins = resolve_pins(scene.cloth, mesh);
-  model_ = std::make_unique<ClothModel>(build_cloth_model(std::move(mesh), scene.cloth.material, scene.gravity, pins));
+  model_ = std::make_unique<ClothModel>(build_cloth_model(std::move(mesh), scene.cloth.material, scene.gravity, pins,
+                                                          parse_bending_model(scene.cloth.bending_model, "cloth.bending_model")));
   system_ = std::make_unique<ClothSystem>(*model_, DampingSettings{scene.effective_damping_ratio()});
   integrator_ = std::make_unique<Integrator>(*system_, scene.integrator);
   state_.x = model_->initial_positions();

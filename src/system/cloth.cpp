@@ -13,8 +13,14 @@ VecX ClothModel::initial_positions() const {
   return x;
 }
 
+BendingModel parse_bending_model(const std::string& name, const std::string& where) {
+  if (name == "plate") return BendingModel::kPlate;
+  if (name == "hinge") return BendingModel::kHinge;
+  throw InputError(where + ": unknown bending model '" + name + "' (expected plate or hinge)");
+}
+
 ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3& gravity,
-                             const std::vector<int>& pins) {
+                             const std::vector<int>& pins, BendingModel bending) {
   ClothModel m;
   m.material = material;
   m.gravity = gravity;
@@ -51,15 +57,20 @@ ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3&
   for (int i = 0; i < n; ++i)
     if (m.fixed[i]) m.inverse_mass[i] = 0.0;
 
-  for (const auto& s : interior_edge_stencils(mesh)) {
-    BendingGeometry g;
-    if (!make_bending_geometry(mesh.pattern[s[0]], mesh.pattern[s[1]], mesh.pattern[s[2]], mesh.pattern[s[3]],
-                               material.bending_rigidity_weft_Nm, material.bending_rigidity_warp_Nm, g))
-      continue;  // a degenerate hinge carries no bending stiffness
-    m.stencils.push_back(s);
-    m.bendings.push_back(g);
-    pairs.emplace_back(s[0], s[1]);
+  if (bending == BendingModel::kHinge) {
+    for (const auto& s : interior_edge_stencils(mesh)) {
+      BendingGeometry g;
+      if (!make_bending_geometry(mesh.pattern[s[0]], mesh.pattern[s[1]], mesh.pattern[s[2]], mesh.pattern[s[3]],
+                                 material.bending_rigidity_weft_Nm, material.bending_rigidity_warp_Nm, g))
+        continue;  // a degenerate hinge carries no bending stiffness
+      m.bending.push_back(hinge_stencil(s, g));
+    }
+  } else {
+    m.bending = plate_bending_stencils(mesh, material.bending_rigidity_weft_Nm, material.bending_rigidity_warp_Nm);
   }
+  for (const auto& b : m.bending)
+    for (size_t a = 0; a < b.vertices.size(); ++a)
+      for (size_t c = a + 1; c < b.vertices.size(); ++c) pairs.emplace_back(b.vertices[a], b.vertices[c]);
   m.mesh = std::move(mesh);
   m.pattern = BlockPattern(n, pairs);
   for (size_t t = 0; t < m.membranes.size(); ++t) {
@@ -71,16 +82,13 @@ ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3&
     const Vec3 inv(m.inverse_mass[tri[0]], m.inverse_mass[tri[1]], m.inverse_mass[tri[2]]);
     m.membrane_mass_sums.push_back(membrane_mass_sums(m.membranes[t].ru, m.membranes[t].rv, inv));
   }
-  for (size_t e = 0; e < m.stencils.size(); ++e) {
-    const auto& s = m.stencils[e];
-    std::array<int, 16> slots;
-    double sum = 0;
-    for (int a = 0; a < 4; ++a) {
-      sum += m.bendings[e].alpha[a] * m.bendings[e].alpha[a] * m.inverse_mass[s[a]];
-      for (int b = 0; b < 4; ++b) slots[4 * a + b] = m.pattern.slot(s[a], s[b]);
-    }
-    m.bending_slots.push_back(slots);
-    m.bending_alpha_mass_sums.push_back(sum);
+  for (const auto& b : m.bending) {
+    const size_t k = b.vertices.size();
+    std::vector<int> slots(k * k);
+    for (size_t a = 0; a < k; ++a)
+      for (size_t c = 0; c < k; ++c) slots[k * a + c] = m.pattern.slot(b.vertices[a], b.vertices[c]);
+    m.bending_slots.push_back(std::move(slots));
+    m.bending_mass_sums.push_back(b.stiffness_mass_sum(m.inverse_mass));
   }
   return m;
 }
@@ -88,7 +96,7 @@ ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3&
 ClothSystem::ClothSystem(const ClothModel& model, DampingSettings damping)
     : model_(model), damping_(damping) {
   membrane_viscosity_.assign(model.membranes.size(), Vec3::Constant(model.material.viscosity_Ns_m));
-  bending_viscosity_.assign(model.bendings.size(), 0.0);
+  bending_damping_.assign(model.bending.size(), 0.0);
 }
 
 namespace {
@@ -135,11 +143,12 @@ void ClothSystem::begin_step(const VecX& x, const VecX&, double dt) {
       stats_.added_viscosity.add(added);
     }
   }
-  for (size_t e = 0; e < model_.bendings.size(); ++e) {
-    const auto& g = model_.bendings[e];
-    const double sum = model_.bending_alpha_mass_sums[e];
-    bending_viscosity_[e] = zeta > 0 ? bending_required_viscosity(g.stiffness, sum, zeta) : 0.0;
-    stats_.bending_kappa.add(bending_kappa(g.stiffness, sum, dt));
+  for (size_t e = 0; e < model_.bending.size(); ++e) {
+    // kappa_b = dt^2 S and lambda_b = dt gamma S, so lambda >= 2 zeta sqrt(kappa) means
+    // gamma >= 2 zeta / sqrt(S).
+    const double S = model_.bending_mass_sums[e];
+    bending_damping_[e] = (zeta > 0 && S > 0) ? 2.0 * zeta / std::sqrt(S) : 0.0;
+    stats_.bending_kappa.add(dt * dt * S);
   }
 }
 
@@ -155,6 +164,42 @@ VecX ClothSystem::added_viscosity_per_vertex() const {
     }
   }
   return sum.cwiseQuotient(weight);
+}
+
+void ClothSystem::add_bending(const VecX& x, const VecX& v, const VecX* w, double ck, double cd, bool jacobians,
+                              VecX& force, double& energy, double& viscous_power, BlockMatrix* first,
+                              BlockMatrix* damping, VecX* stiffness_times_w) const {
+  // E = 1/2 sum_ij Q_ij x_i . x_j; F = -Q x - gamma Q v; K = -Q (x) I3; D = -gamma Q (x) I3.
+  for (size_t e = 0; e < model_.bending.size(); ++e) {
+    const auto& b = model_.bending[e];
+    const double gamma = bending_damping_[e];
+    const size_t k = b.vertices.size();
+    const auto& slots = model_.bending_slots[e];
+    for (size_t i = 0; i < k; ++i) {
+      Vec3 qx = Vec3::Zero(), qv = Vec3::Zero(), qw = Vec3::Zero();
+      for (size_t j = 0; j < k; ++j) {
+        const double q = b.Q(i, j);
+        qx += q * node(x, b.vertices[j]);
+        qv += q * node(v, b.vertices[j]);
+        if (w) qw += q * node(*w, b.vertices[j]);
+      }
+      const int vi = b.vertices[i];
+      energy += 0.5 * node(x, vi).dot(qx);
+      viscous_power -= gamma * node(v, vi).dot(qv);
+      node(force, vi) -= qx + gamma * qv;
+      if (stiffness_times_w) node(*stiffness_times_w, vi) -= qw;
+      if (!jacobians) continue;
+      for (size_t j = 0; j < k; ++j) {
+        const double q = b.Q(i, j);
+        if (damping) {
+          first->block[slots[k * i + j]].diagonal().array() -= q;
+          damping->block[slots[k * i + j]].diagonal().array() -= gamma * q;
+        } else {
+          first->block[slots[k * i + j]].diagonal().array() += (ck + cd * gamma) * q;
+        }
+      }
+    }
+  }
 }
 
 void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) {
@@ -195,30 +240,8 @@ void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, Ste
       }
     }
   }
-  BendingResult br;
-  std::array<Vec3, 4> xb, vb;
-  for (size_t e = 0; e < model_.bendings.size(); ++e) {
-    const auto& s = model_.stencils[e];
-    const auto& g = model_.bendings[e];
-    Vec3 aw = Vec3::Zero();
-    for (int k = 0; k < 4; ++k) {
-      xb[k] = node(x, s[k]);
-      vb[k] = node(v, s[k]);
-      aw += g.alpha[k] * node(w, s[k]);
-    }
-    evaluate_bending(g, bending_viscosity_[e], xb, vb, br);
-    out.elastic_energy += br.energy;
-    out.viscous_power += br.viscous_power;
-    for (int k = 0; k < 4; ++k) node(out.force, s[k]) += br.force.segment<3>(3 * k);
-    if (!jacobians) continue;
-    // K = -k_b alpha alpha^T (x) I3, D = -c_b alpha alpha^T (x) I3.
-    const double c = out.ck * g.stiffness + out.cd * bending_viscosity_[e];
-    const auto& slots = model_.bending_slots[e];
-    for (int a = 0; a < 4; ++a) {
-      node(out.stiffness_times_w, s[a]) -= g.stiffness * g.alpha[a] * aw;
-      for (int b = 0; b < 4; ++b) out.matrix.block[slots[4 * a + b]].diagonal().array() += c * g.alpha[a] * g.alpha[b];
-    }
-  }
+  add_bending(x, v, &w, out.ck, out.cd, jacobians, out.force, out.elastic_energy, out.viscous_power,
+              jacobians ? &out.matrix : nullptr, nullptr, &out.stiffness_times_w);
 }
 
 double ClothSystem::viscous_power(const VecX& x, const VecX& v) {
@@ -236,10 +259,11 @@ double ClothSystem::viscous_power(const VecX& x, const VecX& v) {
     const Vec3 rate(U.dot(Ud), V.dot(Vd), U.dot(Vd) + V.dot(Ud));
     power -= g.area * membrane_viscosity_[t].dot(rate.cwiseAbs2());
   }
-  for (size_t e = 0; e < model_.bendings.size(); ++e) {
-    Vec3 Rd = Vec3::Zero();
-    for (int k = 0; k < 4; ++k) Rd += model_.bendings[e].alpha[k] * node(v, model_.stencils[e][k]);
-    power -= bending_viscosity_[e] * Rd.squaredNorm();
+  for (size_t e = 0; e < model_.bending.size(); ++e) {
+    const auto& b = model_.bending[e];
+    const size_t k = b.vertices.size();
+    for (size_t i = 0; i < k; ++i)
+      for (size_t j = 0; j < k; ++j) power -= bending_damping_[e] * b.Q(i, j) * node(v, b.vertices[i]).dot(node(v, b.vertices[j]));
   }
   return power;
 }
@@ -285,29 +309,8 @@ void ClothSystem::evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluat
         }
     }
   }
-  BendingResult br;
-  std::array<Vec3, 4> xb, vb;
-  for (size_t e = 0; e < model_.bendings.size(); ++e) {
-    const auto& s = model_.stencils[e];
-    const auto& g = model_.bendings[e];
-    for (int k = 0; k < 4; ++k) {
-      xb[k] = node(x, s[k]);
-      vb[k] = node(v, s[k]);
-    }
-    evaluate_bending(g, bending_viscosity_[e], xb, vb, br);
-    out.elastic_energy += br.energy;
-    out.viscous_power += br.viscous_power;
-    for (int k = 0; k < 4; ++k) node(out.force, s[k]) += br.force.segment<3>(3 * k);
-    if (jacobians) {
-      const auto& slots = model_.bending_slots[e];
-      for (int a = 0; a < 4; ++a)
-        for (int b = 0; b < 4; ++b) {
-          const double w = g.alpha[a] * g.alpha[b];
-          out.stiffness.block[slots[4 * a + b]].diagonal().array() -= g.stiffness * w;
-          out.damping.block[slots[4 * a + b]].diagonal().array() -= bending_viscosity_[e] * w;
-        }
-    }
-  }
+  add_bending(x, v, nullptr, 0.0, 0.0, jacobians, out.force, out.elastic_energy, out.viscous_power,
+              jacobians ? &out.stiffness : nullptr, jacobians ? &out.damping : nullptr, nullptr);
 }
 
 }  // namespace weft

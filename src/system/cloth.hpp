@@ -2,11 +2,13 @@
 // A piece of cloth as a mechanical system: membrane triangles, bending stencils, gravity
 // and pinned vertices (DESIGN.md: the Model is built once and never changed by a step).
 #include <array>
+#include <string>
 #include <vector>
 
 #include "damping/adaptive.hpp"
 #include "elements/bending.hpp"
 #include "elements/membrane.hpp"
+#include "elements/plate_bending.hpp"
 #include "mesh/mesh.hpp"
 #include "system/system.hpp"
 #include "weft/material.hpp"
@@ -21,13 +23,12 @@ struct ClothModel {
   VecX inverse_mass;         ///< 0 on pinned vertices
   std::vector<char> fixed;   ///< pinned vertices
   std::vector<MembraneGeometry> membranes;     ///< one per mesh triangle
-  std::vector<std::array<int, 4>> stencils;    ///< bending (A, B, C, D)
-  std::vector<BendingGeometry> bendings;
+  std::vector<LinearBendingStencil> bending;   ///< bending elements (plate or hinge)
   BlockPattern pattern;
   std::vector<std::array<int, 9>> membrane_slots;   ///< block slots (i, j) row-major
-  std::vector<std::array<int, 16>> bending_slots;
+  std::vector<std::vector<int>> bending_slots;      ///< k by k block slots per stencil
   std::vector<Vec3> membrane_mass_sums;             ///< per triangle (METHOD.md 4)
-  std::vector<double> bending_alpha_mass_sums;      ///< sum alpha_i^2 / m_i
+  std::vector<double> bending_mass_sums;            ///< kappa / dt^2 per stencil (METHOD.md 4)
 
   int num_vertices() const { return mesh.num_vertices(); }
   /// Initial positions as a 3n vector.
@@ -36,8 +37,14 @@ struct ClothModel {
 
 /// Builds the model; `pins` are vertex indices. Throws InputError for a degenerate triangle
 /// (naming its index and vertices), a bad pin index, or a non-positive density.
+/// Bending discretisation: the hinge element of METHOD.md 5 (default; one stencil per
+/// interior edge) or the plate element (a quadratic fit per edge; exact energy for every
+/// quadratic bend on any mesh; docs/fabric-validation.md compares them).
+enum class BendingModel { kHinge, kPlate };
+BendingModel parse_bending_model(const std::string& name, const std::string& where);
+
 ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3& gravity,
-                             const std::vector<int>& pins);
+                             const std::vector<int>& pins, BendingModel bending = BendingModel::kHinge);
 
 struct DampingSettings {
   /// Target damping ratio (fraction of critical); 0 disables adaptive damping.
@@ -72,7 +79,8 @@ class ClothSystem : public System {
   const DampingSettings& damping_settings() const { return damping_; }
   /// Viscosity per triangle and mode (N s/m) in use for the current step.
   const std::vector<Vec3>& membrane_viscosity() const { return membrane_viscosity_; }
-  const std::vector<double>& bending_viscosity() const { return bending_viscosity_; }
+  /// Bending damping time constant gamma (s) per stencil: damping force -gamma Q v.
+  const std::vector<double>& bending_damping() const { return bending_damping_; }
   /// Added viscosity per vertex (area-weighted mean over its triangles of the largest mode's
   /// addition), for colouring frames.
   VecX added_viscosity_per_vertex() const;
@@ -81,10 +89,16 @@ class ClothSystem : public System {
   std::vector<double> membrane_kappa_max(const VecX& x, double dt) const;
 
  private:
+  /// Adds the bending elements: forces, energy, viscous power and either K and D (into
+  /// `first` and `damping`) or the step matrix -ck K - cd D (into `first`) and K w.
+  void add_bending(const VecX& x, const VecX& v, const VecX* w, double ck, double cd, bool jacobians, VecX& force,
+                   double& energy, double& viscous_power, BlockMatrix* first, BlockMatrix* damping,
+                   VecX* stiffness_times_w) const;
+
   const ClothModel& model_;
   DampingSettings damping_;
   std::vector<Vec3> membrane_viscosity_;
-  std::vector<double> bending_viscosity_;
+  std::vector<double> bending_damping_;
   DampingStatistics stats_;
 };
 
