@@ -343,7 +343,13 @@ std::string cell_text(const StabilityCell& c) {
   } else {
     std::snprintf(buf, sizeof buf, "moving (K %.2g)", c.final_kinetic_ratio);
   }
-  return buf;
+  std::string text = buf;
+  // A stable run whose energy rose noticeably on the way is flagged: it is close to the edge.
+  if (c.stable && c.max_energy_ratio > 1.05) {
+    std::snprintf(buf, sizeof buf, ", peak E x%.2f", c.max_energy_ratio);
+    text += buf;
+  }
+  return text;
 }
 
 std::string list_dts(const std::vector<double>& dts) {
@@ -369,7 +375,8 @@ std::string stability_markdown(const StabilityExperimentResult& r) {
                 s.rest_window_s, r.wall_seconds);
   out << buf;
   out << "Cells: `rest T` = came to rest at time T; `moving (K x)` = stable but still moving at the end, "
-         "x = final kinetic energy / initial energy; `unstable (reason, T)` = stopped at time T: `nan` "
+         "x = final kinetic energy / initial energy; `peak E xN` = "
+         "the energy rose to N times its initial value on the way (shown above 1.05); `unstable (reason, T)` = stopped at time T: `nan` "
          "non-finite state, `energy` energy rose above the initial energy scale, `cg` linear solve hit its "
          "iteration cap. kappa max = largest membrane stiffness factor at the start.\n\n";
   for (const auto& m : s.methods) {

@@ -59,6 +59,29 @@ TEST(StabilityExperiment, BackwardEulerComesToRestAndForwardEulerBlowsUp) {
   EXPECT_LT(fe.unstable_time, 1.0);  // stops at the first instability
 }
 
+// Found by the experiment (docs/stability-experiment.md, soft setting): a 0.5 m square, 11x11,
+// stretch 50 N/m, shear 5 N/m, dt = 20 ms, largest kappa 160 (the paper's range). Undamped
+// Implicit Midpoint blows up within 0.3 s; with 5% adaptive damping the same start stays
+// stable, although its energy first rises by about 80% (below the instability threshold of
+// twice the initial energy) before it decays. This case is at the edge: with other seeds
+// 5% is not enough at this kappa (seeds 2 and 5), or 0% is (seed 4); see the seed table in
+// docs/stability-experiment.md. With stretch 500 N/m (kappa 400 and more at
+// dt >= 10 ms) 5% does not suffice.
+TEST(StabilityExperiment, FivePercentStabilisesImplicitMidpointWhereZeroBlowsUp) {
+  StabilityExperimentSettings s;
+  s.stretch_modulus_N_m = 50;
+  s.shear_modulus_N_m = 5;
+  s.duration_s = 1.5;
+  const auto undamped = weft::run_stability_cell(s, method("implicit-midpoint"), 0.02, 0.0);
+  EXPECT_GT(undamped.kappa_max, 100);
+  EXPECT_LT(undamped.kappa_max, 200);
+  EXPECT_FALSE(undamped.stable);
+  EXPECT_EQ(undamped.reason, "energy");
+  const auto damped = weft::run_stability_cell(s, method("implicit-midpoint"), 0.02, 0.05);
+  EXPECT_TRUE(damped.stable) << damped.reason << " at " << damped.unstable_time;
+  EXPECT_LT(damped.final_energy_ratio, 0.01);
+}
+
 TEST(StabilityExperiment, MethodListParsing) {
   const auto m = weft::parse_stability_methods("implicit-midpoint,alpha:2/3,bdf2-alpha,alpha:0.6", "--methods");
   ASSERT_EQ(m.size(), 4u);
