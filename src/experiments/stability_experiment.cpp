@@ -156,6 +156,11 @@ std::vector<StabilityMethod> parse_stability_methods(const std::string& list, co
       m.alpha = info->default_alpha;
     }
     m.label = m.name + (alpha_text.empty() ? "" : " " + alpha_text);
+    // A method of the default list keeps its label there, so CSVs of runs can be joined.
+    for (const auto& d : default_stability_methods())
+      if (d.name == m.name && d.alpha.has_value() == m.alpha.has_value() &&
+          (!d.alpha || std::abs(*d.alpha - *m.alpha) < 1e-12))
+        m.label = d.label;
     out.push_back(m);
   }
   if (out.empty()) throw InputError(option + ": no method given in '" + list + "'");

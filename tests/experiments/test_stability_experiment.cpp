@@ -138,8 +138,8 @@ TEST_F(ExperimentCommand, ReducedGridWritesCsvAndTables) {
   std::ifstream md(out / "stability.md");
   std::stringstream t;
   t << md.rdbuf();
-  EXPECT_NE(t.str().find("### backward-euler"), std::string::npos);
-  EXPECT_NE(t.str().find("### implicit-midpoint"), std::string::npos);
+  EXPECT_NE(t.str().find("### backward Euler"), std::string::npos);
+  EXPECT_NE(t.str().find("### Implicit Midpoint"), std::string::npos);
   EXPECT_NE(t.str().find("| 10 ms |"), std::string::npos);
 }
 
