@@ -155,7 +155,8 @@ std::vector<StabilityMethod> parse_stability_methods(const std::string& list, co
     } else if (!info->fixed_alpha) {
       m.alpha = info->default_alpha;
     }
-    m.label = m.name + (alpha_text.empty() ? "" : " " + alpha_text);
+    m.label = m.name;
+    if (!alpha_text.empty()) m.label.append(" ").append(alpha_text);
     // A method of the default list keeps its label there, so CSVs of runs can be joined.
     for (const auto& d : default_stability_methods())
       if (d.name == m.name && d.alpha.has_value() == m.alpha.has_value() &&
@@ -360,7 +361,10 @@ std::string cell_text(const StabilityCell& c) {
 std::string list_dts(const std::vector<double>& dts) {
   if (dts.empty()) return "none";
   std::string s;
-  for (double dt : dts) s += (s.empty() ? "" : ", ") + format_number(1e3 * dt) + " ms";
+  for (double dt : dts) {
+    if (!s.empty()) s.append(", ");
+    s.append(format_number(1e3 * dt)).append(" ms");
+  }
   return s;
 }
 }  // namespace
@@ -397,7 +401,7 @@ std::string stability_markdown(const StabilityExperimentResult& r) {
       for (double ratio : s.ratios)
         for (const auto& c : r.cells)
           if (c.method == m.label && c.dt == dt && c.damping_ratio == ratio) {
-            row += " " + cell_text(c) + " |";
+            row.append(" ").append(cell_text(c)).append(" |");
             kappa = c.kappa_max;
             if (!c.stable && ratio == 0.0) zero_fails.push_back(dt);
             if (!c.stable && std::abs(ratio - 0.05) < 1e-12) five_fails.push_back(dt);
