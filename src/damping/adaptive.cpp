@@ -6,6 +6,14 @@
 
 namespace weft {
 
+double spring_kappa(double stiffness, double inverse_mass_1, double inverse_mass_2, double dt) {
+  return dt * dt * stiffness * (inverse_mass_1 + inverse_mass_2);
+}
+
+double spring_lambda(double viscosity, double inverse_mass_1, double inverse_mass_2, double dt) {
+  return dt * viscosity * (inverse_mass_1 + inverse_mass_2);
+}
+
 Vec3 membrane_mass_sums(const Vec3& ru, const Vec3& rv, const Vec3& inverse_mass) {
   const Vec3 su = ru.cwiseAbs2().cwiseProduct(inverse_mass);
   const Vec3 sv = rv.cwiseAbs2().cwiseProduct(inverse_mass);

@@ -10,6 +10,12 @@
 
 namespace weft {
 
+/// Spring (METHOD.md 4): kappa = dt^2 k / m_r and lambda = dt l / m_r with the reduced mass
+/// m_r = m1 m2 / (m1 + m2), i.e. 1/m_r = 1/m1 + 1/m2 (a fixed end has 1/m = 0). This is
+/// exactly dt^2 times the largest eigenvalue of M^-1/2 K_e M^-1/2 for the spring's axial stiffness.
+double spring_kappa(double stiffness, double inverse_mass_1, double inverse_mass_2, double dt);
+double spring_lambda(double viscosity, double inverse_mass_1, double inverse_mass_2, double dt);
+
 /// Mass sums S = (sum r_u,i^2 / m_i, sum r_v,i^2 / m_i, sum (r_u,i^2 + r_v,i^2) / m_i) of a
 /// triangle (weft, warp, shear modes); a fixed vertex has 1/m = 0.
 Vec3 membrane_mass_sums(const Vec3& ru, const Vec3& rv, const Vec3& inverse_mass);
