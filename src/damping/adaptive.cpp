@@ -40,15 +40,6 @@ Vec3 membrane_required_viscosity(double area, const Vec3& tangent_moduli, const 
   return eta;
 }
 
-double bending_kappa(double stiffness, double alpha_mass_sum, double dt) {
-  return dt * dt * stiffness * alpha_mass_sum;
-}
-
-double bending_required_viscosity(double stiffness, double alpha_mass_sum, double damping_ratio) {
-  if (!(alpha_mass_sum > 0) || !(stiffness > 0)) return 0.0;
-  return 2.0 * damping_ratio * std::sqrt(stiffness / alpha_mass_sum);
-}
-
 void LogStatistics::add(double value) {
   if (!(value > 0) || !std::isfinite(value)) return;
   if (count_ == 0) {

@@ -29,9 +29,6 @@ Vec3 membrane_lambda(double area, const Vec3& viscosity, const Vec3& mass_sums, 
 Vec3 membrane_required_viscosity(double area, const Vec3& tangent_moduli, const Vec3& mass_sums,
                                  double damping_ratio);
 
-/// Bending stencil: kappa_b = dt^2 k_b sum alpha_i^2 / m_i, and the viscosity for ratio zeta.
-double bending_kappa(double stiffness, double alpha_mass_sum, double dt);
-double bending_required_viscosity(double stiffness, double alpha_mass_sum, double damping_ratio);
 
 /// Running statistics of positive values (min, max, mean and a median from a fine
 /// logarithmic histogram: 200 bins per decade, so the median is within 1.2%).

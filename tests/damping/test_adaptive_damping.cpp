@@ -152,12 +152,13 @@ TEST(AdaptiveDamping, EveryElementReachesTheTargetRatio) {
         if (zeta == 0.0) EXPECT_EQ(viscosity[t][k], eta0);
       }
     }
-    // Bending stencils: lambda_b / (2 sqrt(kappa_b)) = zeta exactly.
-    const auto& bending = sim.system().bending_viscosity();
-    for (size_t e = 0; e < model.bendings.size(); ++e) {
-      const double sum = model.bending_alpha_mass_sums[e];
-      const double kappa = weft::bending_kappa(model.bendings[e].stiffness, sum, dt);
-      const double lambda = dt * bending[e] * sum;
+    // Bending stencils (stiffness Q, damping gamma Q): kappa_b = dt^2 S, lambda_b = dt gamma S
+    // with S = sum_m w_m sum_k c_mk^2 / m_k; lambda_b / (2 sqrt(kappa_b)) = zeta exactly.
+    const auto& gamma = sim.system().bending_damping();
+    for (size_t e = 0; e < model.bending.size(); ++e) {
+      const double S = model.bending[e].stiffness_mass_sum(model.inverse_mass);
+      const double kappa = dt * dt * S;
+      const double lambda = dt * gamma[e] * S;
       EXPECT_NEAR(lambda, 2 * zeta * std::sqrt(kappa), 1e-12 * (1 + lambda)) << "stencil " << e;
     }
   }
