@@ -184,7 +184,7 @@ GnuplotFigure convergence_figure(const ConvergenceStudy& st) {
                                     " s against RK45 (tolerance " + format_number(st.options.reference_tolerance) +
                                     "), damping ratio " + format_number(st.options.damping_ratio))
     << "\nset xlabel 'time step dt (ms)'\nset ylabel 'RMS vertex error (m)'\nset logscale xy\nset grid\n"
-    << "set key outside right\nset format y '10^{%L}'\n";
+    << "set key bottom right font ',9'\nset format y '10^{%L}'\n";
   b << "plot ";
   for (size_t k = 0; k < st.series.size(); ++k) {
     const auto& s = st.series[k];

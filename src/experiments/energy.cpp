@@ -260,10 +260,10 @@ std::string panel_title(const EnergyRunResult& run) {
   const auto& c = run.entry.configuration;
   const RunResult& r = run.trajectory.result;
   char buf[256];
-  std::snprintf(buf, sizeof buf, "%s, damping %g%%, %ld steps, %.2f s wall%s", c.label.c_str(), 100 * c.damping_ratio,
-                r.steps.steps, r.wall_seconds, r.status == "ok" ? "" : ", UNSTABLE");
+  std::snprintf(buf, sizeof buf, "%s, %g%% damping, %ld steps, %.2f s", c.label.c_str(), 100 * c.damping_ratio,
+                r.steps.steps, r.wall_seconds);
   std::string title = buf;
-  if (r.status != "ok") title += " at t = " + number(r.unstable_time) + " s";
+  if (r.status != "ok") title += ", UNSTABLE at " + number(r.unstable_time) + " s";
   return title;
 }
 
