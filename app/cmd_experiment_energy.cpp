@@ -47,6 +47,9 @@ int run_energy(const EnergyArgs& a) {
     std::printf("speed (median of %d interleaved repeats): Implicit Midpoint / backward Euler = %.3f in wall time, "
                 "%.3f in CG iterations per step\n",
                 ex.speed.repeats, ex.speed.wall_ratio(), ex.speed.cg_ratio());
+  if (ex.speed.unstable_runs > 0)
+    std::printf("warning: %d speed runs became unstable and stopped early; the speed ratio is not meaningful\n",
+                ex.speed.unstable_runs);
   std::printf("results in %s (results.json, results.csv, rms.csv, speed.csv, energy.png, rms.png, LABEL/energy.csv)\n",
               a.out.c_str());
   return kExitOk;

@@ -206,7 +206,8 @@ def main():
                 g(sp["implicit_midpoint"]["cg_iterations_per_step_median"]),
                 g(sp["backward_euler"]["cg_iterations_per_step_median"]),
                 g(sp["cg_ratio_midpoint_over_backward_euler"])),
-            "faster" if sp["wall_ratio_midpoint_over_backward_euler"] < 1 else "NOT faster"])
+            ("faster" if sp["wall_ratio_midpoint_over_backward_euler"] < 1 else "NOT faster") +
+            (" (but %d runs were unstable)" % sp["unstable_runs"] if sp.get("unstable_runs") else "")])
     claims.append(["BDF-2 undamped %d s vs alpha = 1/sqrt(3) damped %d s (ratio %s)" % (
         PAPER_BDF2["bdf2_s"], PAPER_BDF2["bdf2_alpha_s"], g(PAPER_BDF2["bdf2_alpha_s"] / PAPER_BDF2["bdf2_s"], 2)),
         "one run each: %s s vs %s s wall (ratio %s); CG iterations per step %s vs %s (ratio %s)" % (

@@ -102,6 +102,7 @@ EnergyExperiment run_energy_experiment(const Scene& scene, const EnergyExperimen
       (run_midpoint ? sp.midpoint_seconds : sp.backward_euler_seconds).push_back(t.result.wall_seconds);
       (run_midpoint ? sp.midpoint_cg_per_step : sp.backward_euler_cg_per_step).push_back(cg_per_step(t.result));
       (run_midpoint ? sp.midpoint_steps : sp.backward_euler_steps) = t.result.steps.steps;
+      if (t.result.status != "ok") ++sp.unstable_runs;
     }
   }
   return ex;
@@ -186,6 +187,7 @@ nlohmann::json energy_results_json(const EnergyExperiment& ex) {
                             {"cg_iterations_per_step", sp.backward_euler_cg_per_step},
                             {"cg_iterations_per_step_median", median(sp.backward_euler_cg_per_step)},
                             {"steps", sp.backward_euler_steps}}},
+        {"unstable_runs", sp.unstable_runs},
         {"wall_ratio_midpoint_over_backward_euler", sp.wall_ratio()},
         {"cg_ratio_midpoint_over_backward_euler", sp.cg_ratio()}};
   }

@@ -34,6 +34,7 @@ struct SpeedComparison {
   std::vector<double> midpoint_seconds, backward_euler_seconds;
   std::vector<double> midpoint_cg_per_step, backward_euler_cg_per_step;
   long midpoint_steps = 0, backward_euler_steps = 0;
+  int unstable_runs = 0;  ///< runs that stopped early: their times do not compare like for like
   double wall_ratio() const;  ///< median(midpoint) / median(backward Euler)
   double cg_ratio() const;    ///< same for CG iterations per step
 };

@@ -145,6 +145,13 @@ TEST_F(ExperimentCommand, EnergyWritesEveryFileAndEnergiesClose) {
     }
     if (label.rfind("rk45", 0) != 0) EXPECT_TRUE(run.contains("rms_distance_over_run")) << label;
   }
+  // RK45 reports stiffness factors at the scene's dt (DampingSettings::reference_dt), not at its
+  // own much smaller steps: its kappa range matches the fixed-step runs' (same cloth, same dt).
+  for (const char* rk : {"rk45", "rk45-damped"}) {
+    const double ratio = by_label[rk]["kappa"]["max"].get<double>() / by_label["backward-euler"]["kappa"]["max"].get<double>();
+    EXPECT_GT(ratio, 0.5) << rk;
+    EXPECT_LT(ratio, 2.0) << rk;
+  }
   // The damped runs are compared with the damped reference, the undamped with the undamped.
   EXPECT_EQ(by_label["implicit-midpoint-damped"]["reference"], "rk45-damped");
   EXPECT_EQ(by_label["backward-euler"]["reference"], "rk45");
