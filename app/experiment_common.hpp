@@ -3,13 +3,12 @@
 // progress lines per configuration.
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
-
-#include <CLI/CLI.hpp>
 
 #include "progress.hpp"
 #include "weft/error.hpp"
@@ -32,14 +31,15 @@ inline void check_output_folder(const std::string& out) {
     throw InputError("--out '" + out + "': exists and is not a folder");
   while (!p.empty() && !fs::exists(p, ec) && p != p.parent_path()) p = p.parent_path();
   if (!fs::is_directory(p, ec) || access(p.c_str(), W_OK | X_OK) != 0)
-    throw InputError("--out '" + out + "': cannot create or write the output folder (" + p.string() +
-                     " is not a writable folder)");
+    throw InputError("--out '" + out + "': cannot create or write the output folder (" +
+                     p.string() + " is not a writable folder)");
 }
 
 /// One progress bar per configuration label, replaced when the label changes.
 class LabelledProgress {
  public:
-  explicit LabelledProgress(std::string prefix, bool enabled) : prefix_(std::move(prefix)), enabled_(enabled) {}
+  explicit LabelledProgress(std::string prefix, bool enabled)
+      : prefix_(std::move(prefix)), enabled_(enabled) {}
   void operator()(const std::string& label, double fraction) {
     if (label != label_ || !bar_) {
       if (bar_) bar_->finish();

@@ -29,18 +29,18 @@ std::vector<ConvergenceMethod> convergence_methods(double damping_ratio);
 struct ConvergencePoint {
   double dt = 0;
   long steps = 0;
-  std::string status;     ///< "ok", or "unstable" (the run blew up; not used in fits)
-  double error = 0;       ///< RMS vertex distance from the reference at `time` (m)
-  bool in_fit = false;    ///< one of the points of the asymptotic slope
+  std::string status;   ///< "ok", or "unstable" (the run blew up; not used in fits)
+  double error = 0;     ///< RMS vertex distance from the reference at `time` (m)
+  bool in_fit = false;  ///< one of the points of the asymptotic slope
   double wall_seconds = 0;
 };
 
 struct ConvergenceSeries {
   ConvergenceMethod method;
   double alpha = 0;
-  std::vector<ConvergencePoint> points;  ///< dt decreasing
-  double slope = std::nan("");           ///< least-squares slope over the in_fit points
-  double slope_all_stable = std::nan("");///< over every stable point above the floor
+  std::vector<ConvergencePoint> points;    ///< dt decreasing
+  double slope = std::nan("");             ///< least-squares slope over the in_fit points
+  double slope_all_stable = std::nan("");  ///< over every stable point above the floor
   int fitted_points = 0;
 };
 
@@ -64,7 +64,8 @@ ConvergenceStudy run_convergence_study(const Scene& scene, const ConvergenceOpti
 
 /// Writes DIR/convergence.{csv,json}, DIR/slopes.csv, DIR/series/LABEL.csv and the figure
 /// DIR/convergence.{gp,png,svg}. Returns warnings (e.g. gnuplot missing).
-std::vector<std::string> write_convergence_study(const ConvergenceStudy& study, const std::filesystem::path& dir);
+std::vector<std::string> write_convergence_study(const ConvergenceStudy& study,
+                                                 const std::filesystem::path& dir);
 
 nlohmann::json convergence_json(const ConvergenceStudy& study);
 

@@ -25,20 +25,26 @@ double cg_per_step(const RunResult& r) {
   return r.steps.steps ? static_cast<double>(r.steps.cg_iterations) / r.steps.steps : 0.0;
 }
 
-double ratio_or_nan(double a, double b) { return b > 0 ? a / b : std::numeric_limits<double>::quiet_NaN(); }
+double ratio_or_nan(double a, double b) {
+  return b > 0 ? a / b : std::numeric_limits<double>::quiet_NaN();
+}
 
 void check_options(const EnergyExperimentOptions& o) {
   require_positive_finite("--dt", o.dt);
   require_positive_finite("--rk45-tolerance", o.rk45_tolerance);
-  if (!(o.rk45_tolerance < 1)) throw InputError("--rk45-tolerance " + number(o.rk45_tolerance) + ": expected a value below 1");
+  if (!(o.rk45_tolerance < 1))
+    throw InputError("--rk45-tolerance " + number(o.rk45_tolerance) + ": expected a value below 1");
   require_damping_ratio("--damping-ratio", o.damping_ratio);
   if (o.speed_repeats < 0 || o.speed_repeats > 1000)
-    throw InputError("--repeats " + std::to_string(o.speed_repeats) + ": expected an integer from 0 to 1000");
+    throw InputError("--repeats " + std::to_string(o.speed_repeats) +
+                     ": expected an integer from 0 to 1000");
 }
 
 /// Total energy dissipated (viscous + numerical) at the last frame kept (J).
 double dissipated_final(const RunResult& r) {
-  return r.energy.empty() ? 0.0 : r.energy.back().viscous_dissipated + r.energy.back().numerical_dissipated;
+  return r.energy.empty()
+             ? 0.0
+             : r.energy.back().viscous_dissipated + r.energy.back().numerical_dissipated;
 }
 
 }  // namespace
@@ -75,14 +81,18 @@ EnergyExperiment run_energy_experiment(const Scene& scene, const EnergyExperimen
     scenes.push_back(configure_scene(scene, e.configuration, options.dt, options.rk45_tolerance));
   for (size_t k = 0; k < entries.size(); ++k) {
     const std::string& label = entries[k].configuration.label;
-    auto report = [&](double f) { if (progress) progress(label, f); };
-    ex.runs.push_back({entries[k], run_trajectory(scenes[k], entries[k].configuration, true, report), {}});
+    auto report = [&](double f) {
+      if (progress) progress(label, f);
+    };
+    ex.runs.push_back(
+        {entries[k], run_trajectory(scenes[k], entries[k].configuration, true, report), {}});
   }
   for (auto& run : ex.runs) {
     if (run.entry.reference.empty()) continue;
     for (const auto& ref : ex.runs)
       if (ref.entry.configuration.label == run.entry.reference)
-        run.rms_per_frame = rms_distance_per_frame(run.trajectory.positions, ref.trajectory.positions);
+        run.rms_per_frame =
+            rms_distance_per_frame(run.trajectory.positions, ref.trajectory.positions);
   }
 
   // Speed: Implicit Midpoint and backward Euler alternately, alternating which goes first so
@@ -96,11 +106,16 @@ EnergyExperiment run_energy_experiment(const Scene& scene, const EnergyExperimen
       const bool run_midpoint = (half == 0) == (r % 2 == 0);
       const auto& cfg = entries[run_midpoint ? 1 : 0].configuration;
       auto report = [&](double f) {
-        if (progress) progress("speed " + cfg.label + " " + std::to_string(r + 1) + "/" + std::to_string(options.speed_repeats), f);
+        if (progress)
+          progress("speed " + cfg.label + " " + std::to_string(r + 1) + "/" +
+                       std::to_string(options.speed_repeats),
+                   f);
       };
       const Trajectory t = run_trajectory(run_midpoint ? midpoint : backward, cfg, false, report);
-      (run_midpoint ? sp.midpoint_seconds : sp.backward_euler_seconds).push_back(t.result.wall_seconds);
-      (run_midpoint ? sp.midpoint_cg_per_step : sp.backward_euler_cg_per_step).push_back(cg_per_step(t.result));
+      (run_midpoint ? sp.midpoint_seconds : sp.backward_euler_seconds)
+          .push_back(t.result.wall_seconds);
+      (run_midpoint ? sp.midpoint_cg_per_step : sp.backward_euler_cg_per_step)
+          .push_back(cg_per_step(t.result));
       (run_midpoint ? sp.midpoint_steps : sp.backward_euler_steps) = t.result.steps.steps;
       if (t.result.status != "ok") ++sp.unstable_runs;
     }
@@ -122,7 +137,10 @@ nlohmann::json machine_json() {
 }
 
 nlohmann::json experiment_json(const std::string& name, const Scene& scene) {
-  return {{"experiment", name}, {"weft_version", WEFT_VERSION}, {"scene", scene.file}, {"machine", machine_json()}};
+  return {{"experiment", name},
+          {"weft_version", WEFT_VERSION},
+          {"scene", scene.file},
+          {"machine", machine_json()}};
 }
 
 nlohmann::json energy_results_json(const EnergyExperiment& ex) {
@@ -168,28 +186,33 @@ nlohmann::json energy_results_json(const EnergyExperiment& ex) {
       o["rms_distance_over_run"] = root_mean_square(run.rms_per_frame);
       o["rms_distance_final"] = run.rms_per_frame.empty() ? 0.0 : run.rms_per_frame.back();
       o["rms_distance_max"] =
-          run.rms_per_frame.empty() ? 0.0 : *std::max_element(run.rms_per_frame.begin(), run.rms_per_frame.end());
+          run.rms_per_frame.empty()
+              ? 0.0
+              : *std::max_element(run.rms_per_frame.begin(), run.rms_per_frame.end());
     }
     runs.push_back(o);
   }
   j["runs"] = runs;
   const SpeedComparison& sp = ex.speed;
   if (sp.repeats > 0) {
-    j["speed"] = {
-        {"repeats", sp.repeats},
-        {"implicit_midpoint", {{"label", kMidpoint}, {"wall_seconds", sp.midpoint_seconds},
-                               {"wall_seconds_median", median(sp.midpoint_seconds)},
-                               {"cg_iterations_per_step", sp.midpoint_cg_per_step},
-                               {"cg_iterations_per_step_median", median(sp.midpoint_cg_per_step)},
-                               {"steps", sp.midpoint_steps}}},
-        {"backward_euler", {{"label", kBackwardEuler}, {"wall_seconds", sp.backward_euler_seconds},
-                            {"wall_seconds_median", median(sp.backward_euler_seconds)},
-                            {"cg_iterations_per_step", sp.backward_euler_cg_per_step},
-                            {"cg_iterations_per_step_median", median(sp.backward_euler_cg_per_step)},
-                            {"steps", sp.backward_euler_steps}}},
-        {"unstable_runs", sp.unstable_runs},
-        {"wall_ratio_midpoint_over_backward_euler", sp.wall_ratio()},
-        {"cg_ratio_midpoint_over_backward_euler", sp.cg_ratio()}};
+    j["speed"] = {{"repeats", sp.repeats},
+                  {"implicit_midpoint",
+                   {{"label", kMidpoint},
+                    {"wall_seconds", sp.midpoint_seconds},
+                    {"wall_seconds_median", median(sp.midpoint_seconds)},
+                    {"cg_iterations_per_step", sp.midpoint_cg_per_step},
+                    {"cg_iterations_per_step_median", median(sp.midpoint_cg_per_step)},
+                    {"steps", sp.midpoint_steps}}},
+                  {"backward_euler",
+                   {{"label", kBackwardEuler},
+                    {"wall_seconds", sp.backward_euler_seconds},
+                    {"wall_seconds_median", median(sp.backward_euler_seconds)},
+                    {"cg_iterations_per_step", sp.backward_euler_cg_per_step},
+                    {"cg_iterations_per_step_median", median(sp.backward_euler_cg_per_step)},
+                    {"steps", sp.backward_euler_steps}}},
+                  {"unstable_runs", sp.unstable_runs},
+                  {"wall_ratio_midpoint_over_backward_euler", sp.wall_ratio()},
+                  {"cg_ratio_midpoint_over_backward_euler", sp.cg_ratio()}};
   }
   return j;
 }
@@ -211,12 +234,13 @@ std::string results_csv(const EnergyExperiment& ex) {
     o << c.label << ',' << c.method << ',' << number(run.trajectory.scene.integrator.alpha) << ','
       << number(c.damping_ratio) << ',' << number(ex.options.dt) << ',' << r.status << ','
       << (r.status == "ok" ? std::string() : number(r.unstable_time)) << ',' << r.steps.steps << ','
-      << r.steps.rejected_steps << ',' << number(r.wall_seconds) << ',' << number(cg_per_step(r)) << ','
-      << number(k["min"].get<double>()) << ',' << number(k["median"].get<double>()) << ','
-      << number(k["max"].get<double>()) << ',' << number(first.total()) << ',' << number(last.viscous_dissipated)
-      << ',' << number(last.numerical_dissipated) << ',' << number(dissipated_final(r)) << ','
-      << run.entry.reference << ',' << (compared ? number(root_mean_square(run.rms_per_frame)) : std::string())
-      << ',' << (compared && !run.rms_per_frame.empty() ? number(run.rms_per_frame.back()) : std::string())
+      << r.steps.rejected_steps << ',' << number(r.wall_seconds) << ',' << number(cg_per_step(r))
+      << ',' << number(k["min"].get<double>()) << ',' << number(k["median"].get<double>()) << ','
+      << number(k["max"].get<double>()) << ',' << number(first.total()) << ','
+      << number(last.viscous_dissipated) << ',' << number(last.numerical_dissipated) << ','
+      << number(dissipated_final(r)) << ',' << run.entry.reference << ','
+      << (compared ? number(root_mean_square(run.rms_per_frame)) : std::string()) << ','
+      << (compared && !run.rms_per_frame.empty() ? number(run.rms_per_frame.back()) : std::string())
       << '\n';
   }
   return o.str();
@@ -250,8 +274,8 @@ std::string speed_csv(const SpeedComparison& sp) {
   std::ostringstream o;
   o << "repeat,method,wall_seconds,cg_iterations_per_step,steps\n";
   for (int r = 0; r < sp.repeats; ++r) {
-    o << r << ',' << kMidpoint << ',' << number(sp.midpoint_seconds[r]) << ',' << number(sp.midpoint_cg_per_step[r])
-      << ',' << sp.midpoint_steps << '\n';
+    o << r << ',' << kMidpoint << ',' << number(sp.midpoint_seconds[r]) << ','
+      << number(sp.midpoint_cg_per_step[r]) << ',' << sp.midpoint_steps << '\n';
     o << r << ',' << kBackwardEuler << ',' << number(sp.backward_euler_seconds[r]) << ','
       << number(sp.backward_euler_cg_per_step[r]) << ',' << sp.backward_euler_steps << '\n';
   }
@@ -262,8 +286,8 @@ std::string panel_title(const EnergyRunResult& run) {
   const auto& c = run.entry.configuration;
   const RunResult& r = run.trajectory.result;
   char buf[256];
-  std::snprintf(buf, sizeof buf, "%s, %g%% damping, %ld steps, %.2f s", c.label.c_str(), 100 * c.damping_ratio,
-                r.steps.steps, r.wall_seconds);
+  std::snprintf(buf, sizeof buf, "%s, %g%% damping, %ld steps, %.2f s", c.label.c_str(),
+                100 * c.damping_ratio, r.steps.steps, r.wall_seconds);
   std::string title = buf;
   if (r.status != "ok") title += ", UNSTABLE at " + number(r.unstable_time) + " s";
   return title;
@@ -273,7 +297,8 @@ GnuplotFigure energy_figure(const EnergyExperiment& ex) {
   double lo = 0, hi = 0;
   for (const auto& run : ex.runs)
     for (const auto& e : run.trajectory.result.energy)
-      for (double v : {e.kinetic, e.elastic, e.gravity, e.viscous_dissipated + e.numerical_dissipated}) {
+      for (double v :
+           {e.kinetic, e.elastic, e.gravity, e.viscous_dissipated + e.numerical_dissipated}) {
         lo = std::min(lo, v);
         hi = std::max(hi, v);
       }
@@ -282,7 +307,9 @@ GnuplotFigure energy_figure(const EnergyExperiment& ex) {
   const int n = static_cast<int>(ex.runs.size());
   const int columns = 2, rows = (n + columns - 1) / columns;
   b << "set multiplot layout " << rows << "," << columns << " title "
-    << gnuplot_quote("Energies, " + ex.scene.file + " (dt = " + number(1e3 * ex.options.dt) + " ms)") << "\n"
+    << gnuplot_quote("Energies, " + ex.scene.file + " (dt = " + number(1e3 * ex.options.dt) +
+                     " ms)")
+    << "\n"
     << "set xlabel 'time (s)'\nset ylabel 'energy (J)'\nset grid\nset key top left font ',8'\n"
     << "set xrange [0:" << number(ex.scene.duration) << "]\n"
     << "set yrange [" << number(lo - pad) << ":" << number(hi + pad) << "]\n";
@@ -291,8 +318,10 @@ GnuplotFigure energy_figure(const EnergyExperiment& ex) {
     b << "set title " << gnuplot_quote(panel_title(run)) << " font ',9'\n"
       << "plot " << file << " every ::1 using 1:3 with lines lw 1.5 title 'elastic', \\\n"
       << "     " << file << " every ::1 using 1:2 with lines lw 1.5 title 'kinetic', \\\n"
-      << "     " << file << " every ::1 using 1:4 with lines lw 1.5 title 'potential (gravity, from t = 0)', \\\n"
-      << "     " << file << " every ::1 using 1:($5+$6) with lines lw 2 title 'dissipated (viscous + numerical)', \\\n"
+      << "     " << file
+      << " every ::1 using 1:4 with lines lw 1.5 title 'potential (gravity, from t = 0)', \\\n"
+      << "     " << file
+      << " every ::1 using 1:($5+$6) with lines lw 2 title 'dissipated (viscous + numerical)', \\\n"
       << "     " << file << " every ::1 using 1:6 with lines dt 2 title 'numerical dissipation'\n";
   }
   b << "unset multiplot";
@@ -301,23 +330,27 @@ GnuplotFigure energy_figure(const EnergyExperiment& ex) {
 
 GnuplotFigure rms_figure(const EnergyExperiment& ex, const std::vector<std::string>& columns) {
   std::ostringstream b;
-  b << "set title " << gnuplot_quote("RMS vertex distance from the RK45 reference with the same damping") << "\n"
-    << "set xlabel 'time (s)'\nset ylabel 'RMS distance (m)'\nset logscale y\nset grid\nset key bottom right\n"
+  b << "set title "
+    << gnuplot_quote("RMS vertex distance from the RK45 reference with the same damping") << "\n"
+    << "set xlabel 'time (s)'\nset ylabel 'RMS distance (m)'\nset logscale y\nset grid\nset key "
+       "bottom right\n"
     << "set xrange [0:" << number(ex.scene.duration) << "]\n";
   if (columns.empty()) {
     b << "set label 1 'no compared runs' at graph 0.5, 0.5 center\nplot NaN notitle";
   } else {
     b << "plot ";
     for (size_t k = 0; k < columns.size(); ++k)
-      b << (k ? ", \\\n     " : "") << "'rms.csv' every ::1 using 1:(column(" << k + 2 << ") > 0 ? column(" << k + 2
-        << ") : NaN) with lines lw 1.5 title " << gnuplot_quote(columns[k]);
+      b << (k ? ", \\\n     " : "") << "'rms.csv' every ::1 using 1:(column(" << k + 2
+        << ") > 0 ? column(" << k + 2 << ") : NaN) with lines lw 1.5 title "
+        << gnuplot_quote(columns[k]);
   }
   return {"rms", b.str(), 900, 550};
 }
 
 }  // namespace
 
-std::vector<std::string> write_energy_experiment(const EnergyExperiment& ex, const std::filesystem::path& dir) {
+std::vector<std::string> write_energy_experiment(const EnergyExperiment& ex,
+                                                 const std::filesystem::path& dir) {
   std::vector<PendingFile> files;
   auto text_file = [&](const std::filesystem::path& path, std::string content) {
     files.push_back(pending_text_file(path, std::move(content)));

@@ -14,10 +14,10 @@
 namespace weft {
 
 struct EnergyExperimentOptions {
-  double dt = 0.02;               ///< step of the fixed-step methods and RK45's largest step (s)
-  double damping_ratio = 0.05;    ///< of the damped configurations
-  double rk45_tolerance = 1e-6;   ///< local error tolerance of the references
-  int speed_repeats = 5;          ///< interleaved Implicit Midpoint / backward Euler pairs
+  double dt = 0.02;              ///< step of the fixed-step methods and RK45's largest step (s)
+  double damping_ratio = 0.05;   ///< of the damped configurations
+  double rk45_tolerance = 1e-6;  ///< local error tolerance of the references
+  int speed_repeats = 5;         ///< interleaved Implicit Midpoint / backward Euler pairs
 };
 
 /// The six configurations, in plotting order; `reference` names the RK45 run each is compared to.
@@ -34,7 +34,7 @@ struct SpeedComparison {
   std::vector<double> midpoint_seconds, backward_euler_seconds;
   std::vector<double> midpoint_cg_per_step, backward_euler_cg_per_step;
   long midpoint_steps = 0, backward_euler_steps = 0;
-  int unstable_runs = 0;  ///< runs that stopped early: their times do not compare like for like
+  int unstable_runs = 0;      ///< runs that stopped early: their times do not compare like for like
   double wall_ratio() const;  ///< median(midpoint) / median(backward Euler)
   double cg_ratio() const;    ///< same for CG iterations per step
 };
@@ -61,7 +61,8 @@ EnergyExperiment run_energy_experiment(const Scene& scene, const EnergyExperimen
 /// Writes DIR/LABEL/{energy.csv,summary.json}, DIR/results.{json,csv}, DIR/rms.csv,
 /// DIR/speed.csv and the figures DIR/energy.{gp,png,svg}, DIR/rms.{gp,png,svg}.
 /// Returns warnings (e.g. gnuplot missing); throws on a write failure.
-std::vector<std::string> write_energy_experiment(const EnergyExperiment& experiment, const std::filesystem::path& dir);
+std::vector<std::string> write_energy_experiment(const EnergyExperiment& experiment,
+                                                 const std::filesystem::path& dir);
 
 /// The content of results.json.
 nlohmann::json energy_results_json(const EnergyExperiment& experiment);

@@ -10,8 +10,8 @@
 
 namespace weft {
 
-Scene configure_scene(const Scene& scene, const MethodConfiguration& c, double dt, double rk45_tolerance,
-                      double cg_tolerance) {
+Scene configure_scene(const Scene& scene, const MethodConfiguration& c, double dt,
+                      double rk45_tolerance, double cg_tolerance) {
   Scene s = scene;
   const std::string where = "experiment configuration '" + c.label + "'";
   set_method(s, c.method, c.alpha, where);
@@ -23,14 +23,15 @@ Scene configure_scene(const Scene& scene, const MethodConfiguration& c, double d
   return s;
 }
 
-Trajectory run_trajectory(const Scene& configured, const MethodConfiguration& c, bool keep_positions,
-                          const std::function<void(double)>& progress) {
+Trajectory run_trajectory(const Scene& configured, const MethodConfiguration& c,
+                          bool keep_positions, const std::function<void(double)>& progress) {
   Trajectory t;
   t.configuration = c;
   t.scene = configured;
   Simulation sim(configured);
   RunCallbacks cb;
-  if (keep_positions) cb.on_frame = [&](int, const Simulation& s) { t.positions.push_back(s.state().x); };
+  if (keep_positions)
+    cb.on_frame = [&](int, const Simulation& s) { t.positions.push_back(s.state().x); };
   cb.on_progress = progress;
   t.result = run_simulation(sim, cb);
   t.summary = summary_json(sim, t.result);
@@ -43,7 +44,8 @@ double rms_distance(const VecX& a, const VecX& b) {
   return std::sqrt((a - b).squaredNorm() / static_cast<double>(n));
 }
 
-std::vector<double> rms_distance_per_frame(const std::vector<VecX>& a, const std::vector<VecX>& reference) {
+std::vector<double> rms_distance_per_frame(const std::vector<VecX>& a,
+                                           const std::vector<VecX>& reference) {
   std::vector<double> d;
   const size_t n = std::min(a.size(), reference.size());
   d.reserve(n);
@@ -80,7 +82,8 @@ void require_positive_finite(const std::string& option, double value) {
 
 void require_damping_ratio(const std::string& option, double value) {
   if (!(value >= 0 && value <= 10))
-    throw InputError(option + " " + format_number(value) + ": expected a damping ratio from 0 to 10");
+    throw InputError(option + " " + format_number(value) +
+                     ": expected a damping ratio from 0 to 10");
 }
 
 std::string format_number(double value) {

@@ -14,18 +14,18 @@ namespace weft {
 
 /// An integrator with its damping, as the experiments name it.
 struct MethodConfiguration {
-  std::string label;             ///< unique, file-name safe, e.g. "implicit-midpoint-damped"
-  std::string method;            ///< a name from method_table()
-  std::optional<double> alpha;   ///< for "alpha" and "bdf2-alpha"
-  double damping_ratio = 0.0;    ///< adaptive damping target (fraction of critical)
+  std::string label;            ///< unique, file-name safe, e.g. "implicit-midpoint-damped"
+  std::string method;           ///< a name from method_table()
+  std::optional<double> alpha;  ///< for "alpha" and "bdf2-alpha"
+  double damping_ratio = 0.0;   ///< adaptive damping target (fraction of critical)
 };
 
 struct Trajectory {
   MethodConfiguration configuration;
-  Scene scene;                   ///< the scene as run (method, dt, damping set)
-  RunResult result;              ///< energies per frame, step statistics, status
-  nlohmann::json summary;        ///< summary_json of the run
-  std::vector<VecX> positions;   ///< 3n positions per output frame, until it became unstable
+  Scene scene;                  ///< the scene as run (method, dt, damping set)
+  RunResult result;             ///< energies per frame, step statistics, status
+  nlohmann::json summary;       ///< summary_json of the run
+  std::vector<VecX> positions;  ///< 3n positions per output frame, until it became unstable
 };
 
 /// Overrides `scene`'s integrator, step, damping and (for rk45) error tolerance and CG
@@ -42,7 +42,8 @@ Trajectory run_trajectory(const Scene& configured, const MethodConfiguration& co
 double rms_distance(const VecX& a, const VecX& b);
 
 /// rms_distance at every frame both sequences have.
-std::vector<double> rms_distance_per_frame(const std::vector<VecX>& a, const std::vector<VecX>& reference);
+std::vector<double> rms_distance_per_frame(const std::vector<VecX>& a,
+                                           const std::vector<VecX>& reference);
 
 /// Root mean square of per-frame values (over the whole run); 0 for none.
 double root_mean_square(const std::vector<double>& values);

@@ -56,8 +56,8 @@ class ExperimentCommand : public ::testing::Test {
 
   CommandResult run(const std::string& arguments, const std::string& environment = "") const {
     const fs::path err = folder_ / "stderr.txt";
-    const std::string command = environment + " '" + WEFT_EXE + "' experiment " + arguments + " > /dev/null 2> '" +
-                                err.string() + "'";
+    const std::string command = environment + " '" + WEFT_EXE + "' experiment " + arguments +
+                                " > /dev/null 2> '" + err.string() + "'";
     const int status = std::system(command.c_str());
     std::ifstream in(err);
     std::stringstream text;
@@ -102,14 +102,18 @@ bool gnuplot_installed() { return std::system("command -v gnuplot > /dev/null 2>
 
 TEST_F(ExperimentCommand, EnergyWritesEveryFileAndEnergiesClose) {
   const fs::path out = folder_ / "energy";
-  const CommandResult r = run("energy -q --scene '" + scene_.string() + "' --out '" + out.string() + "' --repeats 2");
+  const CommandResult r =
+      run("energy -q --scene '" + scene_.string() + "' --out '" + out.string() + "' --repeats 2");
   ASSERT_EQ(r.status, 0) << r.stderr_text;
-  const std::vector<std::string> labels = {"backward-euler", "implicit-midpoint-damped", "bdf2",
-                                           "bdf2-alpha-damped", "rk45-damped", "rk45"};
-  for (const char* f : {"results.json", "results.csv", "rms.csv", "speed.csv", "energy.gp", "rms.gp"})
+  const std::vector<std::string> labels = {"backward-euler", "implicit-midpoint-damped",
+                                           "bdf2",           "bdf2-alpha-damped",
+                                           "rk45-damped",    "rk45"};
+  for (const char* f :
+       {"results.json", "results.csv", "rms.csv", "speed.csv", "energy.gp", "rms.gp"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
   if (gnuplot_installed())
-    for (const char* f : {"energy.png", "energy.svg", "rms.png", "rms.svg"}) EXPECT_GT(fs::file_size(out / f), 1000u) << f;
+    for (const char* f : {"energy.png", "energy.svg", "rms.png", "rms.svg"})
+      EXPECT_GT(fs::file_size(out / f), 1000u) << f;
 
   for (const auto& label : labels) {
     ASSERT_TRUE(fs::exists(out / label / "summary.json")) << label;
@@ -120,7 +124,8 @@ TEST_F(ExperimentCommand, EnergyWritesEveryFileAndEnergiesClose) {
     for (const auto& row : rows) {
       // METHOD.md 6: kinetic + elastic + potential + viscous + numerical = initial total.
       double sum = 0, scale = 1e-15;
-      for (const char* k : {"kinetic", "elastic", "gravity", "viscous_dissipated", "numerical_dissipated"}) {
+      for (const char* k :
+           {"kinetic", "elastic", "gravity", "viscous_dissipated", "numerical_dissipated"}) {
         sum += std::stod(row.at(k));
         scale += std::abs(std::stod(row.at(k)));
       }
@@ -148,7 +153,8 @@ TEST_F(ExperimentCommand, EnergyWritesEveryFileAndEnergiesClose) {
   // RK45 reports stiffness factors at the scene's dt (DampingSettings::reference_dt), not at its
   // own much smaller steps: its kappa range matches the fixed-step runs' (same cloth, same dt).
   for (const char* rk : {"rk45", "rk45-damped"}) {
-    const double ratio = by_label[rk]["kappa"]["max"].get<double>() / by_label["backward-euler"]["kappa"]["max"].get<double>();
+    const double ratio = by_label[rk]["kappa"]["max"].get<double>() /
+                         by_label["backward-euler"]["kappa"]["max"].get<double>();
     EXPECT_GT(ratio, 0.5) << rk;
     EXPECT_LT(ratio, 2.0) << rk;
   }
@@ -171,7 +177,8 @@ TEST_F(ExperimentCommand, MidpointWithFivePercentDampingDissipatesLessThanBackwa
   // The paper's central claim (METHOD.md 7): at the same dt, Implicit Midpoint with 5% adaptive
   // damping loses far less energy (viscous + numerical) than undamped backward Euler.
   const fs::path out = folder_ / "energy";
-  const CommandResult r = run("energy -q --scene '" + scene_.string() + "' --out '" + out.string() + "' --repeats 0");
+  const CommandResult r =
+      run("energy -q --scene '" + scene_.string() + "' --out '" + out.string() + "' --repeats 0");
   ASSERT_EQ(r.status, 0) << r.stderr_text;
   const nlohmann::json results = read_json(out / "results.json");
   std::map<std::string, nlohmann::json> by_label;
@@ -184,11 +191,14 @@ TEST_F(ExperimentCommand, MidpointWithFivePercentDampingDissipatesLessThanBackwa
   const double be = backward["dissipated_final"]["total"].get<double>();
   RecordProperty("midpoint_damped_dissipated_J", std::to_string(im));
   RecordProperty("backward_euler_dissipated_J", std::to_string(be));
-  std::printf("dissipated over 0.4 s: Implicit Midpoint 5%% %.4g J, backward Euler %.4g J\n", im, be);
+  std::printf("dissipated over 0.4 s: Implicit Midpoint 5%% %.4g J, backward Euler %.4g J\n", im,
+              be);
   EXPECT_GT(be, 0.0);
   EXPECT_LT(im, be);
-  // And its motion stays closer to the (damped) reference than backward Euler's to the undamped one.
-  EXPECT_LT(midpoint["rms_distance_over_run"].get<double>(), backward["rms_distance_over_run"].get<double>());
+  // And its motion stays closer to the (damped) reference than backward Euler's to the undamped
+  // one.
+  EXPECT_LT(midpoint["rms_distance_over_run"].get<double>(),
+            backward["rms_distance_over_run"].get<double>());
 }
 
 /// A pre-tensioned drum: the reduced cloth stretched 5% both ways (pattern coordinates from the
@@ -207,21 +217,25 @@ void write_drum_scene(const fs::path& folder) {
     for (int i = 0; i < n; ++i) {
       const double u = size * i / (n - 1), v = size * j / (n - 1);
       obj << "v " << stretch * (u - size / 2) << " 1 " << stretch * (v - size / 2) << "\n";
-      if (i == 0 || j == 0 || i == n - 1 || j == n - 1) pins += (pins.empty() ? "" : ", ") + std::to_string(j * n + i);
+      if (i == 0 || j == 0 || i == n - 1 || j == n - 1)
+        pins += (pins.empty() ? "" : ", ") + std::to_string(j * n + i);
     }
   for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) obj << "vt " << size * i / (n - 1) << " " << size * j / (n - 1) << "\n";
+    for (int i = 0; i < n; ++i)
+      obj << "vt " << size * i / (n - 1) << " " << size * j / (n - 1) << "\n";
   for (int j = 0; j + 1 < n; ++j)
     for (int i = 0; i + 1 < n; ++i) {
       const int a = j * n + i + 1, b = a + 1, c = a + n, d = c + 1;
       obj << "f " << a << "/" << a << " " << b << "/" << b << " " << d << "/" << d << "\n";
       obj << "f " << a << "/" << a << " " << d << "/" << d << " " << c << "/" << c << "\n";
     }
-  std::ofstream(folder / "drum.json") << R"({"weft_scene": 1, "duration": 0.1, "frame_interval": 0.02,
+  std::ofstream(folder / "drum.json")
+      << R"({"weft_scene": 1, "duration": 0.1, "frame_interval": 0.02,
     "integrator": {"method": "implicit-midpoint", "dt": 0.02},
     "cloth": {"mesh": {"obj": "drum.obj", "uv_scale": 1},
       "material": {"surface_density": 0.15, "weft": 100, "warp": 100, "shear": 10, "bending_rigidity": 1e-4, "viscosity": 0.0},
-      "pins": {"vertices": [)" << pins << "]}}}";
+      "pins": {"vertices": [)"
+      << pins << "]}}}";
 }
 
 TEST_F(ExperimentCommand, ConvergenceSlopesMatchTheOrdersOfTheMethods) {
@@ -229,8 +243,9 @@ TEST_F(ExperimentCommand, ConvergenceSlopesMatchTheOrdersOfTheMethods) {
   const fs::path out = folder_ / "convergence";
   // 2.5 ms down to 39 us: forward Euler (undamped, so only stable once the stiffest element's
   // kappa is tiny) has its three finest points stable; every other method is asymptotic there.
-  const CommandResult r = run("convergence -q --scene '" + (folder_ / "drum.json").string() + "' --out '" +
-                              out.string() + "' --time 0.1 --dt-max 0.0025 --levels 7");
+  const CommandResult r =
+      run("convergence -q --scene '" + (folder_ / "drum.json").string() + "' --out '" +
+          out.string() + "' --time 0.1 --dt-max 0.0025 --levels 7");
   ASSERT_EQ(r.status, 0) << r.stderr_text;
   for (const char* f : {"convergence.csv", "slopes.csv", "convergence.json", "convergence.gp"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
@@ -254,8 +269,8 @@ TEST_F(ExperimentCommand, ConvergenceSlopesMatchTheOrdersOfTheMethods) {
 
 TEST_F(ExperimentCommand, WithoutGnuplotTheScriptStaysAndAWarningIsPrinted) {
   const fs::path out = folder_ / "convergence";
-  const CommandResult r = run("convergence -q --scene '" + scene_.string() + "' --out '" + out.string() +
-                                  "' --time 0.04 --levels 2 --fit-points 2",
+  const CommandResult r = run("convergence -q --scene '" + scene_.string() + "' --out '" +
+                                  out.string() + "' --time 0.04 --levels 2 --fit-points 2",
                               "WEFT_GNUPLOT=/nonexistent/gnuplot");
   ASSERT_EQ(r.status, 0) << r.stderr_text;
   EXPECT_NE(r.stderr_text.find("warning"), std::string::npos) << r.stderr_text;
@@ -266,13 +281,15 @@ TEST_F(ExperimentCommand, WithoutGnuplotTheScriptStaysAndAWarningIsPrinted) {
 
 TEST_F(ExperimentCommand, BadInputExitsTwoAndWritesNothing) {
   const fs::path out = folder_ / "out";
-  CommandResult r = run("energy --scene '" + (folder_ / "missing.json").string() + "' --out '" + out.string() + "'");
+  CommandResult r = run("energy --scene '" + (folder_ / "missing.json").string() + "' --out '" +
+                        out.string() + "'");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.stderr_text.find("missing.json"), std::string::npos) << r.stderr_text;
   r = run("energy --scene '" + scene_.string() + "' --out '" + out.string() + "' --dt -1");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.stderr_text.find("--dt"), std::string::npos) << r.stderr_text;
-  r = run("convergence --scene '" + scene_.string() + "' --out '" + out.string() + "' --time 0.2 --dt-max 0.03");
+  r = run("convergence --scene '" + scene_.string() + "' --out '" + out.string() +
+          "' --time 0.2 --dt-max 0.03");
   EXPECT_EQ(r.status, 2) << "0.2 s is not a whole number of 30 ms steps";
   r = run("convergence --scene '" + scene_.string() + "' --out '" + out.string() + "' --levels 1");
   EXPECT_EQ(r.status, 2);
