@@ -195,21 +195,20 @@ nlohmann::json energy_results_json(const EnergyExperiment& ex) {
   j["runs"] = runs;
   const SpeedComparison& sp = ex.speed;
   if (sp.repeats > 0) {
+    auto side = [](const char* label, const std::vector<double>& seconds,
+                   const std::vector<double>& cg, long steps) {
+      return nlohmann::json{{"label", label},
+                            {"wall_seconds", seconds},
+                            {"wall_seconds_median", median(seconds)},
+                            {"cg_iterations_per_step", cg},
+                            {"cg_iterations_per_step_median", median(cg)},
+                            {"steps", steps}};
+    };
     j["speed"] = {{"repeats", sp.repeats},
-                  {"implicit_midpoint",
-                   {{"label", kMidpoint},
-                    {"wall_seconds", sp.midpoint_seconds},
-                    {"wall_seconds_median", median(sp.midpoint_seconds)},
-                    {"cg_iterations_per_step", sp.midpoint_cg_per_step},
-                    {"cg_iterations_per_step_median", median(sp.midpoint_cg_per_step)},
-                    {"steps", sp.midpoint_steps}}},
-                  {"backward_euler",
-                   {{"label", kBackwardEuler},
-                    {"wall_seconds", sp.backward_euler_seconds},
-                    {"wall_seconds_median", median(sp.backward_euler_seconds)},
-                    {"cg_iterations_per_step", sp.backward_euler_cg_per_step},
-                    {"cg_iterations_per_step_median", median(sp.backward_euler_cg_per_step)},
-                    {"steps", sp.backward_euler_steps}}},
+                  {"implicit_midpoint", side(kMidpoint, sp.midpoint_seconds,
+                                             sp.midpoint_cg_per_step, sp.midpoint_steps)},
+                  {"backward_euler", side(kBackwardEuler, sp.backward_euler_seconds,
+                                          sp.backward_euler_cg_per_step, sp.backward_euler_steps)},
                   {"unstable_runs", sp.unstable_runs},
                   {"wall_ratio_midpoint_over_backward_euler", sp.wall_ratio()},
                   {"cg_ratio_midpoint_over_backward_euler", sp.cg_ratio()}};
