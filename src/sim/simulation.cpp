@@ -12,7 +12,10 @@ Simulation::Simulation(const Scene& scene) : scene_(scene) {
   const std::vector<int> pins = resolve_pins(scene.cloth, mesh);
   model_ = std::make_unique<ClothModel>(build_cloth_model(std::move(mesh), scene.cloth.material, scene.gravity, pins,
                                                           parse_bending_model(scene.cloth.bending_model, "cloth.bending_model")));
-  system_ = std::make_unique<ClothSystem>(*model_, DampingSettings{scene.effective_damping_ratio()});
+  // RK45 steps adaptively: report its stiffness factors at the scene's (largest) step.
+  DampingSettings damping{scene.effective_damping_ratio()};
+  if (scene.integrator.method == Method::Rk45) damping.reference_dt = scene.integrator.dt;
+  system_ = std::make_unique<ClothSystem>(*model_, damping);
   integrator_ = std::make_unique<Integrator>(*system_, scene.integrator);
   state_.x = model_->initial_positions();
   state_.v = VecX::Zero(state_.x.size());

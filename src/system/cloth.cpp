@@ -120,9 +120,10 @@ std::vector<double> ClothSystem::membrane_kappa_max(const VecX& x, double dt) co
   return out;
 }
 
-void ClothSystem::begin_step(const VecX& x, const VecX&, double dt) {
+void ClothSystem::begin_step(const VecX& x, const VecX&, double step_dt) {
   // METHOD.md 4: per element and step, kappa and lambda from the tangent stiffness at the
   // current strain; raise the viscosity of each mode to reach the target damping ratio.
+  const double dt = damping_.reference_dt > 0 ? damping_.reference_dt : step_dt;
   const double zeta = damping_.damping_ratio;
   const double eta0 = model_.material.viscosity_Ns_m;
   for (size_t t = 0; t < model_.membranes.size(); ++t) {

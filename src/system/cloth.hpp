@@ -49,6 +49,10 @@ ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3&
 struct DampingSettings {
   /// Target damping ratio (fraction of critical); 0 disables adaptive damping.
   double damping_ratio = 0.0;
+  /// Step (s) at which the stiffness factors kappa and lambda are reported; 0 = each step's
+  /// own dt. The added viscosity does not depend on the step (METHOD.md 4), so an adaptive
+  /// method (RK45) given the scene's dt here reports factors comparable with a fixed-step run.
+  double reference_dt = 0.0;
 };
 
 /// Per-run statistics of the stiffness factors and of the added viscosity.

@@ -99,7 +99,7 @@ TEST(StabilityExperiment, MethodListParsing) {
   }
 }
 
-class ExperimentCommand : public ::testing::Test {
+class StabilityExperimentCommand : public ::testing::Test {
  protected:
   void SetUp() override {
     folder_ = fs::temp_directory_path() / ("weft_experiment_" + std::to_string(::getpid()) + "_" +
@@ -122,7 +122,7 @@ class ExperimentCommand : public ::testing::Test {
   fs::path folder_;
 };
 
-TEST_F(ExperimentCommand, ReducedGridWritesCsvAndTables) {
+TEST_F(StabilityExperimentCommand, ReducedGridWritesCsvAndTables) {
   const fs::path out = folder_ / "out";
   const auto [code, text] = run("--out '" + out.string() +
                                 "' --methods backward-euler,implicit-midpoint --dts 0.01,0.02 --ratios 0,0.05 "
@@ -143,7 +143,7 @@ TEST_F(ExperimentCommand, ReducedGridWritesCsvAndTables) {
   EXPECT_NE(t.str().find("| 10 ms |"), std::string::npos);
 }
 
-TEST_F(ExperimentCommand, BadInputExitsTwoNamingTheOptionAndWritesNothing) {
+TEST_F(StabilityExperimentCommand, BadInputExitsTwoNamingTheOptionAndWritesNothing) {
   const std::string out = " --out '" + (folder_ / "out").string() + "'";
   const std::vector<std::pair<std::string, std::string>> cases{
       {"--resolution 1", "--resolution"}, {"--dts 0.01,-1", "--dts"},     {"--ratios -0.1", "--ratios"},
