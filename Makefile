@@ -4,7 +4,7 @@ JOBS ?= $(shell nproc)
 PACKAGES := cmake ninja-build g++ libeigen3-dev nlohmann-json3-dev libcli11-dev \
             libgtest-dev libbenchmark-dev libpng-dev libtinyobjloader-dev gnuplot-nox
 
-.PHONY: all deps build demo test bench clean
+.PHONY: all deps build demo test bench results clean
 
 all: build
 
@@ -33,6 +33,9 @@ test: build
 
 bench: build
 	$(BUILD)/weft_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+
+results: build
+	sh tools/results.sh
 
 clean:
 	rm -rf $(BUILD)
