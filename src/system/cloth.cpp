@@ -1,6 +1,7 @@
 #include "system/cloth.hpp"
 
 #include <cmath>
+#include <functional>
 #include <string>
 
 #include "weft/error.hpp"
@@ -203,18 +204,14 @@ void ClothSystem::add_bending(const VecX& x, const VecX& v, const VecX* w, doubl
   }
 }
 
-void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) {
-  const int n = num_nodes();
-  const bool jacobians = out.ck != 0.0 || out.cd != 0.0;
-  out.force.resize(3 * n);
-  out.force.setZero();
-  out.stiffness_times_w = VecX::Zero(3 * n);
-  if (out.matrix.pattern != &model_.pattern) out.matrix.reset(model_.pattern);
-  out.matrix.set_zero();
-  out.elastic_energy = out.gravity_energy = out.viscous_power = 0;
-  for (int i = 0; i < n; ++i) {
-    node(out.force, i) += model_.mass[i] * model_.gravity;
-    out.gravity_energy -= model_.mass[i] * model_.gravity.dot(node(x, i));
+void ClothSystem::add_gravity_and_membranes(
+    const VecX& x, const VecX& v, bool jacobians, bool expand, VecX& force, double& elastic_energy,
+    double& gravity_energy, double& viscous_power,
+    const std::function<void(size_t, const MembraneResult&)>& add_jacobians) const {
+  elastic_energy = gravity_energy = viscous_power = 0;
+  for (int i = 0; i < num_nodes(); ++i) {
+    node(force, i) += model_.mass[i] * model_.gravity;
+    gravity_energy -= model_.mass[i] * model_.gravity.dot(node(x, i));
   }
   MembraneResult mr;
   std::array<Vec3, 3> xe, ve;
@@ -224,11 +221,25 @@ void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, Ste
       xe[k] = node(x, tri[k]);
       ve[k] = node(v, tri[k]);
     }
-    evaluate_membrane(model_.membranes[t], model_.material, membrane_viscosity_[t], xe, ve, jacobians, true, mr, false);
-    out.elastic_energy += mr.energy;
-    out.viscous_power += mr.viscous_power;
-    for (int k = 0; k < 3; ++k) node(out.force, tri[k]) += mr.force.segment<3>(3 * k);
-    if (!jacobians) continue;
+    evaluate_membrane(model_.membranes[t], model_.material, membrane_viscosity_[t], xe, ve, jacobians, true, mr, expand);
+    elastic_energy += mr.energy;
+    viscous_power += mr.viscous_power;
+    for (int k = 0; k < 3; ++k) node(force, tri[k]) += mr.force.segment<3>(3 * k);
+    if (jacobians) add_jacobians(t, mr);
+  }
+}
+
+void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) {
+  const int n = num_nodes();
+  const bool jacobians = out.ck != 0.0 || out.cd != 0.0;
+  out.force.resize(3 * n);
+  out.force.setZero();
+  out.stiffness_times_w = VecX::Zero(3 * n);
+  if (out.matrix.pattern != &model_.pattern) out.matrix.reset(model_.pattern);
+  out.matrix.set_zero();
+  add_gravity_and_membranes(x, v, jacobians, false, out.force, out.elastic_energy, out.gravity_energy,
+                            out.viscous_power, [&](size_t t, const MembraneResult& mr) {
+    const auto& tri = model_.mesh.triangles[t];
     const auto& slots = model_.membrane_slots[t];
     for (int p = 0; p < 6; ++p) {
       const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
@@ -240,7 +251,7 @@ void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, Ste
         node(out.stiffness_times_w, tri[j]) += mr.jacobian.stiffness_transpose_times(p, node(w, tri[i]));
       }
     }
-  }
+  });
   add_bending(x, v, &w, out.ck, out.cd, jacobians, out.force, out.elastic_energy, out.viscous_power,
               jacobians ? &out.matrix : nullptr, nullptr, &out.stiffness_times_w);
 }
@@ -277,39 +288,15 @@ void ClothSystem::evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluat
     out.stiffness.set_zero();
     out.damping.set_zero();
   }
-  out.elastic_energy = 0;
-  out.gravity_energy = 0;
-  out.viscous_power = 0;
-  for (int i = 0; i < n; ++i) {
-    node(out.force, i) += model_.mass[i] * model_.gravity;
-    out.gravity_energy -= model_.mass[i] * model_.gravity.dot(node(x, i));
-  }
-  MembraneResult mr;
-  std::array<Vec3, 3> xe, ve;
-  for (size_t t = 0; t < model_.membranes.size(); ++t) {
-    const auto& tri = model_.mesh.triangles[t];
-    for (int k = 0; k < 3; ++k) {
-      xe[k] = node(x, tri[k]);
-      ve[k] = node(v, tri[k]);
-    }
-    evaluate_membrane(model_.membranes[t], model_.material, membrane_viscosity_[t], xe, ve, jacobians, true, mr);
-    out.elastic_energy += mr.energy;
-    out.viscous_power += mr.viscous_power;
-    for (int k = 0; k < 3; ++k) node(out.force, tri[k]) += mr.force.segment<3>(3 * k);
-    if (jacobians) {
-      const auto& slots = model_.membrane_slots[t];
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) {
-          double* k = out.stiffness.block[slots[3 * a + b]].data();
-          double* d = out.damping.block[slots[3 * a + b]].data();
-          for (int c = 0; c < 3; ++c)
-            for (int r = 0; r < 3; ++r) {
-              k[3 * c + r] += mr.stiffness(3 * a + r, 3 * b + c);
-              d[3 * c + r] += mr.damping(3 * a + r, 3 * b + c);
-            }
-        }
-    }
-  }
+  add_gravity_and_membranes(x, v, jacobians, true, out.force, out.elastic_energy, out.gravity_energy,
+                            out.viscous_power, [&](size_t t, const MembraneResult& mr) {
+    const auto& slots = model_.membrane_slots[t];
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) {
+        out.stiffness.block[slots[3 * a + b]] += mr.stiffness.block<3, 3>(3 * a, 3 * b);
+        out.damping.block[slots[3 * a + b]] += mr.damping.block<3, 3>(3 * a, 3 * b);
+      }
+  });
   add_bending(x, v, nullptr, 0.0, 0.0, jacobians, out.force, out.elastic_energy, out.viscous_power,
               jacobians ? &out.stiffness : nullptr, jacobians ? &out.damping : nullptr, nullptr);
 }

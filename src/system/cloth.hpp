@@ -2,6 +2,7 @@
 // A piece of cloth as a mechanical system: membrane triangles, bending stencils, gravity
 // and pinned vertices (DESIGN.md: the Model is built once and never changed by a step).
 #include <array>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -93,6 +94,11 @@ class ClothSystem : public System {
   std::vector<double> membrane_kappa_max(const VecX& x, double dt) const;
 
  private:
+  /// Sets the energies and adds gravity and the membrane forces to `force`; with `jacobians`
+  /// calls `add_jacobians` per triangle with its result (9x9 blocks when `expand`).
+  void add_gravity_and_membranes(const VecX& x, const VecX& v, bool jacobians, bool expand, VecX& force,
+                                 double& elastic_energy, double& gravity_energy, double& viscous_power,
+                                 const std::function<void(size_t, const MembraneResult&)>& add_jacobians) const;
   /// Adds the bending elements: forces, energy, viscous power and either K and D (into
   /// `first` and `damping`) or the step matrix -ck K - cd D (into `first`) and K w.
   void add_bending(const VecX& x, const VecX& v, const VecX* w, double ck, double cd, bool jacobians, VecX& force,
