@@ -1,5 +1,7 @@
 // Stability of the alpha family and progressive BDF-2 on one damped spring (METHOD.md 3).
 #include <gtest/gtest.h>
+
+#include "support/command.hpp"
 #include <png.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -293,40 +295,16 @@ TEST(StabilityImage, PlotPixelsFollowTheMap) {
 
 // --- the `weft stability` command -------------------------------------------------------
 
-struct CommandResult {
-  int exit_code;
-  std::string error_output;
-};
+using weft::test::CommandResult;
 
-class StabilityCommand : public ::testing::Test {
+// The command writes nothing but its own files into the test's folder.
+class StabilityCommand : public weft::test::CommandTest {
  protected:
-  void SetUp() override {
-    folder_ = std::filesystem::temp_directory_path() /
-              ("weft_stability_" + std::to_string(::getpid()) + "_" +
-               ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::remove_all(folder_);
-    std::filesystem::create_directories(folder_);
-  }
-  void TearDown() override { std::filesystem::remove_all(folder_); }
-
-  CommandResult run(const std::string& arguments) {
-    const auto stderr_path = folder_ / "stderr.txt";
-    const std::string command = std::string("'") + WEFT_EXE + "' stability " + arguments + " > /dev/null 2> '" +
-                                stderr_path.string() + "'";
-    const int status = std::system(command.c_str());
-    std::ifstream in(stderr_path);
-    std::stringstream text;
-    text << in.rdbuf();
-    std::filesystem::remove(stderr_path);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
-  }
-
+  CommandResult run(const std::string& arguments) { return weft("stability " + arguments); }
   size_t files_in_folder() const {
     return static_cast<size_t>(std::distance(std::filesystem::directory_iterator(folder_),
                                              std::filesystem::directory_iterator()));
   }
-
-  std::filesystem::path folder_;
 };
 
 TEST_F(StabilityCommand, BadParametersExitTwoNamingTheOption) {

@@ -9,6 +9,7 @@
 #include "elements/bending.hpp"
 #include "elements/membrane.hpp"
 #include "elements/spring.hpp"
+#include "support/membrane_fd.hpp"
 
 using namespace weft;
 
@@ -53,18 +54,10 @@ TEST(MembraneElement, ForcesAreMinusEnergyGradientAndJacobiansMatchFiniteDiffere
     MembraneResult r;
     evaluate_membrane(g, mat, Vec3::Zero(), x, v, true, false, r);
     const double h = 1e-7;
-    Eigen::Matrix<double, 9, 1> grad;
-    Eigen::Matrix<double, 9, 9> Kfd, Dfd;
-    for (int k = 0; k < 9; ++k) {
-      auto xp = x, xm = x;
-      xp[k / 3][k % 3] += h;
-      xm[k / 3][k % 3] -= h;
-      MembraneResult rp, rm;
-      evaluate_membrane(g, mat, Vec3::Zero(), xp, v, false, false, rp);
-      evaluate_membrane(g, mat, Vec3::Zero(), xm, v, false, false, rm);
-      grad[k] = (rp.energy - rm.energy) / (2 * h);
-      Kfd.col(k) = (rp.force - rm.force) / (2 * h);
-    }
+    const auto fd = weft::test::membrane_finite_differences(g, mat, x, v, h);
+    const auto& grad = fd.energy_gradient;
+    const auto& Kfd = fd.force_jacobian;
+    Eigen::Matrix<double, 9, 9> Dfd;
     EXPECT_LT(rel_err(r.force, -grad), 1e-6) << "trial " << trial;
     EXPECT_LT(rel_err(r.stiffness, Kfd), 1e-6) << "trial " << trial;
     EXPECT_LT((r.stiffness - r.stiffness.transpose()).norm(), 1e-9 * r.stiffness.norm());

@@ -1,6 +1,8 @@
 // `weft experiment energy` and `weft experiment convergence` end to end on a reduced swing
 // scene (6 x 6 vertices, 0.4 s), and the properties of the methods they measure.
 #include <gtest/gtest.h>
+
+#include "support/command.hpp"
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -36,36 +38,19 @@ const char* kReducedScene = R"({
   }
 })";
 
-struct CommandResult {
-  int status = -1;
-  std::string stderr_text;
-};
+using weft::test::CommandResult;
 
-class ExperimentCommand : public ::testing::Test {
+class ExperimentCommand : public weft::test::CommandTest {
  protected:
   void SetUp() override {
-    folder_ = fs::temp_directory_path() /
-              ("weft-experiments-" + std::to_string(getpid()) + "-" +
-               ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(folder_);
-    fs::create_directories(folder_);
+    CommandTest::SetUp();
     scene_ = folder_ / "reduced.json";
     std::ofstream(scene_) << kReducedScene;
   }
-  void TearDown() override { fs::remove_all(folder_); }
-
   CommandResult run(const std::string& arguments, const std::string& environment = "") const {
-    const fs::path err = folder_ / "stderr.txt";
-    const std::string command = environment + " '" + WEFT_EXE + "' experiment " + arguments +
-                                " > /dev/null 2> '" + err.string() + "'";
-    const int status = std::system(command.c_str());
-    std::ifstream in(err);
-    std::stringstream text;
-    text << in.rdbuf();
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
+    return weft("experiment " + arguments, environment);
   }
-
-  fs::path folder_, scene_;
+  fs::path scene_;
 };
 
 /// Rows of a CSV file with a header, as column name -> text.
@@ -104,7 +89,7 @@ TEST_F(ExperimentCommand, EnergyWritesEveryFileAndEnergiesClose) {
   const fs::path out = folder_ / "energy";
   const CommandResult r =
       run("energy -q --scene '" + scene_.string() + "' --out '" + out.string() + "' --repeats 2");
-  ASSERT_EQ(r.status, 0) << r.stderr_text;
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
   const std::vector<std::string> labels = {"backward-euler", "implicit-midpoint-damped",
                                            "bdf2",           "bdf2-alpha-damped",
                                            "rk45-damped",    "rk45"};
@@ -179,7 +164,7 @@ TEST_F(ExperimentCommand, MidpointWithFivePercentDampingDissipatesLessThanBackwa
   const fs::path out = folder_ / "energy";
   const CommandResult r =
       run("energy -q --scene '" + scene_.string() + "' --out '" + out.string() + "' --repeats 0");
-  ASSERT_EQ(r.status, 0) << r.stderr_text;
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
   const nlohmann::json results = read_json(out / "results.json");
   std::map<std::string, nlohmann::json> by_label;
   for (const auto& run : results["runs"]) by_label[run["label"].get<std::string>()] = run;
@@ -246,7 +231,7 @@ TEST_F(ExperimentCommand, ConvergenceSlopesMatchTheOrdersOfTheMethods) {
   const CommandResult r =
       run("convergence -q --scene '" + (folder_ / "drum.json").string() + "' --out '" +
           out.string() + "' --time 0.1 --dt-max 0.0025 --levels 7");
-  ASSERT_EQ(r.status, 0) << r.stderr_text;
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
   for (const char* f : {"convergence.csv", "slopes.csv", "convergence.json", "convergence.gp"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
   if (gnuplot_installed()) EXPECT_GT(fs::file_size(out / "convergence.png"), 1000u);
@@ -272,8 +257,8 @@ TEST_F(ExperimentCommand, WithoutGnuplotTheScriptStaysAndAWarningIsPrinted) {
   const CommandResult r = run("convergence -q --scene '" + scene_.string() + "' --out '" +
                                   out.string() + "' --time 0.04 --levels 2 --fit-points 2",
                               "WEFT_GNUPLOT=/nonexistent/gnuplot");
-  ASSERT_EQ(r.status, 0) << r.stderr_text;
-  EXPECT_NE(r.stderr_text.find("warning"), std::string::npos) << r.stderr_text;
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
+  EXPECT_NE(r.error_output.find("warning"), std::string::npos) << r.error_output;
   EXPECT_TRUE(fs::exists(out / "convergence.gp"));
   EXPECT_TRUE(fs::exists(out / "slopes.csv"));
   EXPECT_FALSE(fs::exists(out / "convergence.png"));
@@ -283,17 +268,17 @@ TEST_F(ExperimentCommand, BadInputExitsTwoAndWritesNothing) {
   const fs::path out = folder_ / "out";
   CommandResult r = run("energy --scene '" + (folder_ / "missing.json").string() + "' --out '" +
                         out.string() + "'");
-  EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.stderr_text.find("missing.json"), std::string::npos) << r.stderr_text;
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.error_output.find("missing.json"), std::string::npos) << r.error_output;
   r = run("energy --scene '" + scene_.string() + "' --out '" + out.string() + "' --dt -1");
-  EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.stderr_text.find("--dt"), std::string::npos) << r.stderr_text;
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.error_output.find("--dt"), std::string::npos) << r.error_output;
   r = run("convergence --scene '" + scene_.string() + "' --out '" + out.string() +
           "' --time 0.2 --dt-max 0.03");
-  EXPECT_EQ(r.status, 2) << "0.2 s is not a whole number of 30 ms steps";
+  EXPECT_EQ(r.exit_code, 2) << "0.2 s is not a whole number of 30 ms steps";
   r = run("convergence --scene '" + scene_.string() + "' --out '" + out.string() + "' --levels 1");
-  EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.stderr_text.find("--levels"), std::string::npos) << r.stderr_text;
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.error_output.find("--levels"), std::string::npos) << r.error_output;
   EXPECT_FALSE(fs::exists(out));
 }
 

@@ -1,6 +1,8 @@
 // The stability experiment (src/experiments/stability_experiment.hpp): reproducibility,
 // physical sanity of a cell, and the command's output and input checks.
 #include <gtest/gtest.h>
+
+#include "support/command.hpp"
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -99,27 +101,12 @@ TEST(StabilityExperiment, MethodListParsing) {
   }
 }
 
-class StabilityExperimentCommand : public ::testing::Test {
+class StabilityExperimentCommand : public weft::test::CommandTest {
  protected:
-  void SetUp() override {
-    folder_ = fs::temp_directory_path() / ("weft_experiment_" + std::to_string(::getpid()) + "_" +
-                                           ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(folder_);
-    fs::create_directories(folder_);
-  }
-  void TearDown() override { fs::remove_all(folder_); }
   std::pair<int, std::string> run(const std::string& arguments) {
-    const fs::path err = folder_ / "stderr.txt";
-    const std::string command = std::string("'") + WEFT_EXE + "' experiment stability " + arguments +
-                                " > /dev/null 2> '" + err.string() + "'";
-    const int status = std::system(command.c_str());
-    std::ifstream in(err);
-    std::stringstream text;
-    text << in.rdbuf();
-    fs::remove(err);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
+    const auto r = weft("experiment stability " + arguments);
+    return {r.exit_code, r.error_output};
   }
-  fs::path folder_;
 };
 
 TEST_F(StabilityExperimentCommand, ReducedGridWritesCsvAndTables) {

@@ -8,6 +8,7 @@
 
 #include "elements/membrane.hpp"
 #include "mesh/mesh.hpp"
+#include "support/membrane_fd.hpp"
 #include "system/cloth.hpp"
 #include "weft/material.hpp"
 
@@ -57,18 +58,9 @@ TEST(NonlinearMembrane, ForcesAndExactJacobiansMatchFiniteDifferencesAcrossTheCu
     // h = 1e-8 m on a 2 cm triangle the strain step is ~1e-6, far below the knot spacing,
     // while rounding contributes ~eps |f| / h ~ 1e-8 relative.
     const double h = 1e-8;
-    Eigen::Matrix<double, 9, 1> grad;
-    Eigen::Matrix<double, 9, 9> Kfd;
-    for (int k = 0; k < 9; ++k) {
-      auto xp = x, xm = x;
-      xp[k / 3][k % 3] += h;
-      xm[k / 3][k % 3] -= h;
-      MembraneResult rp, rm;
-      evaluate_membrane(g, mat, Vec3::Zero(), xp, v, false, false, rp);
-      evaluate_membrane(g, mat, Vec3::Zero(), xm, v, false, false, rm);
-      grad[k] = (rp.energy - rm.energy) / (2 * h);
-      Kfd.col(k) = (rp.force - rm.force) / (2 * h);
-    }
+    const auto fd = weft::test::membrane_finite_differences(g, mat, x, v, h);
+    const auto& grad = fd.energy_gradient;
+    const auto& Kfd = fd.force_jacobian;
     EXPECT_LT((r.force + grad).norm(), 1e-5 * r.force.norm()) << "fraction " << fraction;
     EXPECT_LT((r.stiffness - Kfd).norm(), 1e-5 * r.stiffness.norm()) << "fraction " << fraction;
     // The exact Jacobian is symmetric (a Hessian).

@@ -36,10 +36,11 @@ class CommandTest : public ::testing::Test {
   }
   void TearDown() override { std::filesystem::remove_all(folder_); }
 
-  /// Runs `weft ARGUMENTS` (arguments are passed to the shell as given).
-  CommandResult weft(const std::string& arguments) {
+  /// Runs `weft ARGUMENTS` (arguments are passed to the shell as given), with `environment`
+  /// (e.g. "PATH=/nowhere") set for the command.
+  CommandResult weft(const std::string& arguments, const std::string& environment = "") const {
     const auto err = folder_ / "stderr.txt";
-    const std::string command = std::string("'") + WEFT_EXE + "' " + arguments + " > /dev/null 2> '" + err.string() + "'";
+    const std::string command = environment + " '" + WEFT_EXE + "' " + arguments + " > /dev/null 2> '" + err.string() + "'";
     const int status = std::system(command.c_str());
     CommandResult r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_text(err)};
     std::filesystem::remove(err);
