@@ -22,10 +22,9 @@ Mat3 MembraneJacobian::block(int p, double ck, double cd) const {
   const auto& e = damping[p];
   const double a = area * (ck * w[0] + cd * e[0]), b = area * (ck * w[1] + cd * e[1]);
   const double c = area * (ck * w[2] + cd * e[2]), d = area * (ck * w[3] + cd * e[3]);
-  Mat3 out;
-  for (int col = 0; col < 3; ++col)
-    for (int row = 0; row < 3; ++row)
-      out(row, col) = a * U[row] * U[col] + b * V[row] * V[col] + c * U[row] * V[col] + d * V[row] * U[col];
+  // a UU^T + b VV^T + c UV^T + d VU^T = (a U + d V) U^T + (b V + c U) V^T
+  const Vec3 p_u = a * U + d * V, p_v = b * V + c * U;
+  Mat3 out = p_u * U.transpose() + p_v * V.transpose();
   out.diagonal().array() += area * ck * w[4];
   return out;
 }
