@@ -28,20 +28,22 @@ int main(int argc, char** argv) {
                    [](const CommandSpec& a, const CommandSpec& b) { return a.order < b.order; });
   std::map<std::string, CLI::App*> parents;
   std::function<int()> action;
-  // Group commands first (e.g. `experiment`), then their members.
+  // Top-level commands first, then groups (e.g. `experiment`) with their members.
+  auto add = [&](CLI::App& owner, const CommandSpec& s) {
+    CLI::App* sub = owner.add_subcommand(s.name, s.help);
+    auto run = s.setup(*sub);
+    sub->callback([run, &action] { action = run; });
+  };
+  for (const auto& s : specs)
+    if (s.parent.empty()) add(app, s);
   for (const auto& s : specs) {
-    if (!s.parent.empty() && !parents.count(s.parent)) {
-      auto* group = app.add_subcommand(s.parent, "Reproducible experiments (see `weft " +
-                                                     s.parent + " --help`)");
+    if (s.parent.empty()) continue;
+    if (!parents.count(s.parent)) {
+      auto* group = app.add_subcommand(s.parent, "Reproducible experiments (see `weft " + s.parent + " --help`)");
       group->require_subcommand(1);
       parents[s.parent] = group;
     }
-  }
-  for (const auto& s : specs) {
-    CLI::App* owner = s.parent.empty() ? &app : parents[s.parent];
-    CLI::App* sub = owner->add_subcommand(s.name, s.help);
-    auto run = s.setup(*sub);
-    sub->callback([run, &action] { action = run; });
+    add(*parents[s.parent], s);
   }
   try {
     app.parse(argc, argv);
