@@ -350,11 +350,14 @@ const RegisterCommand register_cantilever{CommandSpec{
       sub.add_option("--out", a->out, "Output folder")->required();
       sub.add_option("--directions", a->directions, "Comma-separated strip axes: weft, warp (default both)");
       sub.add_option("--width", a->options.width_m, "Strip width (m, default 0.025)");
-      sub.add_option("--cells-along", a->options.cells_along, "Cells along the overhang (default 40)");
-      sub.add_option("--cells-across", a->options.cells_across, "Cells across the strip (default 6)");
+      sub.add_option("--cells-along", a->options.cells_along, "Cells along the overhang (default 20)");
+      sub.add_option("--cells-across", a->options.cells_across, "Cells across the strip with --mesh grid (default 6; equilateral meshes follow the width)");
       sub.add_option("--clamp-cells", a->options.clamp_cells, "Cells held flat behind the clamp edge (default 1)");
       sub.add_option("--bending-model", a->options.bending_model, "Bending element: hinge (default) or plate")
           ->check(CLI::IsMember({"hinge", "plate"}));
+      sub.add_option("--mesh", a->options.mesh,
+                     "Strip triangulation: equilateral (default; rows follow from the width) or grid")
+          ->check(CLI::IsMember({"equilateral", "grid"}));
       sub.add_option("--sweep-points", a->options.sweep_points, "Overhangs swept for the plot (default 8)");
       return [a] { return run_cantilever(*a); };
     },

@@ -74,7 +74,7 @@ double elastica_chord_angle_deg(double ratio);
 
 struct CantileverOptions {
   double width_m = 0.025;
-  int cells_along = 40;   ///< cells along the overhang
+  int cells_along = 20;   ///< cells along the overhang
   int cells_across = 6;
   int clamp_cells = 1;    ///< cells held flat behind the clamp edge (two rows or more of pins)
   double target_angle_deg = 41.5;
@@ -82,6 +82,10 @@ struct CantileverOptions {
   double angle_tolerance_deg = 0.01;
   int load_steps = 4;     ///< gravity ramp of each equilibrium from the flat strip
   std::string bending_model = "hinge";  ///< "hinge" (METHOD.md 5) or "plate"
+  /// "equilateral": near-equilateral triangles (rows shifted by half a cell; cells_across
+  /// follows from the width), like a garment mesh; "grid": make_grid's squares split along
+  /// alternating diagonals, cells_across rows.
+  std::string mesh = "equilateral";
 };
 
 struct CantileverPoint {
