@@ -18,6 +18,7 @@ constexpr int kSceneFormatVersion = 1;
 struct GridSpec {
   double size_u = 1, size_v = 1;  ///< metres
   int vertices_u = 2, vertices_v = 2;
+  GridPattern pattern = GridPattern::kAlternatingDiagonals;
 };
 
 struct ClothSpec {

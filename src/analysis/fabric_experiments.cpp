@@ -39,27 +39,9 @@ Vec3 loading_frame_stress(const Material& m, double angle_rad, double exx, doubl
 // pattern coordinates rotated so the long axis runs at `angle_rad` from the weft.
 TriMesh make_strip(double x0, double length, double width, int cells_along, int cells_across,
                    double angle_rad, bool equilateral = false) {
-  TriMesh mesh = make_grid(length, width, cells_along + 1, cells_across + 1);
-  if (equilateral) {
-    // Odd rows shifted by half a cell, each cell split along the diagonal that makes two
-    // near-equilateral triangles (rows sqrt(3)/2 cells apart when cells_across is chosen so).
-    const int nu = cells_along + 1, nv = cells_across + 1;
-    const double h = length / cells_along;
-    for (int j = 1; j < nv; j += 2)
-      for (int i = 0; i < nu; ++i) mesh.positions(j * nu + i, 0) += 0.5 * h;
-    mesh.triangles.clear();
-    for (int j = 0; j + 1 < nv; ++j)
-      for (int i = 0; i + 1 < nu; ++i) {
-        const int a = j * nu + i, b = a + 1, c = a + nu, d = c + 1;
-        if (j % 2 == 0) {
-          mesh.triangles.push_back({a, b, c});
-          mesh.triangles.push_back({b, d, c});
-        } else {
-          mesh.triangles.push_back({a, d, c});
-          mesh.triangles.push_back({a, b, d});
-        }
-      }
-  }
+  // Shifted rows give near-equilateral triangles when cells_across is chosen for it.
+  TriMesh mesh = make_grid(length, width, cells_along + 1, cells_across + 1,
+                           equilateral ? GridPattern::kShiftedRows : GridPattern::kAlternatingDiagonals);
   const double c = std::cos(angle_rad), s = std::sin(angle_rad);
   for (int i = 0; i < mesh.num_vertices(); ++i) {
     mesh.positions(i, 0) += x0;

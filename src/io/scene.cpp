@@ -87,7 +87,7 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
   if (mesh.has("grid") == mesh.has("obj")) mesh.fail("grid", "give exactly one of 'grid' or 'obj'");
   if (mesh.has("grid")) {
     const Reader g = mesh.object("grid");
-    g.allow_only({"size", "vertices"});
+    g.allow_only({"size", "vertices", "pattern"});
     const auto& size = g.raw("size");
     const auto& verts = g.raw("vertices");
     if (!size.is_array() || size.size() != 2 || !size[0].is_number() || !size[1].is_number())
@@ -99,6 +99,16 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
       g.fail("size", "sizes must be positive and below 10 km, got " + json_util::describe(size));
     if (gs.vertices_u < 2 || gs.vertices_v < 2 || static_cast<long>(gs.vertices_u) * gs.vertices_v > 4'000'000)
       g.fail("vertices", "need at least 2 per side and at most 4 million in all, got " + json_util::describe(verts));
+    if (g.has("pattern")) {
+      const std::string pat = g.string("pattern");
+      if (pat == "alternating-diagonals") {
+        gs.pattern = GridPattern::kAlternatingDiagonals;
+      } else if (pat == "shifted-rows") {
+        gs.pattern = GridPattern::kShiftedRows;
+      } else {
+        g.fail("pattern", "unknown grid pattern '" + pat + "' (expected alternating-diagonals or shifted-rows)");
+      }
+    }
     c.grid = gs;
   } else {
     const std::string p = mesh.string("obj");
@@ -225,7 +235,8 @@ Scene load_scene(const std::string& path) {
 }
 
 TriMesh build_cloth_mesh(const ClothSpec& spec) {
-  TriMesh m = spec.grid ? make_grid(spec.grid->size_u, spec.grid->size_v, spec.grid->vertices_u, spec.grid->vertices_v)
+  TriMesh m = spec.grid ? make_grid(spec.grid->size_u, spec.grid->size_v, spec.grid->vertices_u, spec.grid->vertices_v,
+                                    spec.grid->pattern)
                         : load_obj(spec.obj_path, spec.uv_scale);
   const Vec3 r = spec.rotation_deg * (M_PI / 180.0);
   const Mat3 R = (Eigen::AngleAxisd(r.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(r.y(), Vec3::UnitY()) *

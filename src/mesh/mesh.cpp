@@ -10,20 +10,30 @@
 
 namespace weft {
 
-TriMesh make_grid(double size_u, double size_v, int nu, int nv) {
+TriMesh make_grid(double size_u, double size_v, int nu, int nv, GridPattern pattern) {
   TriMesh m;
   m.positions.resize(nu * nv, 3);
   m.pattern.resize(nu * nv);
+  const bool shifted = pattern == GridPattern::kShiftedRows;
   for (int j = 0; j < nv; ++j)
     for (int i = 0; i < nu; ++i) {
-      const double u = size_u * i / (nu - 1), v = size_v * j / (nv - 1);
+      const double u = size_u * (i + (shifted && j % 2 ? 0.5 : 0.0)) / (nu - 1), v = size_v * j / (nv - 1);
       m.positions.row(j * nu + i) = Vec3(u, v, 0).transpose();
       m.pattern[j * nu + i] = Vec2(u, v);
     }
   for (int j = 0; j + 1 < nv; ++j)
     for (int i = 0; i + 1 < nu; ++i) {
       const int a = j * nu + i, b = a + 1, c = a + nu, d = c + 1;
-      if ((i + j) % 2 == 0) {
+      if (shifted) {
+        // Split along the diagonal that joins the rows' nearest vertices.
+        if (j % 2 == 0) {
+          m.triangles.push_back({a, b, c});
+          m.triangles.push_back({b, d, c});
+        } else {
+          m.triangles.push_back({a, d, c});
+          m.triangles.push_back({a, b, d});
+        }
+      } else if ((i + j) % 2 == 0) {
         m.triangles.push_back({a, b, d});
         m.triangles.push_back({a, d, c});
       } else {

@@ -16,10 +16,18 @@ struct TriMesh {
   int num_vertices() const { return static_cast<int>(positions.rows()); }
 };
 
+/// How make_grid splits its cells into triangles.
+enum class GridPattern {
+  kAlternatingDiagonals,  ///< squares split along alternating diagonals (no preferred shear)
+  kShiftedRows,           ///< odd rows shifted by half a cell along u: with rows sqrt(3)/2 of a
+                          ///< cell apart the triangles are equilateral
+};
+
 /// A size_u by size_v rectangle in the z = 0 plane with nu by nv vertices; vertex (i, j)
-/// (i along u, j along v) has index j * nu + i. Cells are split along alternating
-/// diagonals so the mesh has no preferred shear direction.
-TriMesh make_grid(double size_u, double size_v, int nu, int nv);
+/// (i along u, j along v) has index j * nu + i (with kShiftedRows, odd rows reach half a cell
+/// beyond size_u).
+TriMesh make_grid(double size_u, double size_v, int nu, int nv,
+                  GridPattern pattern = GridPattern::kAlternatingDiagonals);
 
 /// Reads an OBJ file (tinyobjloader). Pattern coordinates come from the texture coordinates
 /// times `uv_scale` (metres per texture unit) when present, otherwise from the positions

@@ -82,6 +82,9 @@ TEST_F(RunCommand, BadScenesExitTwoWithAMessageNamingTheProblemAndWriteNothing) 
        "key integrator.dtt: unknown key"},
       {"wrong_type", scene(R"({"method": "implicit-midpoint", "dt": "fast"})"),
        "key integrator.dt: expected a number, got \"fast\" (string)"},
+      {"grid_pattern", scene(R"({"method": "implicit-midpoint", "dt": 0.01})",
+                             R"({"grid": {"size": [0.2, 0.2], "vertices": [5, 5], "pattern": "hexagonal"}})"),
+       "key cloth.mesh.grid.pattern: unknown grid pattern 'hexagonal'"},
       {"frame_interval", scene(R"({"method": "implicit-midpoint", "dt": 0.03})"),
        "frame_interval 0.02 s is not a whole number of steps of dt 0.03 s"},
   };

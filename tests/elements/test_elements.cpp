@@ -208,26 +208,7 @@ double rolled_energy_ratio(const TriMesh& mesh, double B, double k) {
 
 // An equilateral mesh: rows sqrt(3)/2 h apart, odd rows shifted by h/2.
 TriMesh equilateral_mesh(double h, int nu, int nv) {
-  TriMesh m;
-  m.positions.resize(nu * nv, 3);
-  for (int j = 0; j < nv; ++j)
-    for (int i = 0; i < nu; ++i) {
-      const Vec2 p(i * h + (j % 2 ? 0.5 * h : 0.0), j * std::sqrt(3.0) / 2 * h);
-      m.pattern.push_back(p);
-      m.positions.row(j * nu + i) = Vec3(p.x(), p.y(), 0).transpose();
-    }
-  for (int j = 0; j + 1 < nv; ++j)
-    for (int i = 0; i + 1 < nu; ++i) {
-      const int a = j * nu + i, b = a + 1, c = a + nu, d = c + 1;
-      if (j % 2 == 0) {
-        m.triangles.push_back({a, b, c});
-        m.triangles.push_back({b, d, c});
-      } else {
-        m.triangles.push_back({a, d, c});
-        m.triangles.push_back({a, b, d});
-      }
-    }
-  return m;
+  return make_grid(h * (nu - 1), std::sqrt(3.0) / 2 * h * (nv - 1), nu, nv, GridPattern::kShiftedRows);
 }
 }  // namespace
 
