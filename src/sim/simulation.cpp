@@ -1,5 +1,7 @@
 #include "weft/simulation.hpp"
 
+#include "weft/error.hpp"
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -9,9 +11,17 @@ namespace weft {
 
 Simulation::Simulation(const Scene& scene) : scene_(scene) {
   TriMesh mesh = build_cloth_mesh(scene.cloth);
-  const std::vector<int> pins = resolve_pins(scene.cloth, mesh);
-  model_ = std::make_unique<ClothModel>(build_cloth_model(std::move(mesh), scene.cloth.material, scene.gravity, pins,
-                                                          parse_bending_model(scene.cloth.bending_model, "cloth.bending_model")));
+  // Problems found while building the model (a degenerate triangle, a bad pin) name the
+  // scene and the mesh they come from.
+  const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": cloth" +
+                            (scene.cloth.obj_path.empty() ? std::string(" grid") : " mesh " + scene.cloth.obj_path);
+  try {
+    const std::vector<int> pins = resolve_pins(scene.cloth, mesh);
+    model_ = std::make_unique<ClothModel>(build_cloth_model(std::move(mesh), scene.cloth.material, scene.gravity, pins,
+                                                            parse_bending_model(scene.cloth.bending_model, "cloth.bending_model")));
+  } catch (const InputError& e) {
+    throw InputError(where + ": " + e.what());
+  }
   // RK45 steps adaptively: report its stiffness factors at the scene's (largest) step.
   DampingSettings damping{scene.effective_damping_ratio()};
   if (scene.integrator.method == Method::Rk45) damping.reference_dt = scene.integrator.dt;

@@ -97,6 +97,22 @@ TEST_F(RunCommand, BadScenesExitTwoWithAMessageNamingTheProblemAndWriteNothing) 
     EXPECT_NE(r.error_output.find(s.string()), std::string::npos) << c.name << " should name the file: " << r.error_output;
     EXPECT_FALSE(std::filesystem::exists(out)) << c.name << ": output written for bad input";
   }
+  // A degenerate (zero-area) triangle in an OBJ mesh: the error names the scene, the mesh and
+  // the triangle.
+  write("flat.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n");
+  const auto degenerate = write("degenerate.json", scene(R"({"method": "implicit-midpoint", "dt": 0.01})",
+                                                        R"({"obj": "flat.obj"})"));
+  std::string text = read_text(degenerate);
+  text.replace(text.find(R"("pins": {"grid": [[0, 0], [-1, 0]]})"), std::string(R"("pins": {"grid": [[0, 0], [-1, 0]]})").size(),
+               R"("pins": {"vertices": [0]})");
+  write("degenerate.json", text);
+  auto d = weft("run '" + degenerate.string() + "' --out '" + (folder_ / "out_degenerate").string() + "'");
+  EXPECT_EQ(d.exit_code, 2) << d.error_output;
+  EXPECT_NE(d.error_output.find("degenerate.json: cloth mesh"), std::string::npos) << d.error_output;
+  EXPECT_NE(d.error_output.find("flat.obj: triangle 1 (vertices 0, 1, 3) is degenerate"), std::string::npos)
+      << d.error_output;
+  EXPECT_FALSE(std::filesystem::exists(folder_ / "out_degenerate"));
+
   const auto r = weft("run '" + (folder_ / "absent.json").string() + "' --out '" + (folder_ / "o").string() + "'");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.error_output.find("absent.json: cannot open scene file"), std::string::npos) << r.error_output;
