@@ -1,6 +1,8 @@
 #include "damping/adaptive.hpp"
 
 #include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <cmath>
 #include <limits>
 
@@ -40,6 +42,21 @@ Vec3 membrane_required_viscosity(double area, const Vec3& tangent_moduli, const 
   return eta;
 }
 
+int LogStatistics::bin_of(double value) {
+  constexpr int kShift = 52 - kMantissaBits;
+  constexpr std::int64_t kFirst = static_cast<std::int64_t>(1023 + kMinExponent) << kMantissaBits;
+  const std::int64_t key = static_cast<std::int64_t>(std::bit_cast<std::uint64_t>(value) >> kShift) - kFirst;
+  return static_cast<int>(std::clamp<std::int64_t>(key, 0, kBins - 1));
+}
+
+double LogStatistics::bin_centre(int bin) {
+  constexpr int kShift = 52 - kMantissaBits;
+  constexpr std::uint64_t kFirst = static_cast<std::uint64_t>(1023 + kMinExponent) << kMantissaBits;
+  const double lower = std::bit_cast<double>((kFirst + bin) << kShift);
+  const double upper = std::bit_cast<double>((kFirst + bin + 1) << kShift);
+  return 0.5 * (lower + upper);
+}
+
 void LogStatistics::add(double value) {
   if (!(value > 0) || !std::isfinite(value)) return;
   if (count_ == 0) {
@@ -50,9 +67,7 @@ void LogStatistics::add(double value) {
   }
   sum_ += value;
   ++count_;
-  const double pos = (std::log10(value) - kMinDecade) * kBinsPerDecade;
-  const int bin = std::clamp(static_cast<int>(std::floor(pos)) + 1, 0, static_cast<int>(bins_.size()) - 1);
-  ++bins_[bin];
+  ++bins_[bin_of(value)];
 }
 
 void LogStatistics::merge(const LogStatistics& o) {
@@ -73,10 +88,7 @@ double LogStatistics::median() const {
   long seen = 0;
   for (size_t i = 0; i < bins_.size(); ++i) {
     seen += bins_[i];
-    if (2 * seen >= count_) {
-      const double centre = kMinDecade + (static_cast<double>(i) - 0.5) / kBinsPerDecade;
-      return std::clamp(std::pow(10.0, centre), min_, max_);
-    }
+    if (2 * seen >= count_) return std::clamp(bin_centre(static_cast<int>(i)), min_, max_);
   }
   return max_;
 }

@@ -40,12 +40,19 @@ class LogStatistics {
   double min() const { return count_ ? min_ : 0.0; }
   double max() const { return count_ ? max_ : 0.0; }
   double mean() const { return count_ ? sum_ / count_ : 0.0; }
+  /// Median to within half a bin: bins are 1/128 of an octave wide (0.8% relative).
   double median() const;
 
  private:
-  static constexpr int kBinsPerDecade = 200;
-  static constexpr int kMinDecade = -15, kMaxDecade = 15;
-  std::vector<long> bins_ = std::vector<long>((kMaxDecade - kMinDecade) * kBinsPerDecade + 2, 0);
+  // A positive double's bit pattern shifted right by 52 - kMantissaBits is monotone in the
+  // value: exponent times 2^kMantissaBits plus the leading mantissa bits. That is the bin,
+  // so adding a value costs no logarithm.
+  static constexpr int kMantissaBits = 7;
+  static constexpr int kMinExponent = -60, kMaxExponent = 60;  ///< about 1e-18 to 1e18
+  static constexpr int kBins = (kMaxExponent - kMinExponent) << kMantissaBits;
+  static int bin_of(double value);
+  static double bin_centre(int bin);
+  std::vector<long> bins_ = std::vector<long>(kBins, 0);
   long count_ = 0;
   double min_ = 0, max_ = 0, sum_ = 0;
 };

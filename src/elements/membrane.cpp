@@ -29,14 +29,19 @@ Mat3 MembraneJacobian::block(int p, double ck, double cd) const {
   return out;
 }
 
-Vec3 MembraneJacobian::stiffness_times(int p, const Vec3& w_j) const {
-  const auto& k = stiffness[p];
-  return -area * ((k[0] * U.dot(w_j) + k[2] * V.dot(w_j)) * U + (k[1] * V.dot(w_j) + k[3] * U.dot(w_j)) * V + k[4] * w_j);
-}
-
-Vec3 MembraneJacobian::stiffness_transpose_times(int p, const Vec3& w_i) const {
-  const auto& k = stiffness[p];
-  return -area * ((k[0] * U.dot(w_i) + k[3] * V.dot(w_i)) * U + (k[1] * V.dot(w_i) + k[2] * U.dot(w_i)) * V + k[4] * w_i);
+void MembraneJacobian::stiffness_times(const MembraneGeometry& g, const std::array<Vec3, 3>& w,
+                                       std::array<Vec3, 3>& out) const {
+  // dU = sum_j r_u,j w_j and dV = sum_j r_v,j w_j move the strains by
+  // (U.dU, V.dV, U.dV + V.dU); the force changes through the stresses (tangent moduli)
+  // and through U and V themselves (stress matrix).
+  const Vec3 dU = g.ru[0] * w[0] + g.ru[1] * w[1] + g.ru[2] * w[2];
+  const Vec3 dV = g.rv[0] * w[0] + g.rv[1] * w[1] + g.rv[2] * w[2];
+  const double a = U.dot(dU), b = V.dot(dV), c = U.dot(dV) + V.dot(dU);
+  const double du = tu * a + tc * b, dv = tv * b + tc * a, ds = ts * c;
+  const Vec3 gu = s00 * dU + s01 * dV, gv = s11 * dV + s01 * dU;
+  for (int i = 0; i < 3; ++i)
+    out[i] = -area * ((g.ru[i] * du + g.rv[i] * ds) * U + (g.rv[i] * dv + g.ru[i] * ds) * V + g.ru[i] * gu +
+                      g.rv[i] * gv);
 }
 
 void project_positive_2x2(double& a, double& b, double& c) {
@@ -108,6 +113,13 @@ void evaluate_membrane(const MembraneGeometry& g, const Material& m, const Vec3&
   J.U = U;
   J.V = V;
   J.area = g.area;
+  J.tu = tu;
+  J.tv = tv;
+  J.ts = ts;
+  J.tc = tc;
+  J.s00 = s00;
+  J.s11 = s11;
+  J.s01 = s01;
   for (int p = 0; p < 6; ++p) {
     const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
     const double uu = g.ru[i] * g.ru[j], vv = g.rv[i] * g.rv[j];

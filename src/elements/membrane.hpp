@@ -32,11 +32,16 @@ struct MembraneJacobian {
   double area = 0;
   std::array<std::array<double, 5>, 6> stiffness;
   std::array<std::array<double, 4>, 6> damping;
+  /// The moduli the stiffness was formed from: material tangents (weft, warp, shear, the
+  /// weft-warp coupling) and the stress matrix [[s_uu, s_uv], [s_uv, s_vv]], after the
+  /// projection that keeps the stiffness semi-definite.
+  double tu = 0, tv = 0, ts = 0, tc = 0, s00 = 0, s11 = 0, s01 = 0;
   /// -(ck d f_i/d x_j + cd d f_i/d v_j): block (i, j) of the step matrix contribution.
   Mat3 block(int p, double ck, double cd) const;
-  /// (d f_i / d x_j) w_j and (d f_j / d x_i) w_i = (d f_i / d x_j)^T w_i.
-  Vec3 stiffness_times(int p, const Vec3& w_j) const;
-  Vec3 stiffness_transpose_times(int p, const Vec3& w_i) const;
+  /// (K w)_i = sum_j (d f_i / d x_j) w_j for the triangle with geometry `g`, as the
+  /// directional derivative of the force along w (no 3x3 blocks formed).
+  void stiffness_times(const MembraneGeometry& g, const std::array<Vec3, 3>& w,
+                       std::array<Vec3, 3>& out) const;
 };
 
 struct MembraneResult {

@@ -1,7 +1,6 @@
 #include "system/cloth.hpp"
 
 #include <cmath>
-#include <functional>
 #include <string>
 
 #include "weft/error.hpp"
@@ -91,13 +90,33 @@ ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3&
     m.bending_slots.push_back(std::move(slots));
     m.bending_mass_sums.push_back(b.stiffness_mass_sum(m.inverse_mass));
   }
+  m.bending_slot_q.assign(m.pattern.num_blocks(), 0.0);
+  for (size_t e = 0; e < m.bending.size(); ++e) {
+    const auto& b = m.bending[e];
+    const Eigen::Index k = b.Q.rows();
+    for (Eigen::Index a = 0; a < k; ++a)
+      for (Eigen::Index c = 0; c < k; ++c) m.bending_slot_q[m.bending_slots[e][k * a + c]] += b.Q(a, c);
+  }
   return m;
 }
 
 ClothSystem::ClothSystem(const ClothModel& model, DampingSettings damping)
     : model_(model), damping_(damping) {
   membrane_viscosity_.assign(model.membranes.size(), Vec3::Constant(model.material.viscosity_Ns_m));
-  bending_damping_.assign(model.bending.size(), 0.0);
+  // kappa_b = dt^2 S and lambda_b = dt gamma S, so lambda >= 2 zeta sqrt(kappa) means
+  // gamma >= 2 zeta / sqrt(S): a constant per stencil (METHOD.md 4).
+  const double zeta = damping_.damping_ratio;
+  bending_damping_.resize(model.bending.size());
+  bending_slot_damping_.assign(model.pattern.num_blocks(), 0.0);
+  for (size_t e = 0; e < model.bending.size(); ++e) {
+    const double S = model.bending_mass_sums[e];
+    const double gamma = (zeta > 0 && S > 0) ? 2.0 * zeta / std::sqrt(S) : 0.0;
+    bending_damping_[e] = gamma;
+    const auto& Q = model.bending[e].Q;
+    const Eigen::Index k = Q.rows();
+    for (Eigen::Index a = 0; a < k; ++a)
+      for (Eigen::Index c = 0; c < k; ++c) bending_slot_damping_[model.bending_slots[e][k * a + c]] += gamma * Q(a, c);
+  }
 }
 
 namespace {
@@ -145,13 +164,13 @@ void ClothSystem::begin_step(const VecX& x, const VecX&, double step_dt) {
       stats_.added_viscosity.add(added);
     }
   }
-  for (size_t e = 0; e < model_.bending.size(); ++e) {
-    // kappa_b = dt^2 S and lambda_b = dt gamma S, so lambda >= 2 zeta sqrt(kappa) means
-    // gamma >= 2 zeta / sqrt(S).
-    const double S = model_.bending_mass_sums[e];
-    bending_damping_[e] = (zeta > 0 && S > 0) ? 2.0 * zeta / std::sqrt(S) : 0.0;
-    stats_.bending_kappa.add(dt * dt * S);
+  // The stencils' kappa depends on dt only: gathered once per dt, counted every step.
+  if (dt != bending_kappa_dt_) {
+    bending_kappa_step_ = LogStatistics();
+    for (double S : model_.bending_mass_sums) bending_kappa_step_.add(dt * dt * S);
+    bending_kappa_dt_ = dt;
   }
+  stats_.bending_kappa.merge(bending_kappa_step_);
 }
 
 VecX ClothSystem::added_viscosity_per_vertex() const {
@@ -171,43 +190,41 @@ VecX ClothSystem::added_viscosity_per_vertex() const {
 void ClothSystem::add_bending(const VecX& x, const VecX& v, const VecX* w, double ck, double cd, bool jacobians,
                               VecX& force, double& energy, double& viscous_power, BlockMatrix* first,
                               BlockMatrix* damping, VecX* stiffness_times_w) const {
-  // E = 1/2 sum_ij Q_ij x_i . x_j; F = -Q x - gamma Q v; K = -Q (x) I3; D = -gamma Q (x) I3.
-  for (size_t e = 0; e < model_.bending.size(); ++e) {
-    const auto& b = model_.bending[e];
-    const double gamma = bending_damping_[e];
-    const size_t k = b.vertices.size();
-    const auto& slots = model_.bending_slots[e];
-    for (size_t i = 0; i < k; ++i) {
-      Vec3 qx = Vec3::Zero(), qv = Vec3::Zero(), qw = Vec3::Zero();
-      for (size_t j = 0; j < k; ++j) {
-        const double q = b.Q(i, j);
-        qx += q * node(x, b.vertices[j]);
-        qv += q * node(v, b.vertices[j]);
-        if (w) qw += q * node(*w, b.vertices[j]);
-      }
-      const int vi = b.vertices[i];
-      energy += 0.5 * node(x, vi).dot(qx);
-      viscous_power -= gamma * node(v, vi).dot(qv);
-      node(force, vi) -= qx + gamma * qv;
-      if (stiffness_times_w) node(*stiffness_times_w, vi) -= qw;
+  // Summed over the stencils, Q and gamma Q live on the block pattern (bending_slot_q and
+  // bending_slot_damping_): E = 1/2 sum_ij Q_ij x_i . x_j; F = -Q x - gamma Q v;
+  // K = -Q (x) I3; D = -gamma Q (x) I3.
+  if (model_.bending.empty()) return;
+  const auto& rs = model_.pattern.row_start();
+  const auto& col = model_.pattern.column();
+  const double* q = model_.bending_slot_q.data();
+  const double* qd = bending_slot_damping_.data();
+  for (int i = 0; i < num_nodes(); ++i) {
+    Vec3 qx = Vec3::Zero(), qv = Vec3::Zero(), qw = Vec3::Zero();
+    for (int s = rs[i]; s < rs[i + 1]; ++s) {
+      const int j = col[s];
+      qx += q[s] * node(x, j);
+      qv += qd[s] * node(v, j);
+      if (w) qw += q[s] * node(*w, j);
       if (!jacobians) continue;
-      for (size_t j = 0; j < k; ++j) {
-        const double q = b.Q(i, j);
-        if (damping) {
-          first->block[slots[k * i + j]].diagonal().array() -= q;
-          damping->block[slots[k * i + j]].diagonal().array() -= gamma * q;
-        } else {
-          first->block[slots[k * i + j]].diagonal().array() += (ck + cd * gamma) * q;
-        }
+      if (damping) {
+        first->block[s].diagonal().array() -= q[s];
+        damping->block[s].diagonal().array() -= qd[s];
+      } else {
+        first->block[s].diagonal().array() += ck * q[s] + cd * qd[s];
       }
     }
+    energy += 0.5 * node(x, i).dot(qx);
+    viscous_power -= node(v, i).dot(qv);
+    node(force, i) -= qx + qv;
+    if (stiffness_times_w) node(*stiffness_times_w, i) -= qw;
   }
 }
 
+template <class AddJacobians>
 void ClothSystem::add_gravity_and_membranes(
     const VecX& x, const VecX& v, bool jacobians, bool expand, VecX& force, double& elastic_energy,
     double& gravity_energy, double& viscous_power,
-    const std::function<void(size_t, const MembraneResult&)>& add_jacobians) const {
+    const AddJacobians& add_jacobians) const {
   elastic_energy = gravity_energy = viscous_power = 0;
   for (int i = 0; i < num_nodes(); ++i) {
     node(force, i) += model_.mass[i] * model_.gravity;
@@ -237,6 +254,7 @@ void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, Ste
   out.stiffness_times_w = VecX::Zero(3 * n);
   if (out.matrix.pattern != &model_.pattern) out.matrix.reset(model_.pattern);
   out.matrix.set_zero();
+  std::array<Vec3, 3> we, kw;
   add_gravity_and_membranes(x, v, jacobians, false, out.force, out.elastic_energy, out.gravity_energy,
                             out.viscous_power, [&](size_t t, const MembraneResult& mr) {
     const auto& tri = model_.mesh.triangles[t];
@@ -245,12 +263,11 @@ void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, Ste
       const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
       const Mat3 b = mr.jacobian.block(p, out.ck, out.cd);
       out.matrix.block[slots[3 * i + j]] += b;
-      node(out.stiffness_times_w, tri[i]) += mr.jacobian.stiffness_times(p, node(w, tri[j]));
-      if (i != j) {
-        out.matrix.block[slots[3 * j + i]] += b.transpose();
-        node(out.stiffness_times_w, tri[j]) += mr.jacobian.stiffness_transpose_times(p, node(w, tri[i]));
-      }
+      if (i != j) out.matrix.block[slots[3 * j + i]] += b.transpose();
     }
+    for (int k = 0; k < 3; ++k) we[k] = node(w, tri[k]);
+    mr.jacobian.stiffness_times(model_.membranes[t], we, kw);
+    for (int k = 0; k < 3; ++k) node(out.stiffness_times_w, tri[k]) += kw[k];
   });
   add_bending(x, v, &w, out.ck, out.cd, jacobians, out.force, out.elastic_energy, out.viscous_power,
               jacobians ? &out.matrix : nullptr, nullptr, &out.stiffness_times_w);
@@ -271,11 +288,13 @@ double ClothSystem::viscous_power(const VecX& x, const VecX& v) {
     const Vec3 rate(U.dot(Ud), V.dot(Vd), U.dot(Vd) + V.dot(Ud));
     power -= g.area * membrane_viscosity_[t].dot(rate.cwiseAbs2());
   }
-  for (size_t e = 0; e < model_.bending.size(); ++e) {
-    const auto& b = model_.bending[e];
-    const size_t k = b.vertices.size();
-    for (size_t i = 0; i < k; ++i)
-      for (size_t j = 0; j < k; ++j) power -= bending_damping_[e] * b.Q(i, j) * node(v, b.vertices[i]).dot(node(v, b.vertices[j]));
+  if (model_.bending.empty()) return power;
+  const auto& rs = model_.pattern.row_start();
+  const auto& col = model_.pattern.column();
+  for (int i = 0; i < num_nodes(); ++i) {
+    Vec3 qv = Vec3::Zero();
+    for (int s = rs[i]; s < rs[i + 1]; ++s) qv += bending_slot_damping_[s] * node(v, col[s]);
+    power -= node(v, i).dot(qv);
   }
   return power;
 }

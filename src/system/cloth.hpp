@@ -2,7 +2,6 @@
 // A piece of cloth as a mechanical system: membrane triangles, bending stencils, gravity
 // and pinned vertices (DESIGN.md: the Model is built once and never changed by a step).
 #include <array>
-#include <functional>
 #include <string>
 #include <vector>
 
@@ -30,6 +29,9 @@ struct ClothModel {
   std::vector<std::vector<int>> bending_slots;      ///< k by k block slots per stencil
   std::vector<Vec3> membrane_mass_sums;             ///< per triangle (METHOD.md 4)
   std::vector<double> bending_mass_sums;            ///< kappa / dt^2 per stencil (METHOD.md 4)
+  /// Sum of the stencils' Q_ij per block slot (i, j): the bending stiffness is -Q (x) I3,
+  /// constant, so a step applies it as one pass over the pattern.
+  std::vector<double> bending_slot_q;
 
   int num_vertices() const { return mesh.num_vertices(); }
   /// Initial positions as a 3n vector.
@@ -96,9 +98,10 @@ class ClothSystem : public System {
  private:
   /// Sets the energies and adds gravity and the membrane forces to `force`; with `jacobians`
   /// calls `add_jacobians` per triangle with its result (9x9 blocks when `expand`).
+  template <class AddJacobians>
   void add_gravity_and_membranes(const VecX& x, const VecX& v, bool jacobians, bool expand, VecX& force,
                                  double& elastic_energy, double& gravity_energy, double& viscous_power,
-                                 const std::function<void(size_t, const MembraneResult&)>& add_jacobians) const;
+                                 const AddJacobians& add_jacobians) const;
   /// Adds the bending elements: forces, energy, viscous power and either K and D (into
   /// `first` and `damping`) or the step matrix -ck K - cd D (into `first`) and K w.
   void add_bending(const VecX& x, const VecX& v, const VecX* w, double ck, double cd, bool jacobians, VecX& force,
@@ -109,6 +112,9 @@ class ClothSystem : public System {
   DampingSettings damping_;
   std::vector<Vec3> membrane_viscosity_;
   std::vector<double> bending_damping_;
+  std::vector<double> bending_slot_damping_;  ///< sum of gamma Q_ij per block slot
+  LogStatistics bending_kappa_step_;          ///< the stencils' kappa at bending_kappa_dt_
+  double bending_kappa_dt_ = -1;
   DampingStatistics stats_;
 };
 
