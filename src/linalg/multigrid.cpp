@@ -58,6 +58,32 @@ inline void row_accumulate(const double* a, const int* col, int begin, int end, 
   }
 }
 
+// The same over the slots in descending order: a backward sweep then streams the blocks
+// from high to low addresses, which the hardware prefetchers follow (mixing ascending rows
+// with descending row order defeats them and leaves the sweep waiting on memory).
+inline void row_accumulate_descending(const double* a, const int* col, int begin, int end,
+                                      const double* x, double& y0, double& y1, double& y2) {
+  for (int s = end - 1; s >= begin; --s) {
+    const double* m = a + 9 * s;
+    const double* v = x + 3 * col[s];
+    const double v0 = v[0], v1 = v[1], v2 = v[2];
+    y0 += m[0] * v0 + m[3] * v1 + m[6] * v2;
+    y1 += m[1] * v0 + m[4] * v1 + m[7] * v2;
+    y2 += m[2] * v0 + m[5] * v1 + m[8] * v2;
+  }
+}
+
+// Gauss-Seidel rows depend on the previous row's result, so few matrix loads are in flight
+// at once and a sweep over a matrix larger than the caches waits on memory; fetching the
+// blocks `distance` bytes ahead of (or behind) the current row's hides that latency.
+constexpr long kPrefetchBytes = 6144;
+inline void prefetch_range(const double* a, int num_blocks, int begin, int end, long distance) {
+  const long bytes = 72L * num_blocks;
+  const long lo = std::max(0L, 72L * begin + distance), hi = std::min(bytes, 72L * end + distance);
+  const char* base = reinterpret_cast<const char*>(a);
+  for (long p = lo; p < hi; p += 64) __builtin_prefetch(base + p);
+}
+
 // x_i = D_i^-1 (r_i - s) for a column-major 3x3 inverse.
 inline void solve_node(const double* inv, double s0, double s1, double s2, double* xi) {
   xi[0] = inv[0] * s0 + inv[3] * s1 + inv[6] * s2;
@@ -98,6 +124,16 @@ MatX AggregationMultigrid::prolongator_dense(int level) const {
 
 void AggregationMultigrid::setup(const BlockPattern& pattern, const std::vector<char>& fixed,
                                  const MultigridSettings& settings) {
+  build(pattern, fixed, settings, nullptr);
+}
+
+void AggregationMultigrid::setup(const BlockMatrix& A, const std::vector<char>& fixed,
+                                 const MultigridSettings& settings) {
+  build(*A.pattern, fixed, settings, &A);
+}
+
+void AggregationMultigrid::build(const BlockPattern& pattern, const std::vector<char>& fixed,
+                                 const MultigridSettings& settings, const BlockMatrix* A) {
   const int n = pattern.num_nodes();
   if (static_cast<int>(fixed.size()) != n)
     throw std::invalid_argument("AggregationMultigrid::setup: fixed has the wrong size");
@@ -110,6 +146,7 @@ void AggregationMultigrid::setup(const BlockPattern& pattern, const std::vector<
   fine->n = n;
   fine->pattern = &pattern;
   fine->fixed = fixed;
+  fine->A = A;
   levels_.push_back(std::move(fine));
   while (true) {
     const int l = num_levels() - 1;
@@ -118,9 +155,11 @@ void AggregationMultigrid::setup(const BlockPattern& pattern, const std::vector<
     for (char f : cur.fixed) free_nodes += f ? 0 : 1;
     if (free_nodes <= settings_.coarsest_nodes || num_levels() >= settings_.max_levels) break;
     const int before = num_levels();
-    build_coarse(l);
+    build_coarse(l, A != nullptr);
     // Stop when aggregation no longer reduces the problem (e.g. no couplings at all).
     if (num_levels() == before) break;
+    // The coarse operator's values decide the next level's strong couplings.
+    if (A != nullptr) galerkin(l);
   }
   for (auto& lev : levels_) {
     lev->inv_diag.assign(lev->n, Mat3::Zero());
@@ -128,18 +167,47 @@ void AggregationMultigrid::setup(const BlockPattern& pattern, const std::vector<
     lev->x.setZero(3 * lev->n);
     lev->t.setZero(3 * lev->n);
   }
+  levels_[0]->A = nullptr;  // set by update
   Level& last = *levels_.back();
   last.coarsest = true;
   last.dense.setZero(3 * last.n, 3 * last.n);
   last.llt = Eigen::LLT<MatX>(3 * last.n);
 }
 
-void AggregationMultigrid::build_coarse(int l) {
+void AggregationMultigrid::build_coarse(int l, bool with_values) {
   Level& f = *levels_[l];
   const int n = f.n;
   const auto& rs = f.pattern->row_start();
   const auto& col = f.pattern->column();
   const auto& fixed = f.fixed;
+
+  // Coupling weights: with values, the Frobenius norm of strong off-diagonal blocks
+  // (|A_ij| >= theta sqrt(max_k |A_ik| max_k |A_jk|)), else 1 for every coupling.
+  // Free nodes only; 0 marks no (or a weak) coupling.
+  std::vector<double> weight(f.pattern->num_blocks(), 0.0);
+  {
+    const bool values = with_values && f.A != nullptr;
+    std::vector<double> row_max(n, 0.0);
+    if (values)
+      for (int i = 0; i < n; ++i)
+        for (int s = rs[i]; s < rs[i + 1]; ++s)
+          if (col[s] != i && !fixed[col[s]])
+            row_max[i] = std::max(row_max[i], f.A->block[s].norm());
+    const double theta = settings_.strength_threshold;
+    for (int i = 0; i < n; ++i) {
+      if (fixed[i]) continue;
+      for (int s = rs[i]; s < rs[i + 1]; ++s) {
+        const int j = col[s];
+        if (j == i || fixed[j]) continue;
+        if (!values) {
+          weight[s] = 1.0;
+          continue;
+        }
+        const double a = f.A->block[s].norm();
+        if (a > 0 && a >= theta * std::sqrt(row_max[i] * row_max[j])) weight[s] = a;
+      }
+    }
+  }
 
   // Aggregation. Phase 1: a free node whose free neighbours are all unassigned becomes the
   // root of an aggregate with them.
@@ -149,44 +217,46 @@ void AggregationMultigrid::build_coarse(int l) {
     if (fixed[i] || agg[i] >= 0) continue;
     bool clear = true;
     for (int s = rs[i]; s < rs[i + 1] && clear; ++s) {
-      const int j = col[s];
-      if (j != i && !fixed[j] && agg[j] >= 0) clear = false;
+      if (weight[s] > 0 && agg[col[s]] >= 0) clear = false;
     }
     if (!clear) continue;
+    agg[i] = nc;
     for (int s = rs[i]; s < rs[i + 1]; ++s)
-      if (!fixed[col[s]]) agg[col[s]] = nc;
+      if (weight[s] > 0) agg[col[s]] = nc;
     ++nc;
   }
-  // Phase 2: leftovers join the phase-1 aggregate they have the most couplings to.
+  // Phase 2: leftovers join the phase-1 aggregate they are most strongly coupled to.
   const std::vector<int> agg1 = agg;
-  std::vector<std::pair<int, int>> counts;  // (aggregate, couplings)
+  std::vector<std::pair<int, double>> sums;  // (aggregate, coupling weight)
   for (int i = 0; i < n; ++i) {
     if (fixed[i] || agg1[i] >= 0) continue;
-    counts.clear();
+    sums.clear();
     for (int s = rs[i]; s < rs[i + 1]; ++s) {
       const int a = agg1[col[s]];
-      if (a < 0 || fixed[col[s]]) continue;
-      auto it = std::find_if(counts.begin(), counts.end(), [&](auto& c) { return c.first == a; });
-      if (it == counts.end()) counts.emplace_back(a, 1); else ++it->second;
+      if (a < 0 || weight[s] == 0) continue;
+      auto it = std::find_if(sums.begin(), sums.end(), [&](auto& c) { return c.first == a; });
+      if (it == sums.end()) sums.emplace_back(a, weight[s]); else it->second += weight[s];
     }
-    int best = -1, best_count = 0;
-    for (auto [a, c] : counts)
-      if (c > best_count) best = a, best_count = c;
+    int best = -1;
+    double best_sum = 0;
+    for (auto [a, w] : sums)
+      if (w > best_sum) best = a, best_sum = w;
     agg[i] = best;
   }
   // Phase 3: nodes with no aggregated neighbour start aggregates of their own.
   for (int i = 0; i < n; ++i) {
     if (fixed[i] || agg[i] >= 0) continue;
+    agg[i] = nc;
     for (int s = rs[i]; s < rs[i + 1]; ++s)
-      if (!fixed[col[s]] && agg[col[s]] < 0) agg[col[s]] = nc;
+      if (weight[s] > 0 && agg[col[s]] < 0) agg[col[s]] = nc;
     ++nc;
   }
   int free_nodes = 0;
   for (char c : fixed) free_nodes += c ? 0 : 1;
   if (nc == 0 || nc >= free_nodes) return;
 
-  // Smoothed prolongator P = (I - omega D_L^-1 L) P_tent with L the graph Laplacian of the
-  // free nodes: P_iJ = (1 - omega) [agg(i) = J] + omega / deg(i) #{free neighbours j in J}.
+  // Smoothed prolongator P = (I - omega D_L^-1 L) P_tent with L the weighted graph Laplacian
+  // of the free nodes' couplings: P_iJ = (1 - omega) [agg(i) = J] + omega sum_{j in J} w_ij / sum_j w_ij.
   const double omega = settings_.prolongator_damping;
   f.p_start.assign(n + 1, 0);
   f.p_col.clear();
@@ -195,15 +265,14 @@ void AggregationMultigrid::build_coarse(int l) {
   for (int i = 0; i < n; ++i) {
     row.clear();
     if (!fixed[i]) {
-      int deg = 0;
-      for (int s = rs[i]; s < rs[i + 1]; ++s)
-        if (col[s] != i && !fixed[col[s]]) ++deg;
+      double deg = 0;
+      for (int s = rs[i]; s < rs[i + 1]; ++s) deg += weight[s];
       if (deg == 0 || omega == 0.0) {
         row.emplace_back(agg[i], 1.0);
       } else {
         row.emplace_back(agg[i], 1.0 - omega);
         for (int s = rs[i]; s < rs[i + 1]; ++s)
-          if (col[s] != i && !fixed[col[s]]) row.emplace_back(agg[col[s]], omega / deg);
+          if (weight[s] > 0) row.emplace_back(agg[col[s]], omega * weight[s] / deg);
         std::sort(row.begin(), row.end());
         size_t m = 0;
         for (size_t k = 1; k < row.size(); ++k) {
@@ -214,6 +283,10 @@ void AggregationMultigrid::build_coarse(int l) {
         // Drop exact zeros (omega = 1 and no neighbour in the own aggregate).
         row.erase(std::remove_if(row.begin(), row.end(), [](auto& e) { return e.second == 0.0; }),
                   row.end());
+        // Normalize so that the row sums to one exactly (translations are kept).
+        double sum = 0;
+        for (auto& e : row) sum += e.second;
+        for (auto& e : row) e.second /= sum;
       }
     }
     for (auto [J, w] : row) {
@@ -287,6 +360,34 @@ void AggregationMultigrid::build_coarse(int l) {
   levels_.push_back(std::move(c));
 }
 
+void AggregationMultigrid::galerkin(int l) {
+  const Level& f = *levels_[l];
+  Level& c = *levels_[l + 1];
+  const BlockMatrix& M = *f.A;
+  c.own_A.set_zero();
+  const double* a = M.block.front().data();
+  double* ac = c.own_A.block.front().data();
+  const int nb = f.pattern->num_blocks();
+  const int* gs = f.g_start.data();
+  const int* gslot = f.g_slot.data();
+  const double* gw = f.g_w.data();
+  for (int s = 0; s < nb; ++s) {
+    const double* m = a + 9 * s;
+    double b[9];
+    for (int q = 0; q < 9; ++q) b[q] = m[q];
+    for (int k = gs[s]; k < gs[s + 1]; ++k) {
+      double* o = ac + 9 * gslot[k];
+      const double w = gw[k];
+      for (int q = 0; q < 9; ++q) o[q] += w * b[q];
+    }
+  }
+  for (auto [s, m] : c.lower_mirror) c.own_A.block[s] = c.own_A.block[m].transpose();
+  for (int I = 0; I < c.n; ++I) {
+    Mat3& d = c.own_A.block[c.pattern->diagonal_slot(I)];
+    d = 0.5 * (d + d.transpose()).eval();
+  }
+}
+
 void AggregationMultigrid::update(const BlockMatrix& A) {
   if (!is_setup() || A.pattern != pattern_)
     throw std::logic_error("AggregationMultigrid::update: matrix is not on the setup's pattern");
@@ -294,31 +395,7 @@ void AggregationMultigrid::update(const BlockMatrix& A) {
   for (int l = 0; l < num_levels(); ++l) {
     Level& f = *levels_[l];
     const BlockMatrix& M = *f.A;
-    if (l + 1 < num_levels()) {
-      Level& c = *levels_[l + 1];
-      c.own_A.set_zero();
-      const double* a = M.block.front().data();
-      double* ac = c.own_A.block.front().data();
-      const int nb = f.pattern->num_blocks();
-      const int* gs = f.g_start.data();
-      const int* gslot = f.g_slot.data();
-      const double* gw = f.g_w.data();
-      for (int s = 0; s < nb; ++s) {
-        const double* m = a + 9 * s;
-        double b[9];
-        for (int q = 0; q < 9; ++q) b[q] = m[q];
-        for (int k = gs[s]; k < gs[s + 1]; ++k) {
-          double* o = ac + 9 * gslot[k];
-          const double w = gw[k];
-          for (int q = 0; q < 9; ++q) o[q] += w * b[q];
-        }
-      }
-      for (auto [s, m] : c.lower_mirror) c.own_A.block[s] = c.own_A.block[m].transpose();
-      for (int I = 0; I < c.n; ++I) {
-        Mat3& d = c.own_A.block[c.pattern->diagonal_slot(I)];
-        d = 0.5 * (d + d.transpose()).eval();
-      }
-    }
+    if (l + 1 < num_levels()) galerkin(l);
     if (!f.coarsest) {
       for (int i = 0; i < f.n; ++i)
         f.inv_diag[i] =
@@ -361,6 +438,7 @@ void AggregationMultigrid::vcycle(int l) {
   const auto& rs = f.pattern->row_start();
   const int* col = f.pattern->column().data();
   const double* a = f.A->block.front().data();
+  const int nb = f.pattern->num_blocks();
   const double* r = f.r.data();
   double* x = f.x.data();
   const char* fixed = f.fixed.data();
@@ -395,40 +473,48 @@ void AggregationMultigrid::vcycle(int l) {
       if (fixed[i]) continue;
       double y0 = 0, y1 = 0, y2 = 0;
       const int dslot = f.pattern->diagonal_slot(i);
-      row_accumulate(a, col, rs[i], dslot, x, y0, y1, y2);
-      row_accumulate(a, col, dslot + 1, rs[i + 1], x, y0, y1, y2);
+      prefetch_range(a, nb, rs[i], rs[i + 1], -kPrefetchBytes);
+      row_accumulate_descending(a, col, dslot + 1, rs[i + 1], x, y0, y1, y2);
+      row_accumulate_descending(a, col, rs[i], dslot, x, y0, y1, y2);
       solve_node(inv + 9 * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, x + 3 * i);
     }
   };
 
   // Pre-smoothing: forward Gauss-Seidel from x = 0. The first sweep needs only the strictly
-  // lower blocks (later nodes are still zero), and afterwards the residual of row i is
-  // -sum_{j > i} A_ij x_j, so sweep and residual together cost one product with A.
+  // lower blocks (later nodes are still zero), and afterwards the residual of row j is
+  // -sum_{i > j} A_ji x_i = -sum_{i > j} A_ij^T x_i (A is symmetric), which is scattered
+  // from row i's lower blocks while they are in cache: one pass over half of A.
   double* t = f.t.data();
   const int sweeps = std::max(1, settings_.smoothing_sweeps);
+  const bool fused = sweeps == 1 && !f.coarsest;
+  if (fused) f.t.setZero();
   for (int i = 0; i < n; ++i) {
     if (fixed[i]) {
       x[3 * i] = x[3 * i + 1] = x[3 * i + 2] = 0.0;
       continue;
     }
     double y0 = 0, y1 = 0, y2 = 0;
-    row_accumulate(a, col, rs[i], f.pattern->diagonal_slot(i), x, y0, y1, y2);
-    solve_node(inv + 9 * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, x + 3 * i);
+    const int dslot = f.pattern->diagonal_slot(i);
+    prefetch_range(a, nb, rs[i], rs[i + 1], kPrefetchBytes);
+    row_accumulate(a, col, rs[i], dslot, x, y0, y1, y2);
+    double* xi = x + 3 * i;
+    solve_node(inv + 9 * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, xi);
+    if (!fused) continue;
+    const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
+    for (int s = rs[i]; s < dslot; ++s) {
+      const double* m = a + 9 * s;  // A_ij, column-major; subtract A_ij^T x_i from t_j
+      double* o = t + 3 * col[s];
+      o[0] -= m[0] * v0 + m[1] * v1 + m[2] * v2;
+      o[1] -= m[3] * v0 + m[4] * v1 + m[5] * v2;
+      o[2] -= m[6] * v0 + m[7] * v1 + m[8] * v2;
+    }
   }
   if (f.coarsest) {  // no factor: symmetric Gauss-Seidel only
     for (int k = 1; k < sweeps; ++k) forward_sweep();
     for (int k = 0; k < sweeps; ++k) backward_sweep();
     return;
   }
-  if (sweeps == 1) {
-    for (int i = 0; i < n; ++i) {
-      double y0 = 0, y1 = 0, y2 = 0;
-      if (!fixed[i]) row_accumulate(a, col, f.pattern->diagonal_slot(i) + 1, rs[i + 1], x, y0, y1, y2);
-      t[3 * i] = -y0;
-      t[3 * i + 1] = -y1;
-      t[3 * i + 2] = -y2;
-    }
-  } else {
+  if (!fused) {
     for (int k = 1; k < sweeps; ++k) forward_sweep();
     for (int i = 0; i < n; ++i) {
       double y0 = 0, y1 = 0, y2 = 0;

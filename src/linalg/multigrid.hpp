@@ -35,6 +35,10 @@ struct MultigridSettings {
   /// omega in P = (I - omega D_L^-1 L) P_tent; 0 gives unsmoothed (piecewise-constant)
   /// aggregation.
   double prolongator_damping = 2.0 / 3.0;
+  /// Couplings with |A_ij|_F < theta sqrt(max_k |A_ik|_F max_k |A_jk|_F) are weak: they
+  /// neither join aggregates nor smooth the prolongator (bending couplings across hinges
+  /// are orders of magnitude weaker than membrane ones). Only used by setup from a matrix.
+  double strength_threshold = 0.1;
   /// Gauss-Seidel sweeps before and after the coarse correction on each level.
   int smoothing_sweeps = 1;
   bool operator==(const MultigridSettings&) const = default;
@@ -50,6 +54,11 @@ class AggregationMultigrid {
   /// Builds the hierarchy for matrices on `pattern` with the nodes `fixed[i] != 0` held at
   /// zero. `pattern` must outlive this object (or the next setup).
   void setup(const BlockPattern& pattern, const std::vector<char>& fixed,
+             const MultigridSettings& settings = {});
+  /// As above, but aggregates and smooths the prolongator along the strong couplings of A
+  /// (and of the coarse operators derived from it). The hierarchy stays valid for any later
+  /// matrix on the same pattern; only its quality depends on A.
+  void setup(const BlockMatrix& A, const std::vector<char>& fixed,
              const MultigridSettings& settings = {});
   /// Recomputes the coarse operators and smoother data for a matrix on the setup's pattern.
   void update(const BlockMatrix& A);
@@ -69,7 +78,10 @@ class AggregationMultigrid {
 
  private:
   struct Level;
-  void build_coarse(int level);
+  void build(const BlockPattern& pattern, const std::vector<char>& fixed,
+             const MultigridSettings& settings, const BlockMatrix* A);
+  void build_coarse(int level, bool with_values);
+  void galerkin(int level);
   void vcycle(int level);
   std::vector<std::unique_ptr<Level>> levels_;
   MultigridSettings settings_;

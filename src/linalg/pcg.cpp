@@ -17,7 +17,7 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
   const bool multigrid = settings.preconditioner == Preconditioner::kMultigrid;
   if (multigrid) {
     if (!ws.multigrid.matches(*A.pattern, fixed, settings.multigrid))
-      ws.multigrid.setup(*A.pattern, fixed, settings.multigrid);
+      ws.multigrid.setup(A, fixed, settings.multigrid);
     ws.multigrid.update(A);
   } else {
     ws.inverse_diagonal.resize(n);

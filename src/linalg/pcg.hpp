@@ -16,7 +16,7 @@ struct PcgSettings {
   double relative_tolerance = 1e-6;  ///< stop when |r| <= tol |b| (filtered)
   int max_iterations = 1000;
   Preconditioner preconditioner = Preconditioner::kBlockJacobi;
-  MultigridSettings multigrid;       ///< used by kMultigrid when the hierarchy is (re)built
+  MultigridSettings multigrid{};     ///< used by kMultigrid when the hierarchy is (re)built
 };
 
 struct PcgResult {
