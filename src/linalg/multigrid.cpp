@@ -283,7 +283,12 @@ void AggregationMultigrid::build_coarse(int l, bool with_values) {
         // Drop exact zeros (omega = 1 and no neighbour in the own aggregate).
         row.erase(std::remove_if(row.begin(), row.end(), [](auto& e) { return e.second == 0.0; }),
                   row.end());
-        // Normalize so that the row sums to one exactly (translations are kept).
+        // Drop small weights (they widen the coarse stencil for little benefit), then
+        // normalize so that the row sums to one exactly (translations are kept).
+        const double drop = settings_.prolongator_drop;
+        row.erase(std::remove_if(row.begin(), row.end(),
+                                 [&](auto& e) { return e.first != agg[i] && e.second < drop; }),
+                  row.end());
         double sum = 0;
         for (auto& e : row) sum += e.second;
         for (auto& e : row) e.second /= sum;

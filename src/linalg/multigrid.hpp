@@ -35,10 +35,13 @@ struct MultigridSettings {
   /// omega in P = (I - omega D_L^-1 L) P_tent; 0 gives unsmoothed (piecewise-constant)
   /// aggregation.
   double prolongator_damping = 2.0 / 3.0;
+  /// Prolongator weights below this (other than a node's own aggregate) are dropped and
+  /// the row renormalized, which keeps the coarse operators sparser.
+  double prolongator_drop = 0.0;
   /// Couplings with |A_ij|_F < theta sqrt(max_k |A_ik|_F max_k |A_jk|_F) are weak: they
   /// neither join aggregates nor smooth the prolongator (bending couplings across hinges
   /// are orders of magnitude weaker than membrane ones). Only used by setup from a matrix.
-  double strength_threshold = 0.1;
+  double strength_threshold = 0.25;
   /// Gauss-Seidel sweeps before and after the coarse correction on each level.
   int smoothing_sweeps = 1;
   bool operator==(const MultigridSettings&) const = default;
