@@ -171,5 +171,25 @@ TEST(Multigrid, GalerkinOperatorEqualsDenseProduct) {
   }
 }
 
+// A system with no more free nodes than MultigridSettings::coarsest_nodes is a single level
+// solved by dense Cholesky, so the preconditioner is A^-1 on the free nodes and CG converges
+// in one iteration (zero on the pinned nodes).
+TEST(Multigrid, SmallSystemIsSolvedExactly) {
+  test::ClothStepProblem p;
+  test::make_cloth_step_problem(6, 0.02, p);
+  PcgSettings s;
+  s.preconditioner = Preconditioner::kMultigrid;
+  s.relative_tolerance = 1e-10;
+  ASSERT_LE(36, s.multigrid.coarsest_nodes);
+  PcgWorkspace ws;
+  VecX x = VecX::Zero(p.rhs.size());
+  const PcgResult r = solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x, ws);
+  EXPECT_EQ(ws.multigrid.num_levels(), 1);
+  EXPECT_TRUE(r.converged);
+  EXPECT_EQ(r.iterations, 1);
+  for (size_t i = 0; i < p.fixed().size(); ++i)
+    if (p.fixed()[i]) EXPECT_EQ(x.segment<3>(3 * i).norm(), 0.0);
+}
+
 }  // namespace
 }  // namespace weft
