@@ -2,16 +2,20 @@
 // Aggregation-based algebraic multigrid preconditioner for the block-sparse step matrix
 // A = M - cd D - ck K (3x3 blocks, SPD on the free nodes).
 //
-// Setup (topology only, once per pattern and fixed set): the free nodes of the pattern's
-// node graph are grouped into aggregates (a root and its neighbours, leftovers join a
-// neighbouring aggregate); the tentative prolongator maps each aggregate's coarse node to
-// its members with identity 3x3 blocks (the three translations, which dominate the coarse
-// scales where mass outweighs stiffness). It is smoothed once with the scalar graph
-// Laplacian L of the free nodes, P = (I - omega D_L^-1 L) P_tent, so every entry of P is a
-// scalar times I3 and rows of P sum to one (translations are kept exactly). The coarse
-// pattern and a list of (fine slot -> coarse slot, scalar weight) contributions are
-// precomputed, so the per-step Galerkin product A_c = P^T A P is a weighted scatter of
-// blocks. Fixed nodes have zero rows in P and are held at zero by the smoothers.
+// Setup (once per pattern and fixed set): the free nodes are grouped into aggregates (a
+// root and its neighbours; leftovers join the neighbouring aggregate they are most strongly
+// coupled to) along the strong couplings of the first matrix (|A_ij| against the rows'
+// largest couplings, so the weak bending couplings across hinges do not merge aggregates),
+// or along every coupling of the pattern when set up from the topology alone. The tentative
+// prolongator maps each aggregate's coarse node to its members with identity 3x3 blocks
+// (the three translations, which dominate the coarse scales where mass outweighs
+// stiffness). It is smoothed once with the weighted graph Laplacian L of those couplings,
+// P = (I - omega D_L^-1 L) P_tent, so every entry of P is a scalar times I3 and each row of
+// P sums to one (translations are kept exactly). The coarse pattern and a list of (fine
+// slot -> coarse slot, scalar weight) contributions are precomputed, so the per-step
+// Galerkin product A_c = P^T A P is a weighted scatter of blocks (upper coarse blocks only;
+// the lower ones are their transposes). Fixed nodes have zero rows in P and are held at
+// zero by the smoothers.
 //
 // Update (every matrix): coarse operators, inverted diagonal blocks for the smoothers and a
 // dense Cholesky factor of the coarsest operator.
