@@ -14,15 +14,23 @@ void filter(const std::vector<char>& fixed, VecX& v) {
 PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>& fixed,
                     const PcgSettings& settings, VecX& x, PcgWorkspace& ws) {
   const int n = A.pattern->num_nodes();
-  ws.inverse_diagonal.resize(n);
-  for (int i = 0; i < n; ++i) {
-    const Mat3& d = A.block[A.pattern->diagonal_slot(i)];
-    // The diagonal blocks of an SPD matrix are SPD; fall back to the diagonal if singular.
-    const double det = d.determinant();
-    if (det > 0 && std::isfinite(det)) {
-      ws.inverse_diagonal[i] = d.inverse();
-    } else {
-      ws.inverse_diagonal[i] = d.diagonal().cwiseAbs().cwiseMax(1e-300).cwiseInverse().asDiagonal();
+  const bool multigrid = settings.preconditioner == Preconditioner::kMultigrid;
+  if (multigrid) {
+    if (!ws.multigrid.matches(*A.pattern, fixed, settings.multigrid))
+      ws.multigrid.setup(A, fixed, settings.multigrid);
+    ws.multigrid.update(A);
+  } else {
+    ws.inverse_diagonal.resize(n);
+    for (int i = 0; i < n; ++i) {
+      const Mat3& d = A.block[A.pattern->diagonal_slot(i)];
+      // The diagonal blocks of an SPD matrix are SPD; fall back to the diagonal if singular.
+      const double det = d.determinant();
+      if (det > 0 && std::isfinite(det)) {
+        ws.inverse_diagonal[i] = d.inverse();
+      } else {
+        ws.inverse_diagonal[i] =
+            d.diagonal().cwiseAbs().cwiseMax(1e-300).cwiseInverse().asDiagonal();
+      }
     }
   }
   filter(fixed, x);
@@ -42,6 +50,10 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
   const Mat3* inv = ws.inverse_diagonal.data();
   // z = P^-1 r on free nodes; returns r . z.
   auto precondition = [&](const VecX& r, VecX& z) {
+    if (multigrid) {
+      ws.multigrid.apply(r, z);  // zero on fixed nodes
+      return z.dot(r);
+    }
     double rz = 0;
     for (int i = 0; i < n; ++i) {
       if (fixed[i]) {

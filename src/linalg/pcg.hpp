@@ -3,12 +3,20 @@
 // (Baraff-Witkin style): a filtered node's unknowns are held at zero, so the system
 // restricted to the free nodes stays symmetric positive definite.
 #include "linalg/block_sparse.hpp"
+#include "linalg/multigrid.hpp"
 
 namespace weft {
+
+enum class Preconditioner {
+  kBlockJacobi,  ///< inverse 3x3 diagonal blocks
+  kMultigrid,    ///< one V-cycle of aggregation multigrid (linalg/multigrid.hpp)
+};
 
 struct PcgSettings {
   double relative_tolerance = 1e-6;  ///< stop when |r| <= tol |b| (filtered)
   int max_iterations = 1000;
+  Preconditioner preconditioner = Preconditioner::kBlockJacobi;
+  MultigridSettings multigrid{};     ///< used by kMultigrid when the hierarchy is (re)built
 };
 
 struct PcgResult {
@@ -21,10 +29,13 @@ struct PcgResult {
 struct PcgWorkspace {
   VecX r, z, p, q;
   std::vector<Mat3> inverse_diagonal;
+  /// Multigrid hierarchy; rebuilt when the pattern, node count or fixed set changes, its
+  /// operators updated every solve.
+  AggregationMultigrid multigrid;
 };
 
 /// Solves A x = b for the nodes with fixed[i] == 0; x_i = 0 on fixed nodes.
-/// `x` holds the initial guess on entry. Preconditioner: inverse 3x3 diagonal blocks.
+/// `x` holds the initial guess on entry. Preconditioner: settings.preconditioner.
 PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>& fixed,
                     const PcgSettings& settings, VecX& x, PcgWorkspace& ws);
 

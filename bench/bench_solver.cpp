@@ -1,0 +1,114 @@
+// Linear solve of one Implicit Midpoint step of the benchmark cloth (bench_step.cpp: 1 m,
+// pinned at two corners, dt = 5 ms) at 33x33, 65x65 and 129x129 vertices, with PCG and the
+// block-Jacobi or the aggregation-multigrid preconditioner, relative tolerance 1e-6, warm
+// started from the previous step's dv as the integrator does. The time per iteration is
+// one whole solve_pcg call (for multigrid including the per-matrix update).
+// Counters: CG iterations; for multigrid the setup, update and one V-cycle in milliseconds,
+// the number of levels and the nodes and blocks of each coarse level.
+//   build/weft_bench --benchmark_filter='Solve/' --benchmark_repetitions=3
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <map>
+#include <memory>
+
+#include "linalg/pcg.hpp"
+#include "weft/simulation.hpp"
+
+using namespace weft;
+
+namespace {
+
+struct Problem {
+  std::unique_ptr<Simulation> sim;
+  StepAssembly step;
+  VecX rhs, guess;
+};
+
+// The same assembly as Integrator::linear_step for alpha = 1/2 (METHOD.md 1-2).
+const Problem& problem(int n) {
+  static std::map<int, std::unique_ptr<Problem>> cache;
+  auto& slot = cache[n];
+  if (slot) return *slot;
+  slot = std::make_unique<Problem>();
+  Problem& p = *slot;
+  Scene s;
+  s.duration = 1.0;
+  s.frame_interval = 0.005;
+  s.cloth.grid = GridSpec{1.0, 1.0, n, n};
+  s.cloth.rotation_deg = Vec3(-90, 0, 0);
+  s.cloth.pin_grid_nodes = {{0, 0}, {-1, 0}};
+  s.cloth.material.surface_density_kg_m2 = 0.15;
+  s.cloth.material.weft = StressCurve::linear(100);
+  s.cloth.material.warp = StressCurve::linear(100);
+  s.cloth.material.shear = StressCurve::linear(10);
+  s.cloth.material.bending_rigidity_weft_Nm = s.cloth.material.bending_rigidity_warp_Nm = 1e-4;
+  set_method(s, "implicit-midpoint", std::nullopt, "benchmark");
+  s.integrator.dt = 0.005;
+  s.integrator.cg_tolerance = 1e-6;
+  p.sim = std::make_unique<Simulation>(s);
+  p.sim->advance_to(0.05);
+  State& st = p.sim->state();
+  System& sys = p.sim->system();
+  const double dt = s.integrator.dt, alpha = 0.5;
+  sys.begin_step(st.x, st.v, dt);
+  p.step.ck = alpha * alpha * dt * dt;
+  p.step.cd = alpha * dt;
+  const VecX w = dt * st.v;
+  sys.assemble_step(st.x, st.v, w, p.step);
+  p.rhs = dt * p.step.force + alpha * dt * p.step.stiffness_times_w;
+  for (int i = 0; i < sys.num_nodes(); ++i)
+    p.step.matrix.block[sys.pattern().diagonal_slot(i)].diagonal().array() += sys.node_mass()[i];
+  p.guess = st.dv_prev;
+  return p;
+}
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void Solve(benchmark::State& bs, Preconditioner pc) {
+  const int n = static_cast<int>(bs.range(0));
+  const Problem& p = problem(n);
+  const auto& fixed = p.sim->system().fixed();
+  PcgSettings settings;
+  settings.relative_tolerance = 1e-6;
+  settings.preconditioner = pc;
+  PcgWorkspace ws;
+  VecX x = p.guess;
+  PcgResult r = solve_pcg(p.step.matrix, p.rhs, fixed, settings, x, ws);  // warm-up, setup
+  for (auto _ : bs) {
+    x = p.guess;
+    r = solve_pcg(p.step.matrix, p.rhs, fixed, settings, x, ws);
+    benchmark::DoNotOptimize(x.data());
+  }
+  bs.counters["cg_iterations"] = r.iterations;
+  bs.counters["converged"] = r.converged;
+  if (pc == Preconditioner::kMultigrid) {
+    AggregationMultigrid mg;
+    const int reps = 5;
+    auto t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < reps; ++k) mg.setup(p.step.matrix, fixed, settings.multigrid);
+    bs.counters["setup_ms"] = ms_since(t0) / reps;
+    t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < reps; ++k) mg.update(p.step.matrix);
+    bs.counters["update_ms"] = ms_since(t0) / reps;
+    VecX z;
+    t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < reps; ++k) mg.apply(p.rhs, z);
+    bs.counters["vcycle_ms"] = ms_since(t0) / reps;
+    bs.counters["levels"] = mg.num_levels();
+    for (int l = 1; l < mg.num_levels(); ++l)
+      bs.counters["blocks_L" + std::to_string(l)] = mg.coarse_matrix(l).block.size();
+    for (int l = 1; l < mg.num_levels(); ++l)
+      bs.counters["nodes_L" + std::to_string(l)] = mg.level_nodes(l);
+  }
+  bs.SetLabel(pc == Preconditioner::kMultigrid ? "multigrid" : "block-jacobi");
+}
+
+}  // namespace
+
+BENCHMARK_CAPTURE(Solve, BlockJacobi, Preconditioner::kBlockJacobi)
+    ->Arg(33)->Arg(65)->Arg(129)->Unit(benchmark::kMillisecond)->MinTime(0.5);
+BENCHMARK_CAPTURE(Solve, Multigrid, Preconditioner::kMultigrid)
+    ->Arg(33)->Arg(65)->Arg(129)->Unit(benchmark::kMillisecond)->MinTime(0.5);

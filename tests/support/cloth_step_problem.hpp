@@ -1,0 +1,57 @@
+#pragma once
+// The linear system of one Implicit Midpoint step of the benchmark cloth (bench/bench_step.cpp):
+// 1 m x 1 m, n x n vertices, pinned at two corners, dt = 5 ms, cotton-like linear material.
+// A = M - cd D - ck K and b are assembled as the integrator does (METHOD.md 1-2).
+#include <memory>
+
+#include "weft/simulation.hpp"
+
+namespace weft::test {
+
+struct ClothStepProblem {
+  std::unique_ptr<Simulation> sim;
+  StepAssembly step;  ///< step.matrix is A
+  VecX rhs;           ///< b
+  VecX guess;         ///< the integrator's warm start (previous dv, or zero)
+  const std::vector<char>& fixed() const { return sim->system().fixed(); }
+  const BlockMatrix& matrix() const { return step.matrix; }
+};
+
+inline Scene cloth_step_scene(int n) {
+  Scene s;
+  s.duration = 1.0;
+  s.frame_interval = 0.005;
+  s.cloth.grid = GridSpec{1.0, 1.0, n, n};
+  s.cloth.rotation_deg = Vec3(-90, 0, 0);
+  s.cloth.pin_grid_nodes = {{0, 0}, {-1, 0}};
+  s.cloth.material.surface_density_kg_m2 = 0.15;
+  s.cloth.material.weft = StressCurve::linear(100);
+  s.cloth.material.warp = StressCurve::linear(100);
+  s.cloth.material.shear = StressCurve::linear(10);
+  s.cloth.material.bending_rigidity_weft_Nm = s.cloth.material.bending_rigidity_warp_Nm = 1e-4;
+  set_method(s, "implicit-midpoint", std::nullopt, "test");
+  s.integrator.dt = 0.005;
+  s.integrator.cg_tolerance = 1e-6;
+  return s;
+}
+
+/// Lets the cloth move for `settle_time` seconds, then assembles the next step's system.
+inline void make_cloth_step_problem(int n, double settle_time, ClothStepProblem& p) {
+  p.sim = std::make_unique<Simulation>(cloth_step_scene(n));
+  if (settle_time > 0) p.sim->advance_to(settle_time);
+  State& st = p.sim->state();
+  System& sys = p.sim->system();
+  const double dt = p.sim->scene().integrator.dt, alpha = 0.5;
+  sys.begin_step(st.x, st.v, dt);
+  p.step.ck = alpha * alpha * dt * dt;
+  p.step.cd = alpha * dt;
+  const VecX w = dt * st.v;
+  sys.assemble_step(st.x, st.v, w, p.step);
+  p.rhs = dt * p.step.force + alpha * dt * p.step.stiffness_times_w;
+  const VecX& m = sys.node_mass();
+  for (int i = 0; i < sys.num_nodes(); ++i)
+    p.step.matrix.block[sys.pattern().diagonal_slot(i)].diagonal().array() += m[i];
+  p.guess = st.dv_prev.size() == 3 * sys.num_nodes() ? st.dv_prev : VecX::Zero(3 * sys.num_nodes());
+}
+
+}  // namespace weft::test
