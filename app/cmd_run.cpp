@@ -15,7 +15,7 @@ namespace fs = std::filesystem;
 namespace {
 
 struct RunArgs {
-  std::string scene, out, method, frame_format = "obj";
+  std::string scene, out, method, frame_format = "obj", preconditioner;
   std::optional<double> alpha, dt, duration, tolerance, damping_ratio;
   bool no_frames = false, quiet = false;
 };
@@ -47,6 +47,7 @@ int run(const RunArgs& a) {
   if (a.duration) scene.duration = *a.duration;
   if (a.tolerance) (scene.integrator.method == Method::Rk45 ? scene.integrator.error_tolerance : scene.integrator.cg_tolerance) = *a.tolerance;
   if (a.damping_ratio) scene.damping_ratio = *a.damping_ratio;
+  if (!a.preconditioner.empty()) scene.integrator.preconditioner = *parse_preconditioner(a.preconditioner);
   validate_timing(scene, where);
   Simulation sim(scene);  // validates the mesh, material and pins before anything is written
   std::vector<std::unique_ptr<WalkingBody>> bodies;
@@ -118,6 +119,11 @@ weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write fram
     sub.add_option("--duration", a->duration, "Simulated time in seconds");
     sub.add_option("--tolerance", a->tolerance,
                    "Conjugate-gradient relative residual (semi-implicit methods) or local error tolerance (rk45)");
+    sub.add_option("--preconditioner", a->preconditioner,
+                   "Conjugate-gradient preconditioner: auto (multigrid from " +
+                       std::to_string(weft::kMultigridMinFreeNodes) + " free vertices, block-jacobi below), "
+                       "block-jacobi or multigrid (default: the scene's, else auto)")
+        ->check(CLI::IsMember({"auto", "block-jacobi", "multigrid"}));
     sub.add_option("--damping-ratio", a->damping_ratio,
                    "Adaptive damping target as a fraction of critical (0 turns it off; default 0.05 for "
                    "Implicit Midpoint and BDF-2, 0 for the others)");

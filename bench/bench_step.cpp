@@ -1,5 +1,7 @@
 // Time per step of a 1 m x 1 m cloth pinned at two corners, at 33x33, 65x65 and 129x129
-// vertices, Implicit Midpoint and backward Euler at dt = 5 ms, one thread.
+// vertices, Implicit Midpoint and backward Euler at dt = 5 ms, one thread; arguments:
+// vertices per side, conjugate-gradient tolerance 10^-t, preconditioner (0 block-Jacobi,
+// 1 multigrid).
 // Counters: CG iterations per step, assembly and solve milliseconds per step, and memory
 // (process peak resident set, and the bytes of the step's matrices and vectors).
 // Run one configuration per process for a clean peak-memory figure, e.g.
@@ -7,13 +9,15 @@
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 
+#include <cmath>
+
 #include "weft/simulation.hpp"
 
 using namespace weft;
 
 namespace {
 
-Scene bench_scene(int n, const std::string& method) {
+Scene bench_scene(int n, const std::string& method, int tolerance_exponent, int preconditioner) {
   Scene s;
   s.duration = 1.0;
   s.frame_interval = 0.005;
@@ -28,13 +32,16 @@ Scene bench_scene(int n, const std::string& method) {
   s.cloth.material.bending_rigidity_weft_Nm = s.cloth.material.bending_rigidity_warp_Nm = 1e-4;
   set_method(s, method, std::nullopt, "benchmark");
   s.integrator.dt = 0.005;
-  s.integrator.cg_tolerance = 1e-6;
+  s.integrator.cg_tolerance = std::pow(10.0, -tolerance_exponent);
+  s.integrator.preconditioner = preconditioner ? Preconditioner::kMultigrid : Preconditioner::kBlockJacobi;
   return s;
 }
 
 void Step(benchmark::State& bs, const std::string& method) {
   const int n = static_cast<int>(bs.range(0));
-  Simulation sim(bench_scene(n, method));
+  const int tolerance_exponent = static_cast<int>(bs.range(1));
+  const int preconditioner = static_cast<int>(bs.range(2));
+  Simulation sim(bench_scene(n, method, tolerance_exponent, preconditioner));
   // Let the cloth start moving so the measured steps are representative.
   sim.advance_to(0.05);
   StepStatistics stats;
@@ -49,12 +56,20 @@ void Step(benchmark::State& bs, const std::string& method) {
   const double blocks = sim.model().pattern.num_blocks();
   bs.counters["matrix_MB"] = 3 * blocks * sizeof(Mat3) / 1e6;  // K, D and the step matrix
   bs.counters["vertices"] = n * n;
-  bs.SetLabel(method);
+  bs.counters["tolerance"] = sim.scene().integrator.cg_tolerance;
+  bs.counters["multigrid"] = preconditioner;
+  bs.SetLabel(method + " " + preconditioner_name(sim.integrator().preconditioner()));
 }
 
 }  // namespace
 
 BENCHMARK_CAPTURE(Step, ImplicitMidpoint, std::string("implicit-midpoint"))
-    ->Arg(33)->Arg(65)->Arg(129)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+    ->ArgsProduct({{33, 65, 129}, {6, 4}, {0, 1}})
+    ->ArgNames({"n", "tol", "mg"})
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(1.0);
 BENCHMARK_CAPTURE(Step, BackwardEuler, std::string("backward-euler"))
-    ->Arg(33)->Arg(65)->Arg(129)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+    ->ArgsProduct({{33, 65, 129}, {6}, {0, 1}})
+    ->ArgNames({"n", "tol", "mg"})
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(1.0);

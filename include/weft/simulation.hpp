@@ -32,6 +32,7 @@ class Simulation {
   ClothSystem& system() { return *system_; }
   const ClothSystem& system() const { return *system_; }
   Integrator& integrator() { return *integrator_; }
+  const Integrator& integrator() const { return *integrator_; }
   State& state() { return state_; }
   const State& state() const { return state_; }
   const StepStatistics& statistics() const { return stats_; }

@@ -48,6 +48,25 @@ Integrator::Integrator(System& system, IntegratorSettings settings)
   const int n = system_.num_nodes();
   mass3_.resize(3 * n);
   for (int i = 0; i < n; ++i) mass3_.segment<3>(3 * i).setConstant(system_.node_mass()[i]);
+  int free_nodes = 0;
+  for (char f : system_.fixed()) free_nodes += f ? 0 : 1;
+  preconditioner_ = choose_preconditioner(settings_, free_nodes);
+}
+
+Preconditioner choose_preconditioner(const IntegratorSettings& settings, int free_nodes) {
+  if (settings.preconditioner) return *settings.preconditioner;
+  return free_nodes >= kMultigridMinFreeNodes ? Preconditioner::kMultigrid : Preconditioner::kBlockJacobi;
+}
+
+std::optional<std::optional<Preconditioner>> parse_preconditioner(const std::string& name) {
+  if (name == "auto") return std::optional<Preconditioner>();
+  if (name == "block-jacobi") return std::optional<Preconditioner>(Preconditioner::kBlockJacobi);
+  if (name == "multigrid") return std::optional<Preconditioner>(Preconditioner::kMultigrid);
+  return std::nullopt;
+}
+
+std::string preconditioner_name(Preconditioner p) {
+  return p == Preconditioner::kMultigrid ? "multigrid" : "block-jacobi";
 }
 
 void Integrator::advance(State& s, double t_end, StepStatistics& stats) {
@@ -140,7 +159,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   const auto t1 = Clock::now();
   // Warm start from the previous change in velocity.
   if (s.dv_prev.size() == 3 * n) dv_ = s.dv_prev; else dv_ = VecX::Zero(3 * n);
-  PcgSettings ps{settings_.cg_tolerance, settings_.cg_max_iterations};
+  PcgSettings ps{settings_.cg_tolerance, settings_.cg_max_iterations, preconditioner_};
   PcgResult r = solve_pcg(step_.matrix, rhs_, system_.fixed(), ps, dv_, pcg_);
   stats.cg_iterations += r.iterations;
   ++stats.cg_solves;

@@ -22,8 +22,20 @@ struct IntegratorSettings {
   double dt = 0.02;                 ///< step (s); for RK45 the largest step
   double cg_tolerance = 1e-6;       ///< relative residual of the linear solve
   int cg_max_iterations = 1000;
+  /// Preconditioner of the conjugate-gradient solve; unset: chosen by size (below).
+  std::optional<Preconditioner> preconditioner;
   double error_tolerance = 1e-6;    ///< RK45 local error tolerance (relative and absolute)
 };
+
+/// Free nodes from which the automatic choice is multigrid rather than block-Jacobi: below,
+/// block-Jacobi needs few iterations and the V-cycle's extra work does not pay
+/// (docs/performance.md).
+constexpr int kMultigridMinFreeNodes = 4000;
+/// The preconditioner `settings` selects for a system with `free_nodes` unpinned nodes.
+Preconditioner choose_preconditioner(const IntegratorSettings& settings, int free_nodes);
+/// "auto", "block-jacobi" or "multigrid"; nullopt for an unknown name.
+std::optional<std::optional<Preconditioner>> parse_preconditioner(const std::string& name);
+std::string preconditioner_name(Preconditioner p);
 
 /// Method names accepted on the command line and in scenes, and their meaning.
 struct MethodInfo {
@@ -66,6 +78,8 @@ class Integrator {
   /// One step of size dt (fixed-step methods).
   void step(State& state, double dt, StepStatistics& stats);
   const IntegratorSettings& settings() const { return settings_; }
+  /// The preconditioner the linear solves use.
+  Preconditioner preconditioner() const { return preconditioner_; }
 
  private:
   void linear_step(State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
@@ -78,6 +92,7 @@ class Integrator {
   Evaluation eval_;
   StepAssembly step_;
   PcgWorkspace pcg_;
+  Preconditioner preconditioner_ = Preconditioner::kBlockJacobi;
   VecX rhs_, dv_, tmp_, tmp2_;
   VecX mass3_;  ///< mass per coordinate
 };

@@ -174,7 +174,7 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
   if (r.has("gravity")) s.gravity = r.vec3("gravity");
 
   const Reader in = r.object("integrator");
-  in.allow_only({"method", "alpha", "dt", "tolerance", "max_iterations"});
+  in.allow_only({"method", "alpha", "dt", "tolerance", "max_iterations", "preconditioner"});
   std::optional<double> alpha;
   if (in.has("alpha")) alpha = in.number("alpha");
   set_method(s, in.string("method"), alpha, in.where("method"));
@@ -187,6 +187,12 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
     const long it = in.integer("max_iterations");
     if (it < 1 || it > 1'000'000) in.fail("max_iterations", "must be in [1, 1000000], got " + std::to_string(it));
     s.integrator.cg_max_iterations = static_cast<int>(it);
+  }
+  if (in.has("preconditioner")) {
+    const std::string name = in.string("preconditioner");
+    const auto p = parse_preconditioner(name);
+    if (!p) in.fail("preconditioner", "unknown preconditioner '" + name + "' (expected auto, block-jacobi or multigrid)");
+    s.integrator.preconditioner = *p;
   }
   if (r.has("damping")) {
     const Reader d = r.object("damping");

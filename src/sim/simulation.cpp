@@ -136,6 +136,8 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
   j["solver_iterations_mean"] = r.steps.cg_solves ? static_cast<double>(r.steps.cg_iterations) / r.steps.cg_solves : 0.0;
   j["solver_iterations_total"] = r.steps.cg_iterations;
   j["solver_failures"] = r.steps.cg_failures;
+  j["solver_tolerance"] = sc.integrator.cg_tolerance;
+  j["preconditioner"] = preconditioner_name(sim.integrator().preconditioner());
   j["status"] = r.status;
   if (r.status != "ok") {
     j["unstable_time"] = r.unstable_time;
