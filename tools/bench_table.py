@@ -27,25 +27,41 @@ def main(path):
         pass
     print(f"Machine: {cpu}, {ctx.get('num_cpus')} CPUs, {platform.system()} {platform.release()}; "
           f"run {ctx.get('date')}; one thread; medians of {rows[0].get('repetitions', '?') if rows else '?'} repetitions.\n")
-    print("| method | vertices | ms/step | CG iterations/step | assembly ms | solve ms | step matrices MB | peak RSS MB |")
-    print("|---|---|---|---|---|---|---|---|")
-    for b in rows:
-        name = b["run_name"].split("/")
-        method = name[1] if len(name) > 1 else b["run_name"]
-        unit = {"ms": 1.0, "us": 1e-3, "ns": 1e-6, "s": 1e3}[b.get("time_unit", "ns")]
-        print(f"| {method} | {int(b['vertices'])} | {b['real_time'] * unit:.3f} | {b['cg_iterations']:.1f} | "
-              f"{b['assembly_ms']:.3f} | {b['solve_ms']:.3f} | {b['matrix_MB']:.1f} | {b['peak_rss_MB']:.0f} |")
-    # Ratios Implicit Midpoint / backward Euler at equal size, from the same run.
-    by = {(b["run_name"].split("/")[1], int(b["vertices"])): b for b in rows if len(b["run_name"].split("/")) > 2}
-    sizes = sorted({v for (_, v) in by})
-    if any(("ImplicitMidpoint", v) in by and ("BackwardEuler", v) in by for v in sizes):
-        print("\n| vertices | time IM / BE | CG iterations IM / BE |")
-        print("|---|---|---|")
-        for v in sizes:
-            im, be = by.get(("ImplicitMidpoint", v)), by.get(("BackwardEuler", v))
-            if im and be:
-                print(f"| {v} | {im['real_time'] / be['real_time']:.2f} | {im['cg_iterations'] / be['cg_iterations']:.2f} |")
+    print("| method | vertices | preconditioner | CG tolerance | ms/step | CG iterations/step | assembly ms "
+          "| solve ms | step matrices MB | peak RSS MB |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
 
+    def key(b):
+        return (b["run_name"].split("/")[1], int(b["vertices"]), int(b.get("multigrid", 0)),
+                float(f"{float(b.get('tolerance', 1e-6)):.0e}"))
+
+    rows.sort(key=lambda b: (key(b)[0] != "ImplicitMidpoint", -key(b)[3], key(b)[1], key(b)[2]))
+    for b in rows:
+        method, vertices, mg, tol = key(b)
+        unit = {"ms": 1.0, "us": 1e-3, "ns": 1e-6, "s": 1e3}[b.get("time_unit", "ns")]
+        print(f"| {method} | {vertices} | {'multigrid' if mg else 'block-Jacobi'} | {tol:.0e} | "
+              f"{b['real_time'] * unit:.3f} | {b['cg_iterations']:.1f} | "
+              f"{b['assembly_ms']:.3f} | {b['solve_ms']:.3f} | {b['matrix_MB']:.1f} | {b['peak_rss_MB']:.0f} |")
+    by = {key(b): b for b in rows}
+    sizes = sorted({k[1] for k in by})
+    # Ratios from the same run: Implicit Midpoint / backward Euler, and multigrid / block-Jacobi.
+    print("\n| vertices | preconditioner | time IM / BE | CG iterations IM / BE |")
+    print("|---|---|---|---|")
+    for v in sizes:
+        for mg in (0, 1):
+            im, be = by.get(("ImplicitMidpoint", v, mg, 1e-6)), by.get(("BackwardEuler", v, mg, 1e-6))
+            if im and be:
+                print(f"| {v} | {'multigrid' if mg else 'block-Jacobi'} | {im['real_time'] / be['real_time']:.2f} | "
+                      f"{im['cg_iterations'] / be['cg_iterations']:.2f} |")
+    print("\n| vertices | method | CG tolerance | time multigrid / block-Jacobi | solve multigrid / block-Jacobi |")
+    print("|---|---|---|---|---|")
+    for method in ("ImplicitMidpoint", "BackwardEuler"):
+        for tol in (1e-6, 1e-4):
+            for v in sizes:
+                bj, mg = by.get((method, v, 0, tol)), by.get((method, v, 1, tol))
+                if bj and mg:
+                    print(f"| {v} | {method} | {tol:.0e} | {mg['real_time'] / bj['real_time']:.2f} | "
+                          f"{mg['solve_ms'] / bj['solve_ms']:.2f} |")
 
 if __name__ == "__main__":
     main(sys.argv[1])

@@ -5,15 +5,17 @@
 namespace weft {
 
 namespace {
-void filter(const std::vector<char>& fixed, VecX& v) {
-  for (size_t i = 0; i < fixed.size(); ++i)
-    if (fixed[i]) v.segment<3>(3 * i).setZero();
+void filter(const std::vector<int>& fixed_nodes, VecX& v) {
+  for (int i : fixed_nodes) v.segment<3>(3 * i).setZero();
 }
 }  // namespace
 
 PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>& fixed,
                     const PcgSettings& settings, VecX& x, PcgWorkspace& ws) {
   const int n = A.pattern->num_nodes();
+  ws.fixed_nodes.clear();
+  for (int i = 0; i < n; ++i)
+    if (fixed[i]) ws.fixed_nodes.push_back(i);
   const bool multigrid = settings.preconditioner == Preconditioner::kMultigrid;
   if (multigrid) {
     if (!ws.multigrid.matches(*A.pattern, fixed, settings.multigrid))
@@ -22,6 +24,10 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
   } else {
     ws.inverse_diagonal.resize(n);
     for (int i = 0; i < n; ++i) {
+      if (fixed[i]) {
+        ws.inverse_diagonal[i].setZero();  // keeps the preconditioned vector zero there
+        continue;
+      }
       const Mat3& d = A.block[A.pattern->diagonal_slot(i)];
       // The diagonal blocks of an SPD matrix are SPD; fall back to the diagonal if singular.
       const double det = d.determinant();
@@ -33,10 +39,10 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
       }
     }
   }
-  filter(fixed, x);
-  VecX bf = b;
-  filter(fixed, bf);
-  const double bnorm = bf.norm();
+  filter(ws.fixed_nodes, x);
+  ws.b = b;
+  filter(ws.fixed_nodes, ws.b);
+  const double bnorm = ws.b.norm();
   PcgResult result;
   if (bnorm == 0.0) {
     x.setZero();
@@ -44,8 +50,8 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
     return result;
   }
   A.multiply(x, ws.q);
-  ws.r = bf - ws.q;
-  filter(fixed, ws.r);
+  ws.r = ws.b - ws.q;
+  filter(ws.fixed_nodes, ws.r);
   ws.z.resize(3 * n);
   const Mat3* inv = ws.inverse_diagonal.data();
   // z = P^-1 r on free nodes; returns r . z.
@@ -56,10 +62,6 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
     }
     double rz = 0;
     for (int i = 0; i < n; ++i) {
-      if (fixed[i]) {
-        z.segment<3>(3 * i).setZero();
-        continue;
-      }
       const Vec3 zi = inv[i] * r.segment<3>(3 * i);
       z.segment<3>(3 * i) = zi;
       rz += zi.dot(r.segment<3>(3 * i));
@@ -74,7 +76,7 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
   const long size = 3L * n;
   while (rnorm > target && it < settings.max_iterations) {
     A.multiply(ws.p, ws.q);
-    filter(fixed, ws.q);
+    filter(ws.fixed_nodes, ws.q);
     const double pq = ws.p.dot(ws.q);
     if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown
     const double a = rz / pq;

@@ -27,8 +27,9 @@ struct PcgResult {
 
 /// Scratch vectors kept between solves so a step does not allocate.
 struct PcgWorkspace {
-  VecX r, z, p, q;
-  std::vector<Mat3> inverse_diagonal;
+  VecX r, z, p, q, b;
+  std::vector<Mat3> inverse_diagonal;  ///< zero on fixed nodes
+  std::vector<int> fixed_nodes;        ///< indices of the fixed nodes
   /// Multigrid hierarchy; rebuilt when the pattern, node count or fixed set changes, its
   /// operators updated every solve.
   AggregationMultigrid multigrid;
