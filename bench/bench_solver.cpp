@@ -13,6 +13,7 @@
 #include <memory>
 
 #include "linalg/pcg.hpp"
+#include "support/cloth_step_problem.hpp"
 #include "weft/simulation.hpp"
 
 using namespace weft;
@@ -32,20 +33,7 @@ const Problem& problem(int n) {
   if (slot) return *slot;
   slot = std::make_unique<Problem>();
   Problem& p = *slot;
-  Scene s;
-  s.duration = 1.0;
-  s.frame_interval = 0.005;
-  s.cloth.grid = GridSpec{1.0, 1.0, n, n};
-  s.cloth.rotation_deg = Vec3(-90, 0, 0);
-  s.cloth.pin_grid_nodes = {{0, 0}, {-1, 0}};
-  s.cloth.material.surface_density_kg_m2 = 0.15;
-  s.cloth.material.weft = StressCurve::linear(100);
-  s.cloth.material.warp = StressCurve::linear(100);
-  s.cloth.material.shear = StressCurve::linear(10);
-  s.cloth.material.bending_rigidity_weft_Nm = s.cloth.material.bending_rigidity_warp_Nm = 1e-4;
-  set_method(s, "implicit-midpoint", std::nullopt, "benchmark");
-  s.integrator.dt = 0.005;
-  s.integrator.cg_tolerance = 1e-6;
+  const Scene s = test::cloth_step_scene(n);
   p.sim = std::make_unique<Simulation>(s);
   p.sim->advance_to(0.05);
   State& st = p.sim->state();

@@ -11,6 +11,7 @@
 
 #include <cmath>
 
+#include "support/cloth_step_problem.hpp"
 #include "weft/simulation.hpp"
 
 using namespace weft;
@@ -18,20 +19,10 @@ using namespace weft;
 namespace {
 
 Scene bench_scene(int n, const std::string& method, int tolerance_exponent, int preconditioner) {
-  Scene s;
-  s.duration = 1.0;
-  s.frame_interval = 0.005;
-  s.cloth.grid = GridSpec{1.0, 1.0, n, n};
-  s.cloth.rotation_deg = Vec3(-90, 0, 0);
-  s.cloth.pin_grid_nodes = {{0, 0}, {-1, 0}};
-  // The default scene's cotton-like linear material (scenes/swing.json).
-  s.cloth.material.surface_density_kg_m2 = 0.15;
-  s.cloth.material.weft = StressCurve::linear(100);
-  s.cloth.material.warp = StressCurve::linear(100);
-  s.cloth.material.shear = StressCurve::linear(10);
-  s.cloth.material.bending_rigidity_weft_Nm = s.cloth.material.bending_rigidity_warp_Nm = 1e-4;
+  // The cloth of the solver tests and benchmarks (tests/support/cloth_step_problem.hpp): the
+  // default scene's cotton-like linear material.
+  Scene s = test::cloth_step_scene(n);
   set_method(s, method, std::nullopt, "benchmark");
-  s.integrator.dt = 0.005;
   s.integrator.cg_tolerance = std::pow(10.0, -tolerance_exponent);
   s.integrator.preconditioner = preconditioner ? Preconditioner::kMultigrid : Preconditioner::kBlockJacobi;
   return s;
