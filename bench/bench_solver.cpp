@@ -20,35 +20,16 @@ using namespace weft;
 
 namespace {
 
-struct Problem {
-  std::unique_ptr<Simulation> sim;
-  StepAssembly step;
-  VecX rhs, guess;
-};
-
-// The same assembly as Integrator::linear_step for alpha = 1/2 (METHOD.md 1-2).
-const Problem& problem(int n) {
-  static std::map<int, std::unique_ptr<Problem>> cache;
+// The step system the integrator solves (tests/support/cloth_step_problem.hpp), after the
+// cloth has moved for 0.05 s; built once per size.
+const test::ClothStepProblem& problem(int n) {
+  static std::map<int, std::unique_ptr<test::ClothStepProblem>> cache;
   auto& slot = cache[n];
-  if (slot) return *slot;
-  slot = std::make_unique<Problem>();
-  Problem& p = *slot;
-  const Scene s = test::cloth_step_scene(n);
-  p.sim = std::make_unique<Simulation>(s);
-  p.sim->advance_to(0.05);
-  State& st = p.sim->state();
-  System& sys = p.sim->system();
-  const double dt = s.integrator.dt, alpha = 0.5;
-  sys.begin_step(st.x, st.v, dt);
-  p.step.ck = alpha * alpha * dt * dt;
-  p.step.cd = alpha * dt;
-  const VecX w = dt * st.v;
-  sys.assemble_step(st.x, st.v, w, p.step);
-  p.rhs = dt * p.step.force + alpha * dt * p.step.stiffness_times_w;
-  for (int i = 0; i < sys.num_nodes(); ++i)
-    p.step.matrix.block[sys.pattern().diagonal_slot(i)].diagonal().array() += sys.node_mass()[i];
-  p.guess = st.dv_prev;
-  return p;
+  if (!slot) {
+    slot = std::make_unique<test::ClothStepProblem>();
+    test::make_cloth_step_problem(n, 0.05, *slot);
+  }
+  return *slot;
 }
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
@@ -57,7 +38,7 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 
 void Solve(benchmark::State& bs, Preconditioner pc) {
   const int n = static_cast<int>(bs.range(0));
-  const Problem& p = problem(n);
+  const test::ClothStepProblem& p = problem(n);
   const auto& fixed = p.sim->system().fixed();
   PcgSettings settings;
   settings.relative_tolerance = 1e-6;

@@ -45,16 +45,19 @@ AggregationMultigrid& AggregationMultigrid::operator=(AggregationMultigrid&&) no
 
 namespace {
 
+// y += m v for one column-major 3x3 block m.
+inline void add_block_times(const double* m, const double* v, double& y0, double& y1, double& y2) {
+  const double v0 = v[0], v1 = v[1], v2 = v[2];
+  y0 += m[0] * v0 + m[3] * v1 + m[6] * v2;
+  y1 += m[1] * v0 + m[4] * v1 + m[7] * v2;
+  y2 += m[2] * v0 + m[5] * v1 + m[8] * v2;
+}
+
 // Sum over the slots [begin, end) of row blocks times x's nodes.
 inline void row_accumulate(const double* a, const int* col, int begin, int end, const double* x,
                            double& y0, double& y1, double& y2) {
   for (int s = begin; s < end; ++s) {
-    const double* m = a + 9 * s;
-    const double* v = x + 3 * col[s];
-    const double v0 = v[0], v1 = v[1], v2 = v[2];
-    y0 += m[0] * v0 + m[3] * v1 + m[6] * v2;
-    y1 += m[1] * v0 + m[4] * v1 + m[7] * v2;
-    y2 += m[2] * v0 + m[5] * v1 + m[8] * v2;
+    add_block_times(a + 9 * s, x + 3 * col[s], y0, y1, y2);
   }
 }
 
@@ -64,12 +67,7 @@ inline void row_accumulate(const double* a, const int* col, int begin, int end, 
 inline void row_accumulate_descending(const double* a, const int* col, int begin, int end,
                                       const double* x, double& y0, double& y1, double& y2) {
   for (int s = end - 1; s >= begin; --s) {
-    const double* m = a + 9 * s;
-    const double* v = x + 3 * col[s];
-    const double v0 = v[0], v1 = v[1], v2 = v[2];
-    y0 += m[0] * v0 + m[3] * v1 + m[6] * v2;
-    y1 += m[1] * v0 + m[4] * v1 + m[7] * v2;
-    y2 += m[2] * v0 + m[5] * v1 + m[8] * v2;
+    add_block_times(a + 9 * s, x + 3 * col[s], y0, y1, y2);
   }
 }
 
