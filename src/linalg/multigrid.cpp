@@ -16,6 +16,14 @@ struct AggregationMultigrid::Level {
   std::vector<char> fixed;                    ///< n entries; only level 0 has fixed nodes
   std::vector<Mat3> inv_diag;                 ///< smoother: inverse diagonal blocks (0 if fixed)
 
+  // The smoother's copy of the matrix: the strictly lower blocks between free nodes, by rows
+  // (row i holds columns lo_col[k] < i, k in [lo_start[i], lo_start[i+1])), taken from the
+  // slots lo_slot[k], and the inverse diagonal blocks (symmetrized; zero on fixed nodes).
+  // One sweep over it reads half the matrix, contiguously.
+  std::vector<int> lo_start, lo_col, lo_slot;
+  std::vector<double> lo_val;    ///< 9 per block, column-major
+  std::vector<double> dinv_val;  ///< 9 per node, column-major
+
   // Prolongator to the next level, stored by rows of this level: row i holds next-level
   // nodes p_col[k] with weights p_w[k] (times I3), k in [p_start[i], p_start[i+1]).
   std::vector<int> p_start, p_col;
@@ -89,6 +97,62 @@ inline void solve_node(const double* inv, double s0, double s1, double s2, doubl
   xi[2] = inv[2] * s0 + inv[5] * s1 + inv[8] * s2;
 }
 
+// Gauss-Seidel sweeps on the compact lower copy of a level (Level::lo_*): blocks are 9
+// column-major doubles.
+struct LowerRows {
+  int n;
+  const char* fixed;
+  const int* start;
+  const int* col;
+  const double* val;   ///< 9 per block
+  const double* dinv;  ///< 9 per node
+};
+
+// Forward sweep from x = 0; t receives -(strictly upper part of A) x, so that r - A x = t.
+void forward_lower_sweep(const LowerRows& L, const double* r, double* x, double* t) {
+  for (int i = 0; i < L.n; ++i) {
+    double* xi = x + 3 * i;
+    if (L.fixed[i]) {
+      xi[0] = xi[1] = xi[2] = 0.0;
+      continue;
+    }
+    const int b = L.start[i], e = L.start[i + 1];
+    double y0 = 0, y1 = 0, y2 = 0;
+    for (int k = b; k < e; ++k) add_block_times(L.val + 9L * k, x + 3 * L.col[k], y0, y1, y2);
+    solve_node(L.dinv + 9L * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, xi);
+    const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
+    for (int k = b; k < e; ++k) {
+      const double* m = L.val + 9L * k;
+      double* o = t + 3 * L.col[k];
+      o[0] -= m[0] * v0 + m[1] * v1 + m[2] * v2;
+      o[1] -= m[3] * v0 + m[4] * v1 + m[5] * v2;
+      o[2] -= m[6] * v0 + m[7] * v1 + m[8] * v2;
+    }
+  }
+}
+
+// Backward sweep from the current x; `acc` (zero on entry) collects the upper parts
+// sum_{j > i} A_ji^T x_j from the rows already swept.
+void backward_lower_sweep(const LowerRows& L, const double* r, double* x, double* acc) {
+  for (int i = L.n - 1; i >= 0; --i) {
+    if (L.fixed[i]) continue;
+    const int b = L.start[i], e = L.start[i + 1];
+    double* xi = x + 3 * i;
+    const double* ai = acc + 3 * i;
+    double y0 = ai[0], y1 = ai[1], y2 = ai[2];
+    for (int k = e - 1; k >= b; --k) add_block_times(L.val + 9L * k, x + 3 * L.col[k], y0, y1, y2);
+    solve_node(L.dinv + 9L * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, xi);
+    const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
+    for (int k = e - 1; k >= b; --k) {
+      const double* m = L.val + 9L * k;
+      double* o = acc + 3 * L.col[k];
+      o[0] += m[0] * v0 + m[1] * v1 + m[2] * v2;
+      o[1] += m[3] * v0 + m[4] * v1 + m[5] * v2;
+      o[2] += m[6] * v0 + m[7] * v1 + m[8] * v2;
+    }
+  }
+}
+
 Mat3 invert_spd_block(const Mat3& d) {
   const double det = d.determinant();
   if (det > 0 && std::isfinite(det)) return d.inverse();
@@ -160,6 +224,23 @@ void AggregationMultigrid::build(const BlockPattern& pattern, const std::vector<
     if (A != nullptr) galerkin(l);
   }
   for (auto& lev : levels_) {
+    // The compact lower copy for the smoother (all levels but the coarsest).
+    const auto& rs = lev->pattern->row_start();
+    const auto& col = lev->pattern->column();
+    lev->lo_start.assign(lev->n + 1, 0);
+    lev->lo_col.clear();
+    lev->lo_slot.clear();
+    for (int i = 0; i < lev->n; ++i) {
+      if (!lev->fixed[i])
+        for (int s = rs[i]; s < rs[i + 1] && col[s] < i; ++s)
+          if (!lev->fixed[col[s]]) {
+            lev->lo_col.push_back(col[s]);
+            lev->lo_slot.push_back(s);
+          }
+      lev->lo_start[i + 1] = static_cast<int>(lev->lo_col.size());
+    }
+    lev->lo_val.assign(9 * lev->lo_col.size(), 0.0);
+    lev->dinv_val.assign(9 * lev->n, 0.0);
     lev->inv_diag.assign(lev->n, Mat3::Zero());
     lev->r.setZero(3 * lev->n);
     lev->x.setZero(3 * lev->n);
@@ -403,6 +484,19 @@ void AggregationMultigrid::update(const BlockMatrix& A) {
       for (int i = 0; i < f.n; ++i)
         f.inv_diag[i] =
             f.fixed[i] ? Mat3::Zero() : invert_spd_block(M.block[f.pattern->diagonal_slot(i)]);
+      // The smoother's compact copy. The inverse diagonal is symmetrized so
+      // that the forward and backward sweeps stay exact adjoints of each other.
+      double* dv = f.dinv_val.data();
+      for (int i = 0; i < f.n; ++i) {
+        const Mat3 d = 0.5 * (f.inv_diag[i] + f.inv_diag[i].transpose());
+        for (int q = 0; q < 9; ++q) dv[9 * i + q] = static_cast<double>(d.data()[q]);
+      }
+      const double* a = M.block.front().data();
+      double* lv = f.lo_val.data();
+      const int* slot = f.lo_slot.data();
+      const size_t nl = f.lo_slot.size();
+      for (size_t k = 0; k < nl; ++k)
+        for (int q = 0; q < 9; ++q) lv[9 * k + q] = static_cast<double>(a[9L * slot[k] + q]);
     } else {
       // Dense Cholesky of the coarsest operator; fixed rows and columns become identity.
       f.dense.setZero();
@@ -486,30 +580,26 @@ void AggregationMultigrid::vcycle(int l) {
   // Pre-smoothing: forward Gauss-Seidel from x = 0. The first sweep needs only the strictly
   // lower blocks (later nodes are still zero), and afterwards the residual of row j is
   // -sum_{i > j} A_ji x_i = -sum_{i > j} A_ij^T x_i (A is symmetric), which is scattered
-  // from row i's lower blocks while they are in cache: one pass over half of A.
+  // from row i's lower blocks while they are in cache: one pass over half of A. With one
+  // sweep this runs on the compact lower copy.
   double* t = f.t.data();
   const int sweeps = std::max(1, settings_.smoothing_sweeps);
   const bool fused = sweeps == 1 && !f.coarsest;
-  if (fused) f.t.setZero();
-  for (int i = 0; i < n; ++i) {
-    if (fixed[i]) {
-      x[3 * i] = x[3 * i + 1] = x[3 * i + 2] = 0.0;
-      continue;
-    }
-    double y0 = 0, y1 = 0, y2 = 0;
-    const int dslot = f.pattern->diagonal_slot(i);
-    prefetch_range(a, nb, rs[i], rs[i + 1], kPrefetchBytes);
-    row_accumulate(a, col, rs[i], dslot, x, y0, y1, y2);
-    double* xi = x + 3 * i;
-    solve_node(inv + 9 * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, xi);
-    if (!fused) continue;
-    const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
-    for (int s = rs[i]; s < dslot; ++s) {
-      const double* m = a + 9 * s;  // A_ij, column-major; subtract A_ij^T x_i from t_j
-      double* o = t + 3 * col[s];
-      o[0] -= m[0] * v0 + m[1] * v1 + m[2] * v2;
-      o[1] -= m[3] * v0 + m[4] * v1 + m[5] * v2;
-      o[2] -= m[6] * v0 + m[7] * v1 + m[8] * v2;
+  const LowerRows lower{n, fixed, f.lo_start.data(), f.lo_col.data(), f.lo_val.data(), f.dinv_val.data()};
+  if (fused) {
+    f.t.setZero();
+    forward_lower_sweep(lower, r, x, t);
+  } else {
+    for (int i = 0; i < n; ++i) {
+      if (fixed[i]) {
+        x[3 * i] = x[3 * i + 1] = x[3 * i + 2] = 0.0;
+        continue;
+      }
+      double y0 = 0, y1 = 0, y2 = 0;
+      const int dslot = f.pattern->diagonal_slot(i);
+      prefetch_range(a, nb, rs[i], rs[i + 1], kPrefetchBytes);
+      row_accumulate(a, col, rs[i], dslot, x, y0, y1, y2);
+      solve_node(inv + 9 * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, x + 3 * i);
     }
   }
   if (f.coarsest) {  // no factor: symmetric Gauss-Seidel only
@@ -559,8 +649,16 @@ void AggregationMultigrid::vcycle(int l) {
     x[3 * i + 1] += y1;
     x[3 * i + 2] += y2;
   }
-  // Post-smoothing: backward Gauss-Seidel, the adjoint of the pre-smoother.
-  for (int k = 0; k < sweeps; ++k) backward_sweep();
+  // Post-smoothing: backward Gauss-Seidel, the adjoint of the pre-smoother. On the lower
+  // copy, row i's upper part sum_{j > i} A_ij x_j = sum_{j > i} A_ji^T x_j is scattered into
+  // t from the rows j already swept (descending), and its lower part gathered from the
+  // nodes not swept yet.
+  if (!fused) {
+    for (int k = 0; k < sweeps; ++k) backward_sweep();
+    return;
+  }
+  f.t.setZero();
+  backward_lower_sweep(lower, r, x, t);
 }
 
 }  // namespace weft

@@ -17,7 +17,9 @@
 // the lower ones are their transposes). Fixed nodes have zero rows in P and are held at
 // zero by the smoothers.
 //
-// Update (every matrix): coarse operators, inverted diagonal blocks for the smoothers and a
+// Update (every matrix): coarse operators, inverted diagonal blocks for the smoothers, a
+// compact copy of each level's strictly lower blocks between free nodes (the sweeps read
+// only that half of the symmetric matrix, contiguously, and scatter its transposes) and a
 // dense Cholesky factor of the coarsest operator.
 //
 // Apply: one V-cycle with forward block Gauss-Seidel pre-smoothing and backward block
