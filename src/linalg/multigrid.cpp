@@ -23,6 +23,7 @@ struct AggregationMultigrid::Level {
   std::vector<int> lo_start, lo_col, lo_slot;
   std::vector<double> lo_val;    ///< 9 per block, column-major
   std::vector<double> dinv_val;  ///< 9 per node, column-major
+  std::vector<double> diag_val;  ///< level 0: the diagonal blocks, 9 per node (0 if fixed)
 
   // Prolongator to the next level, stored by rows of this level: row i holds next-level
   // nodes p_col[k] with weights p_w[k] (times I3), k in [p_start[i], p_start[i+1]).
@@ -224,7 +225,8 @@ void AggregationMultigrid::build(const BlockPattern& pattern, const std::vector<
     if (A != nullptr) galerkin(l);
   }
   for (auto& lev : levels_) {
-    // The compact lower copy for the smoother (all levels but the coarsest).
+    // The compact lower copy for the smoother (all levels but the coarsest) and, on level 0,
+    // for CG's products.
     const auto& rs = lev->pattern->row_start();
     const auto& col = lev->pattern->column();
     lev->lo_start.assign(lev->n + 1, 0);
@@ -241,6 +243,7 @@ void AggregationMultigrid::build(const BlockPattern& pattern, const std::vector<
     }
     lev->lo_val.assign(9 * lev->lo_col.size(), 0.0);
     lev->dinv_val.assign(9 * lev->n, 0.0);
+    if (lev.get() == levels_.front().get()) lev->diag_val.assign(9 * lev->n, 0.0);
     lev->inv_diag.assign(lev->n, Mat3::Zero());
     lev->r.setZero(3 * lev->n);
     lev->x.setZero(3 * lev->n);
@@ -480,23 +483,26 @@ void AggregationMultigrid::update(const BlockMatrix& A) {
     Level& f = *levels_[l];
     const BlockMatrix& M = *f.A;
     if (l + 1 < num_levels()) galerkin(l);
-    if (!f.coarsest) {
-      for (int i = 0; i < f.n; ++i)
-        f.inv_diag[i] =
-            f.fixed[i] ? Mat3::Zero() : invert_spd_block(M.block[f.pattern->diagonal_slot(i)]);
-      // The smoother's compact copy. The inverse diagonal is symmetrized so
-      // that the forward and backward sweeps stay exact adjoints of each other.
-      double* dv = f.dinv_val.data();
-      for (int i = 0; i < f.n; ++i) {
-        const Mat3 d = 0.5 * (f.inv_diag[i] + f.inv_diag[i].transpose());
-        for (int q = 0; q < 9; ++q) dv[9 * i + q] = static_cast<double>(d.data()[q]);
-      }
+    if (l == 0 || !f.coarsest) {
+      // The compact lower copy (the smoother's, and level 0's product for CG).
       const double* a = M.block.front().data();
       double* lv = f.lo_val.data();
       const int* slot = f.lo_slot.data();
       const size_t nl = f.lo_slot.size();
-      for (size_t k = 0; k < nl; ++k)
-        for (int q = 0; q < 9; ++q) lv[9 * k + q] = static_cast<double>(a[9L * slot[k] + q]);
+      for (size_t k = 0; k < nl; ++k) std::copy_n(a + 9L * slot[k], 9, lv + 9 * k);
+    }
+    if (l == 0)
+      for (int i = 0; i < f.n; ++i)
+        if (!f.fixed[i]) std::copy_n(M.block[f.pattern->diagonal_slot(i)].data(), 9, f.diag_val.data() + 9L * i);
+    if (!f.coarsest) {
+      // The smoother's inverse diagonal, symmetrized so that the forward and backward sweeps
+      // stay exact adjoints of each other.
+      double* dv = f.dinv_val.data();
+      for (int i = 0; i < f.n; ++i) {
+        f.inv_diag[i] = f.fixed[i] ? Mat3::Zero() : invert_spd_block(M.block[f.pattern->diagonal_slot(i)]);
+        const Mat3 d = 0.5 * (f.inv_diag[i] + f.inv_diag[i].transpose());
+        std::copy_n(d.data(), 9, dv + 9L * i);
+      }
     } else {
       // Dense Cholesky of the coarsest operator; fixed rows and columns become identity.
       f.dense.setZero();
@@ -519,6 +525,37 @@ void AggregationMultigrid::update(const BlockMatrix& A) {
           f.inv_diag[i] = f.fixed[i] ? Mat3::Zero()
                                      : invert_spd_block(M.block[f.pattern->diagonal_slot(i)]);
     }
+  }
+}
+
+void AggregationMultigrid::multiply_free(const VecX& x, VecX& y) const {
+  const Level& f = *levels_[0];
+  const int n = f.n;
+  y.setZero(3 * n);
+  const double* xp = x.data();
+  double* yp = y.data();
+  const int* ls = f.lo_start.data();
+  const int* lc = f.lo_col.data();
+  const double* lv = f.lo_val.data();
+  const double* dg = f.diag_val.data();
+  for (int i = 0; i < n; ++i) {
+    if (f.fixed[i]) continue;
+    const double* xi = xp + 3 * i;
+    const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
+    double* yi = yp + 3 * i;
+    double y0 = yi[0], y1 = yi[1], y2 = yi[2];
+    add_block_times(dg + 9L * i, xi, y0, y1, y2);
+    for (int k = ls[i]; k < ls[i + 1]; ++k) {
+      const double* m = lv + 9L * k;
+      add_block_times(m, xp + 3 * lc[k], y0, y1, y2);
+      double* o = yp + 3 * lc[k];
+      o[0] += m[0] * v0 + m[1] * v1 + m[2] * v2;
+      o[1] += m[3] * v0 + m[4] * v1 + m[5] * v2;
+      o[2] += m[6] * v0 + m[7] * v1 + m[8] * v2;
+    }
+    yi[0] = y0;
+    yi[1] = y1;
+    yi[2] = y2;
   }
 }
 

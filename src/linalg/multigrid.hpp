@@ -74,6 +74,10 @@ class AggregationMultigrid {
   /// z = B r, one V-cycle; z is zero on fixed nodes. Uses only r's free entries.
   void apply(const VecX& r, VecX& z);
 
+  /// y = A x on the free nodes (zero on fixed nodes) for the last updated A, from the
+  /// smoother's compact lower copy: half the matrix's bytes of A.multiply.
+  void multiply_free(const VecX& x, VecX& y) const;
+
   bool is_setup() const { return !levels_.empty(); }
   /// Whether setup was done for this pattern (by address and size), fixed set and settings.
   bool matches(const BlockPattern& pattern, const std::vector<char>& fixed,

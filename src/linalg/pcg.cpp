@@ -75,8 +75,12 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
   int it = 0;
   const long size = 3L * n;
   while (rnorm > target && it < settings.max_iterations) {
-    A.multiply(ws.p, ws.q);
-    filter(ws.fixed_nodes, ws.q);
+    if (multigrid) {
+      ws.multigrid.multiply_free(ws.p, ws.q);  // half the bytes: the V-cycle's lower copy
+    } else {
+      A.multiply(ws.p, ws.q);
+      filter(ws.fixed_nodes, ws.q);
+    }
     const double pq = ws.p.dot(ws.q);
     if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown
     const double a = rz / pq;

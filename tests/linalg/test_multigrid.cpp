@@ -171,6 +171,33 @@ TEST(Multigrid, GalerkinOperatorEqualsDenseProduct) {
   }
 }
 
+// CG multiplies by A through the multigrid's compact lower copy when multigrid is the
+// preconditioner: it must equal the full product with the pinned rows and columns removed.
+TEST(Multigrid, CompactProductEqualsFilteredFullProduct) {
+  test::ClothStepProblem p;
+  test::make_cloth_step_problem(17, 0.02, p);
+  std::vector<char> fixed = p.fixed();
+  fixed[100] = 1;  // an interior pin as well
+  AggregationMultigrid mg;
+  mg.setup(p.matrix(), fixed);
+  mg.update(p.matrix());
+  std::mt19937 rng(3);
+  const VecX x = random_free_vector(fixed, rng);
+  VecX expected, got;
+  p.matrix().multiply(x, expected);
+  for (size_t i = 0; i < fixed.size(); ++i)
+    if (fixed[i]) expected.segment<3>(3 * i).setZero();
+  mg.multiply_free(x, got);
+  ASSERT_EQ(got.size(), expected.size());
+  EXPECT_LE((got - expected).norm(), 1e-13 * expected.norm());
+  // A full product of an unfiltered x differs: pinned columns are left out, as in CG.
+  VecX y = x;
+  for (size_t i = 0; i < fixed.size(); ++i)
+    if (fixed[i]) y.segment<3>(3 * i).setOnes();
+  mg.multiply_free(y, got);
+  EXPECT_LE((got - expected).norm(), 1e-13 * expected.norm());
+}
+
 // A system with no more free nodes than MultigridSettings::coarsest_nodes is a single level
 // solved by dense Cholesky, so the preconditioner is A^-1 on the free nodes and CG converges
 // in one iteration (zero on the pinned nodes).
