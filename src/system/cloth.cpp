@@ -399,11 +399,15 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
     const double r2 = U[0] * Vd[0] + U[1] * Vd[1] + U[2] * Vd[2] + V[0] * Ud[0] + V[1] * Ud[1] + V[2] * Ud[2];
     const double sv0 = eu * r0, sv1 = ev * r1, sv2 = es * r2;
     power -= A * (sv0 * r0 + sv1 * r1 + sv2 * r2);
-    const double fu = suu + sv0, fv = svv + sv1, fs = suv + sv2;
-    for (int i = 0; i < 3; ++i) {
-      const double cu = A * (fu * ru[i] + fs * rv[i]), cv = A * (fv * rv[i] + fs * ru[i]);
-      for (int c = 0; c < 3; ++c) F[o[i] + c] -= cu * U[c] + cv * V[c];
+    // f_i = -A (r_u,i (fu U + fs V) + r_v,i (fs U + fv V)).
+    const double fu = A * (suu + sv0), fv = A * (svv + sv1), fs = A * (suv + sv2);
+    double force_u[3], force_v[3];
+    for (int c = 0; c < 3; ++c) {
+      force_u[c] = fu * U[c] + fs * V[c];
+      force_v[c] = fs * U[c] + fv * V[c];
     }
+    for (int i = 0; i < 3; ++i)
+      for (int c = 0; c < 3; ++c) F[o[i] + c] -= ru[i] * force_u[c] + rv[i] * force_v[c];
     if (!jacobians) continue;
 
     // Tangent moduli clamped and the stress matrix projected (semi-definite stiffness).
@@ -425,16 +429,15 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
     const double db = V[0] * dV[0] + V[1] * dV[1] + V[2] * dV[2];
     const double dc = U[0] * dV[0] + U[1] * dV[1] + U[2] * dV[2] + V[0] * dU[0] + V[1] * dU[1] + V[2] * dU[2];
     const double du = tu * da + tc * db, dv = tv * db + tc * da, ds = ts * dc;
-    double gu[3], gv[3];
+    // (K w)_i = -A (r_u,i (du U + ds V + gu) + r_v,i (ds U + dv V + gv)) with the stress
+    // matrix terms gu = s00 dU + s01 dV and gv = s11 dV + s01 dU.
+    double kw_u[3], kw_v[3];
     for (int c = 0; c < 3; ++c) {
-      gu[c] = s00 * dU[c] + s01 * dV[c];
-      gv[c] = s11 * dV[c] + s01 * dU[c];
+      kw_u[c] = A * (du * U[c] + ds * V[c] + s00 * dU[c] + s01 * dV[c]);
+      kw_v[c] = A * (ds * U[c] + dv * V[c] + s11 * dV[c] + s01 * dU[c]);
     }
-    for (int i = 0; i < 3; ++i) {
-      const double cu = A * (ru[i] * du + rv[i] * ds), cv = A * (rv[i] * dv + ru[i] * ds);
-      const double au = A * ru[i], av = A * rv[i];
-      for (int c = 0; c < 3; ++c) KW[o[i] + c] -= cu * U[c] + cv * V[c] + au * gu[c] + av * gv[c];
-    }
+    for (int i = 0; i < 3; ++i)
+      for (int c = 0; c < 3; ++c) KW[o[i] + c] -= ru[i] * kw_u[c] + rv[i] * kw_v[c];
 
     // Step matrix blocks -(ck K + cd D) of the 6 vertex pairs, (j, i) the transpose of (i, j).
     const double Tu = A * (ck * tu + cd * eu), Tv = A * (ck * tv + cd * ev), Ts = A * (ck * ts + cd * es);
@@ -483,13 +486,25 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
         out_block[8] += last;
       }
     };
+    // Per vertex j the moduli times r_u,j and r_v,j; a pair's coefficients are then
+    // r_u,i (...) + r_v,i (...).
+    double tu_u[3], ts_v[3], tv_v[3], ts_u[3], tc_v[3], tc_u[3], s_u[3], s_v[3];
+    for (int j = 0; j < 3; ++j) {
+      tu_u[j] = Tu * ru[j];
+      ts_v[j] = Ts * rv[j];
+      tv_v[j] = Tv * rv[j];
+      ts_u[j] = Ts * ru[j];
+      tc_v[j] = Tc * rv[j];
+      tc_u[j] = Tc * ru[j];
+      s_u[j] = S00 * ru[j] + S01 * rv[j];
+      s_v[j] = S11 * rv[j] + S01 * ru[j];
+    }
 #pragma GCC unroll 6
     for (int p = 0; p < 6; ++p) {
       const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
-      const double puu = ru[i] * ru[j], pvv = rv[i] * rv[j], puv = ru[i] * rv[j], pvu = rv[i] * ru[j];
-      const double a = Tu * puu + Ts * pvv, b = Tv * pvv + Ts * puu;
-      const double c = Tc * puv + Ts * pvu, d = Tc * pvu + Ts * puv;
-      const double e = S00 * puu + S11 * pvv + S01 * (puv + pvu);
+      const double a = ru[i] * tu_u[j] + rv[i] * ts_v[j], b = rv[i] * tv_v[j] + ru[i] * ts_u[j];
+      const double c = ru[i] * tc_v[j] + rv[i] * ts_u[j], d = rv[i] * tc_u[j] + ru[i] * ts_v[j];
+      const double e = ru[i] * s_u[j] + rv[i] * s_v[j];
       put(3 * i + j, a, b, c, d, e);
       if (i != j) put(3 * j + i, a, b, d, c, e);
     }
