@@ -270,9 +270,8 @@ VecX ClothSystem::added_viscosity_per_vertex() const {
   return sum.cwiseQuotient(weight);
 }
 
-void ClothSystem::add_bending(const VecX& x, const VecX& v, const VecX* w, double ck, double cd, bool jacobians,
-                              VecX& force, double& energy, double& viscous_power, BlockMatrix* first,
-                              BlockMatrix* damping, VecX* stiffness_times_w) const {
+void ClothSystem::add_bending(const VecX& x, const VecX& v, bool jacobians, VecX& force, double& energy,
+                              double& viscous_power, BlockMatrix* stiffness, BlockMatrix* damping) const {
   // Summed over the stencils, Q and gamma Q live on the block pattern (bending_slot_q and
   // bending_slot_damping_): E = 1/2 sum_ij Q_ij x_i . x_j; F = -Q x - gamma Q v;
   // K = -Q (x) I3; D = -gamma Q (x) I3.
@@ -282,24 +281,18 @@ void ClothSystem::add_bending(const VecX& x, const VecX& v, const VecX* w, doubl
   const double* q = model_.bending_slot_q.data();
   const double* qd = bending_slot_damping_.data();
   for (int i = 0; i < num_nodes(); ++i) {
-    Vec3 qx = Vec3::Zero(), qv = Vec3::Zero(), qw = Vec3::Zero();
+    Vec3 qx = Vec3::Zero(), qv = Vec3::Zero();
     for (int s = rs[i]; s < rs[i + 1]; ++s) {
       const int j = col[s];
       qx += q[s] * node(x, j);
       qv += qd[s] * node(v, j);
-      if (w) qw += q[s] * node(*w, j);
       if (!jacobians) continue;
-      if (damping) {
-        first->block[s].diagonal().array() -= q[s];
-        damping->block[s].diagonal().array() -= qd[s];
-      } else {
-        first->block[s].diagonal().array() += ck * q[s] + cd * qd[s];
-      }
+      stiffness->block[s].diagonal().array() -= q[s];
+      damping->block[s].diagonal().array() -= qd[s];
     }
     energy += 0.5 * node(x, i).dot(qx);
     viscous_power -= node(v, i).dot(qv);
     node(force, i) -= qx + qv;
-    if (stiffness_times_w) node(*stiffness_times_w, i) -= qw;
   }
 }
 
@@ -623,8 +616,7 @@ void ClothSystem::evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluat
         out.damping.block[slots[3 * a + b]] += mr.damping.block<3, 3>(3 * a, 3 * b);
       }
   });
-  add_bending(x, v, nullptr, 0.0, 0.0, jacobians, out.force, out.elastic_energy, out.viscous_power,
-              jacobians ? &out.stiffness : nullptr, jacobians ? &out.damping : nullptr, nullptr);
+  add_bending(x, v, jacobians, out.force, out.elastic_energy, out.viscous_power, &out.stiffness, &out.damping);
 }
 
 }  // namespace weft

@@ -102,11 +102,10 @@ class ClothSystem : public System {
   void add_gravity_and_membranes(const VecX& x, const VecX& v, bool jacobians, bool expand, VecX& force,
                                  double& elastic_energy, double& gravity_energy, double& viscous_power,
                                  const AddJacobians& add_jacobians) const;
-  /// Adds the bending elements: forces, energy, viscous power and either K and D (into
-  /// `first` and `damping`) or the step matrix -ck K - cd D (into `first`) and K w.
-  void add_bending(const VecX& x, const VecX& v, const VecX* w, double ck, double cd, bool jacobians, VecX& force,
-                   double& energy, double& viscous_power, BlockMatrix* first, BlockMatrix* damping,
-                   VecX* stiffness_times_w) const;
+  /// Adds the bending elements' forces, energy and viscous power, and with `jacobians` their
+  /// K and D into `stiffness` and `damping`.
+  void add_bending(const VecX& x, const VecX& v, bool jacobians, VecX& force, double& energy, double& viscous_power,
+                   BlockMatrix* stiffness, BlockMatrix* damping) const;
 
   /// Per-triangle constants packed for the step's passes, in triangle order.
   struct PackedTriangle {
