@@ -76,7 +76,9 @@ void LogStatistics::merge(const LogStatistics& o) {
     *this = o;
     return;
   }
-  for (size_t i = 0; i < bins_.size(); ++i) bins_[i] += o.bins_[i];
+  // Every value lies in [min, max] and the bins are monotone: o's other bins are empty.
+  const int last = bin_of(o.max_);
+  for (int i = bin_of(o.min_); i <= last; ++i) bins_[i] += o.bins_[i];
   min_ = std::min(min_, o.min_);
   max_ = std::max(max_, o.max_);
   sum_ += o.sum_;

@@ -44,22 +44,31 @@ void MembraneJacobian::stiffness_times(const MembraneGeometry& g, const std::arr
                       g.rv[i] * gv);
 }
 
-void project_positive_2x2(double& a, double& b, double& c) {
-  if (a >= 0 && b >= 0 && a * b >= c * c) return;
-  const double mean = 0.5 * (a + b), r = std::hypot(0.5 * (a - b), c);
+void project_indefinite_2x2(double& a, double& b, double& c) {
+  // Eigenvalues l1,2 = mean +- r. With l2 < 0 < l1 the positive part is l1 e e^T, and
+  // e e^T = (A - l2 I) / (l1 - l2) = [[h + r, c], [c, r - h]] / (2 r) with h = (a - b) / 2;
+  // the smaller of h + r and r - h is formed as c^2 over the larger (no cancellation).
+  // Stresses are far from overflow and underflow: sqrt(h^2 + c^2) needs no hypot.
+  const double h = 0.5 * (a - b);
+  const double mean = 0.5 * (a + b), r = std::sqrt(h * h + c * c);
   const double l1 = mean + r;  // the larger eigenvalue; the smaller one is negative here
-  if (l1 <= 0) {
-    a = b = c = 0;
+  if (l1 <= 0 || !(r > 0)) {
+    a = b = std::max(l1, 0.0);
+    c = 0;
     return;
   }
-  // Eigenvector of l1: the better conditioned of (c, l1 - a) and (l1 - b, c).
-  Vec2 e1(c, l1 - a), e2(l1 - b, c);
-  Vec2 e = e1.squaredNorm() > e2.squaredNorm() ? e1 : e2;
-  if (e.squaredNorm() == 0) e = Vec2(1, 0);
-  e.normalize();
-  a = l1 * e.x() * e.x();
-  b = l1 * e.y() * e.y();
-  c = l1 * e.x() * e.y();
+  double pa, pb;
+  if (h >= 0) {
+    pa = h + r;
+    pb = c * c / pa;
+  } else {
+    pb = r - h;
+    pa = c * c / pb;
+  }
+  const double scale = l1 / (2 * r);
+  a = scale * pa;
+  b = scale * pb;
+  c = scale * c;
 }
 
 Vec3 membrane_tangent_moduli(const Material& m, const Vec3& e) {

@@ -62,8 +62,14 @@ void evaluate_membrane(const MembraneGeometry& g, const Material& m, const Vec3&
                        const std::array<Vec3, 3>& x, const std::array<Vec3, 3>& v,
                        bool jacobians, bool definite, MembraneResult& out, bool expand = true);
 
+/// project_positive_2x2 for a matrix that is not positive semi-definite.
+void project_indefinite_2x2(double& a, double& b, double& c);
+
 /// Replaces the symmetric 2x2 matrix [[a, c], [c, b]] by its positive semi-definite part.
-void project_positive_2x2(double& a, double& b, double& c);
+inline void project_positive_2x2(double& a, double& b, double& c) {
+  if (a >= 0 && b >= 0 && a * b >= c * c) return;
+  project_indefinite_2x2(a, b, c);
+}
 
 /// Tangent stiffness per mode (N/m) at the given strains: (weft, warp, shear).
 Vec3 membrane_tangent_moduli(const Material& m, const Vec3& strain);

@@ -1,5 +1,6 @@
 #include "system/cloth.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -117,6 +118,42 @@ ClothSystem::ClothSystem(const ClothModel& model, DampingSettings damping)
     for (Eigen::Index a = 0; a < k; ++a)
       for (Eigen::Index c = 0; c < k; ++c) bending_slot_damping_[model.bending_slots[e][k * a + c]] += gamma * Q(a, c);
   }
+  const Material& mat = model.material;
+  coupling_ = mat.coupling_modulus();
+  linear_moduli_ = mat.weft.is_linear() && mat.warp.is_linear() && mat.shear.is_linear();
+  // Packed triangles; the first triangle (in order) to touch a block slot assigns it.
+  std::vector<char> written(model.pattern.num_blocks(), 0);
+  triangles_.resize(model.membranes.size());
+  for (size_t t = 0; t < triangles_.size(); ++t) {
+    PackedTriangle& p = triangles_[t];
+    const auto& g = model.membranes[t];
+    p.vertex = model.mesh.triangles[t];
+    p.slot = model.membrane_slots[t];
+    for (int k = 0; k < 3; ++k) {
+      p.ru[k] = g.ru[k];
+      p.rv[k] = g.rv[k];
+    }
+    p.area = g.area;
+    p.first_writer = 0;
+    for (int k = 0; k < 9; ++k)
+      if (!written[p.slot[k]]) {
+        written[p.slot[k]] = 1;
+        p.first_writer |= 1u << k;
+      }
+  }
+  // A row's slots that no membrane writes go with the first triangle that touches the row.
+  const auto& rs = model.pattern.row_start();
+  std::vector<char> row_done(model.num_vertices(), 0);
+  for (PackedTriangle& p : triangles_) {
+    p.bending_only_begin = static_cast<int>(bending_only_slots_.size());
+    for (int i : p.vertex) {
+      if (row_done[i]) continue;
+      row_done[i] = 1;
+      for (int s = rs[i]; s < rs[i + 1]; ++s)
+        if (!written[s]) bending_only_slots_.push_back(s);
+    }
+    p.bending_only_end = static_cast<int>(bending_only_slots_.size());
+  }
 }
 
 namespace {
@@ -140,28 +177,74 @@ std::vector<double> ClothSystem::membrane_kappa_max(const VecX& x, double dt) co
   return out;
 }
 
+void ClothSystem::prepare_linear_damping(double dt) {
+  const double zeta = damping_.damping_ratio;
+  const double eta0 = model_.material.viscosity_Ns_m;
+  const Vec3 E = membrane_tangent_moduli(model_.material, Vec3::Zero());
+  if (!linear_viscosity_ready_) {
+    for (size_t t = 0; t < model_.membranes.size(); ++t) {
+      Vec3 eta = Vec3::Constant(eta0);
+      if (zeta > 0)
+        eta = eta.cwiseMax(membrane_required_viscosity(model_.membranes[t].area, E, model_.membrane_mass_sums[t], zeta));
+      membrane_viscosity_[t] = eta;
+    }
+    linear_viscosity_ready_ = true;
+  }
+  if (dt == linear_stats_dt_) return;
+  linear_kappa_step_ = LogStatistics();
+  linear_lambda_step_ = LogStatistics();
+  linear_added_step_ = LogStatistics();
+  linear_raised_per_step_ = 0;
+  for (size_t t = 0; t < model_.membranes.size(); ++t) {
+    const double area = model_.membranes[t].area;
+    const Vec3& S = model_.membrane_mass_sums[t];
+    const Vec3& eta = membrane_viscosity_[t];
+    const Vec3 kappa = membrane_kappa(area, E, S, dt);
+    int mode;
+    linear_kappa_step_.add(kappa.maxCoeff(&mode));
+    linear_lambda_step_.add(membrane_lambda(area, eta, S, dt)[mode]);
+    const double added = (eta - Vec3::Constant(eta0)).maxCoeff();
+    if (added > 0) {
+      ++linear_raised_per_step_;
+      linear_added_step_.add(added);
+    }
+  }
+  linear_stats_dt_ = dt;
+}
+
 void ClothSystem::begin_step(const VecX& x, const VecX&, double step_dt) {
   // METHOD.md 4: per element and step, kappa and lambda from the tangent stiffness at the
   // current strain; raise the viscosity of each mode to reach the target damping ratio.
   const double dt = damping_.reference_dt > 0 ? damping_.reference_dt : step_dt;
   const double zeta = damping_.damping_ratio;
   const double eta0 = model_.material.viscosity_Ns_m;
-  for (size_t t = 0; t < model_.membranes.size(); ++t) {
-    const auto& g = model_.membranes[t];
-    const Vec3& S = model_.membrane_mass_sums[t];
-    const Vec3 E = membrane_tangent_moduli(model_.material, membrane_strain(g, x, model_.mesh.triangles[t]));
-    Vec3 eta = Vec3::Constant(eta0);
-    if (zeta > 0) eta = eta.cwiseMax(membrane_required_viscosity(g.area, E, S, zeta));
-    membrane_viscosity_[t] = eta;
-    const Vec3 kappa = membrane_kappa(g.area, E, S, dt);
-    int mode;
-    stats_.membrane_kappa.add(kappa.maxCoeff(&mode));
-    stats_.membrane_lambda.add(membrane_lambda(g.area, eta, S, dt)[mode]);
-    const double added = (eta - Vec3::Constant(eta0)).maxCoeff();
-    ++stats_.element_steps;
-    if (added > 0) {
-      ++stats_.raised_element_steps;
-      stats_.added_viscosity.add(added);
+  if (linear_moduli_) {
+    // Linear curves: the moduli, hence the viscosity and the factors, do not depend on the
+    // strain; the step's statistics are the same every step of the same dt.
+    prepare_linear_damping(dt);
+    stats_.membrane_kappa.merge(linear_kappa_step_);
+    stats_.membrane_lambda.merge(linear_lambda_step_);
+    stats_.added_viscosity.merge(linear_added_step_);
+    stats_.element_steps += static_cast<long>(model_.membranes.size());
+    stats_.raised_element_steps += linear_raised_per_step_;
+  } else {
+    for (size_t t = 0; t < model_.membranes.size(); ++t) {
+      const auto& g = model_.membranes[t];
+      const Vec3& S = model_.membrane_mass_sums[t];
+      const Vec3 E = membrane_tangent_moduli(model_.material, membrane_strain(g, x, model_.mesh.triangles[t]));
+      Vec3 eta = Vec3::Constant(eta0);
+      if (zeta > 0) eta = eta.cwiseMax(membrane_required_viscosity(g.area, E, S, zeta));
+      membrane_viscosity_[t] = eta;
+      const Vec3 kappa = membrane_kappa(g.area, E, S, dt);
+      int mode;
+      stats_.membrane_kappa.add(kappa.maxCoeff(&mode));
+      stats_.membrane_lambda.add(membrane_lambda(g.area, eta, S, dt)[mode]);
+      const double added = (eta - Vec3::Constant(eta0)).maxCoeff();
+      ++stats_.element_steps;
+      if (added > 0) {
+        ++stats_.raised_element_steps;
+        stats_.added_viscosity.add(added);
+      }
     }
   }
   // The stencils' kappa depends on dt only: gathered once per dt, counted every step.
@@ -187,9 +270,8 @@ VecX ClothSystem::added_viscosity_per_vertex() const {
   return sum.cwiseQuotient(weight);
 }
 
-void ClothSystem::add_bending(const VecX& x, const VecX& v, const VecX* w, double ck, double cd, bool jacobians,
-                              VecX& force, double& energy, double& viscous_power, BlockMatrix* first,
-                              BlockMatrix* damping, VecX* stiffness_times_w) const {
+void ClothSystem::add_bending(const VecX& x, const VecX& v, bool jacobians, VecX& force, double& energy,
+                              double& viscous_power, BlockMatrix* stiffness, BlockMatrix* damping) const {
   // Summed over the stencils, Q and gamma Q live on the block pattern (bending_slot_q and
   // bending_slot_damping_): E = 1/2 sum_ij Q_ij x_i . x_j; F = -Q x - gamma Q v;
   // K = -Q (x) I3; D = -gamma Q (x) I3.
@@ -199,24 +281,18 @@ void ClothSystem::add_bending(const VecX& x, const VecX& v, const VecX* w, doubl
   const double* q = model_.bending_slot_q.data();
   const double* qd = bending_slot_damping_.data();
   for (int i = 0; i < num_nodes(); ++i) {
-    Vec3 qx = Vec3::Zero(), qv = Vec3::Zero(), qw = Vec3::Zero();
+    Vec3 qx = Vec3::Zero(), qv = Vec3::Zero();
     for (int s = rs[i]; s < rs[i + 1]; ++s) {
       const int j = col[s];
       qx += q[s] * node(x, j);
       qv += qd[s] * node(v, j);
-      if (w) qw += q[s] * node(*w, j);
       if (!jacobians) continue;
-      if (damping) {
-        first->block[s].diagonal().array() -= q[s];
-        damping->block[s].diagonal().array() -= qd[s];
-      } else {
-        first->block[s].diagonal().array() += ck * q[s] + cd * qd[s];
-      }
+      stiffness->block[s].diagonal().array() -= q[s];
+      damping->block[s].diagonal().array() -= qd[s];
     }
     energy += 0.5 * node(x, i).dot(qx);
     viscous_power -= node(v, i).dot(qv);
     node(force, i) -= qx + qv;
-    if (stiffness_times_w) node(*stiffness_times_w, i) -= qw;
   }
 }
 
@@ -246,55 +322,279 @@ void ClothSystem::add_gravity_and_membranes(
   }
 }
 
+namespace {
+// A stress curve's stress, tangent and energy; a linear curve's in line (the same values as
+// StressCurve's own functions).
+template <bool kLinear>
+inline double curve_stress(const StressCurve& c, double modulus, double e) {
+  if constexpr (kLinear) return modulus * e;
+  else return c.stress(e);
+}
+template <bool kLinear>
+inline double curve_tangent(const StressCurve& c, double modulus, double e) {
+  if constexpr (kLinear) return modulus;
+  else return c.tangent(e);
+}
+template <bool kLinear>
+inline double curve_energy(const StressCurve& c, double modulus, double e) {
+  if constexpr (kLinear) return 0.5 * modulus * e * e;
+  else return c.energy(e);
+}
+}  // namespace
+
+template <bool kLinear>
+void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians,
+                                     StepAssembly& out) const {
+  // evaluate_membrane and MembraneJacobian::block / stiffness_times, fused and written for
+  // the step: the step matrix block (i, j) of a triangle is
+  //   a UU^T + b VV^T + c UV^T + d VU^T + e I = (a U + d V) U^T + (b V + c U) V^T + e I
+  // with the per-triangle moduli T = A (ck t + cd eta) combined with r_u,i r_u,j etc.
+  const Material& mat = model_.material;
+  const double C = coupling_;
+  const double ck = out.ck, cd = out.cd;
+  const double mu = mat.weft.modulus(), mv = mat.warp.modulus(), ms = mat.shear.modulus();
+  const double* X = x.data();
+  const double* Vel = v.data();
+  const double* W = w.data();
+  double* F = out.force.data();
+  double* KW = out.stiffness_times_w.data();
+  Mat3* blocks = out.matrix.block.data();
+  const double* q = model_.bending_slot_q.data();
+  const double* qd = bending_slot_damping_.data();
+  const Vec3* viscosity = membrane_viscosity_.data();
+  double energy = 0, power = 0;
+  const size_t count = triangles_.size();
+  for (size_t t = 0; t < count; ++t) {
+    const PackedTriangle& tr = triangles_[t];
+    const double A = tr.area;
+    const double* ru = tr.ru;
+    const double* rv = tr.rv;
+    const int o[3] = {3 * tr.vertex[0], 3 * tr.vertex[1], 3 * tr.vertex[2]};
+    double U[3], V[3], Ud[3], Vd[3];
+    for (int c = 0; c < 3; ++c) {
+      U[c] = ru[0] * X[o[0] + c] + ru[1] * X[o[1] + c] + ru[2] * X[o[2] + c];
+      V[c] = rv[0] * X[o[0] + c] + rv[1] * X[o[1] + c] + rv[2] * X[o[2] + c];
+      Ud[c] = ru[0] * Vel[o[0] + c] + ru[1] * Vel[o[1] + c] + ru[2] * Vel[o[2] + c];
+      Vd[c] = rv[0] * Vel[o[0] + c] + rv[1] * Vel[o[1] + c] + rv[2] * Vel[o[2] + c];
+    }
+    const double euu = 0.5 * (U[0] * U[0] + U[1] * U[1] + U[2] * U[2] - 1);
+    const double evv = 0.5 * (V[0] * V[0] + V[1] * V[1] + V[2] * V[2] - 1);
+    const double euv = U[0] * V[0] + U[1] * V[1] + U[2] * V[2];
+    const double suu = curve_stress<kLinear>(mat.weft, mu, euu) + C * evv;
+    const double svv = curve_stress<kLinear>(mat.warp, mv, evv) + C * euu;
+    const double suv = curve_stress<kLinear>(mat.shear, ms, euv);
+    energy += A * (curve_energy<kLinear>(mat.weft, mu, euu) + curve_energy<kLinear>(mat.warp, mv, evv) +
+                   curve_energy<kLinear>(mat.shear, ms, euv) + C * euu * evv);
+    // Strain rates and viscous stresses (METHOD.md 5: s_visc = eta * strain rate).
+    const double eu = viscosity[t][0], ev = viscosity[t][1], es = viscosity[t][2];
+    const double r0 = U[0] * Ud[0] + U[1] * Ud[1] + U[2] * Ud[2];
+    const double r1 = V[0] * Vd[0] + V[1] * Vd[1] + V[2] * Vd[2];
+    const double r2 = U[0] * Vd[0] + U[1] * Vd[1] + U[2] * Vd[2] + V[0] * Ud[0] + V[1] * Ud[1] + V[2] * Ud[2];
+    const double sv0 = eu * r0, sv1 = ev * r1, sv2 = es * r2;
+    power -= A * (sv0 * r0 + sv1 * r1 + sv2 * r2);
+    // f_i = -A (r_u,i (fu U + fs V) + r_v,i (fs U + fv V)).
+    const double fu = A * (suu + sv0), fv = A * (svv + sv1), fs = A * (suv + sv2);
+    double force_u[3], force_v[3];
+    for (int c = 0; c < 3; ++c) {
+      force_u[c] = fu * U[c] + fs * V[c];
+      force_v[c] = fs * U[c] + fv * V[c];
+    }
+    for (int i = 0; i < 3; ++i)
+      for (int c = 0; c < 3; ++c) F[o[i] + c] -= ru[i] * force_u[c] + rv[i] * force_v[c];
+    if (!jacobians) continue;
+
+    // Tangent moduli clamped and the stress matrix projected (semi-definite stiffness).
+    const double tu = std::max(curve_tangent<kLinear>(mat.weft, mu, euu), 0.0);
+    const double tv = std::max(curve_tangent<kLinear>(mat.warp, mv, evv), 0.0);
+    const double ts = std::max(curve_tangent<kLinear>(mat.shear, ms, euv), 0.0);
+    const double cmax = std::sqrt(tu * tv);
+    const double tc = std::clamp(C, -cmax, cmax);
+    double s00 = suu, s11 = svv, s01 = suv;
+    project_positive_2x2(s00, s11, s01);
+
+    // K w: the force's derivative along w (MembraneJacobian::stiffness_times).
+    double dU[3], dV[3];
+    for (int c = 0; c < 3; ++c) {
+      dU[c] = ru[0] * W[o[0] + c] + ru[1] * W[o[1] + c] + ru[2] * W[o[2] + c];
+      dV[c] = rv[0] * W[o[0] + c] + rv[1] * W[o[1] + c] + rv[2] * W[o[2] + c];
+    }
+    const double da = U[0] * dU[0] + U[1] * dU[1] + U[2] * dU[2];
+    const double db = V[0] * dV[0] + V[1] * dV[1] + V[2] * dV[2];
+    const double dc = U[0] * dV[0] + U[1] * dV[1] + U[2] * dV[2] + V[0] * dU[0] + V[1] * dU[1] + V[2] * dU[2];
+    const double du = tu * da + tc * db, dv = tv * db + tc * da, ds = ts * dc;
+    // (K w)_i = -A (r_u,i (du U + ds V + gu) + r_v,i (ds U + dv V + gv)) with the stress
+    // matrix terms gu = s00 dU + s01 dV and gv = s11 dV + s01 dU.
+    double kw_u[3], kw_v[3];
+    for (int c = 0; c < 3; ++c) {
+      kw_u[c] = A * (du * U[c] + ds * V[c] + s00 * dU[c] + s01 * dV[c]);
+      kw_v[c] = A * (ds * U[c] + dv * V[c] + s11 * dV[c] + s01 * dU[c]);
+    }
+    for (int i = 0; i < 3; ++i)
+      for (int c = 0; c < 3; ++c) KW[o[i] + c] -= ru[i] * kw_u[c] + rv[i] * kw_v[c];
+
+    // Step matrix blocks -(ck K + cd D) of the 6 vertex pairs, (j, i) the transpose of (i, j).
+    const double Tu = A * (ck * tu + cd * eu), Tv = A * (ck * tv + cd * ev), Ts = A * (ck * ts + cd * es);
+    const double Tc = A * ck * tc, S00 = A * ck * s00, S11 = A * ck * s11, S01 = A * ck * s01;
+    // Both blocks of a pair combine the same four outer products UU^T, VV^T, UV^T, VU^T:
+    // (i, j) = a UU^T + b VV^T + c UV^T + d VU^T + e I and (j, i) the same with c and d
+    // swapped. A column-major block is entries 0-3, 4-7 and 8, the diagonal 0, 4 and 8.
+    using A4 = Eigen::Array4d;
+    const A4 first_entry(1.0, 0.0, 0.0, 0.0);
+    const A4 u_row_lo(U[0], U[1], U[2], U[0]), u_row_hi(U[1], U[2], U[0], U[1]);
+    const A4 v_row_lo(V[0], V[1], V[2], V[0]), v_row_hi(V[1], V[2], V[0], V[1]);
+    const A4 u_col_lo(U[0], U[0], U[0], U[1]), u_col_hi(U[1], U[1], U[2], U[2]);
+    const A4 v_col_lo(V[0], V[0], V[0], V[1]), v_col_hi(V[1], V[1], V[2], V[2]);
+    const A4 uu_lo = u_row_lo * u_col_lo, uu_hi = u_row_hi * u_col_hi;
+    const A4 vv_lo = v_row_lo * v_col_lo, vv_hi = v_row_hi * v_col_hi;
+    const A4 uv_lo = u_row_lo * v_col_lo, uv_hi = u_row_hi * v_col_hi;
+    const A4 vu_lo = v_row_lo * u_col_lo, vu_hi = v_row_hi * u_col_hi;
+    const double uu_8 = U[2] * U[2], vv_8 = V[2] * V[2], uv_8 = U[2] * V[2];
+    // Slots with no membrane block carry the bending diagonal only; the others get it on
+    // their first membrane write.
+    for (int k = tr.bending_only_begin; k < tr.bending_only_end; ++k) {
+      const int slot = bending_only_slots_[k];
+      const double diagonal = ck * q[slot] + cd * qd[slot];
+      double* out_block = blocks[slot].data();
+      Eigen::Map<A4> out_lo(out_block), out_hi(out_block + 4);
+      out_lo = diagonal * first_entry;
+      out_hi = diagonal * first_entry;
+      out_block[8] = diagonal;
+    }
+    const unsigned first = tr.first_writer;
+    const auto put = [&](int bit, double a, double b, double c, double d, double e) {
+      const int slot = tr.slot[bit];
+      double* out_block = blocks[slot].data();
+      const double diagonal = (first & (1u << bit)) ? e + (ck * q[slot] + cd * qd[slot]) : e;
+      const A4 lo = a * uu_lo + b * vv_lo + c * uv_lo + d * vu_lo + diagonal * first_entry;
+      const A4 hi = a * uu_hi + b * vv_hi + c * uv_hi + d * vu_hi + diagonal * first_entry;
+      const double last = a * uu_8 + b * vv_8 + (c + d) * uv_8 + diagonal;
+      Eigen::Map<A4> out_lo(out_block), out_hi(out_block + 4);
+      if (first & (1u << bit)) {
+        out_lo = lo;
+        out_hi = hi;
+        out_block[8] = last;
+      } else {
+        out_lo += lo;
+        out_hi += hi;
+        out_block[8] += last;
+      }
+    };
+    // Per vertex j the moduli times r_u,j and r_v,j; a pair's coefficients are then
+    // r_u,i (...) + r_v,i (...).
+    double tu_u[3], ts_v[3], tv_v[3], ts_u[3], tc_v[3], tc_u[3], s_u[3], s_v[3];
+    for (int j = 0; j < 3; ++j) {
+      tu_u[j] = Tu * ru[j];
+      ts_v[j] = Ts * rv[j];
+      tv_v[j] = Tv * rv[j];
+      ts_u[j] = Ts * ru[j];
+      tc_v[j] = Tc * rv[j];
+      tc_u[j] = Tc * ru[j];
+      s_u[j] = S00 * ru[j] + S01 * rv[j];
+      s_v[j] = S11 * rv[j] + S01 * ru[j];
+    }
+#pragma GCC unroll 6
+    for (int p = 0; p < 6; ++p) {
+      const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
+      const double a = ru[i] * tu_u[j] + rv[i] * ts_v[j], b = rv[i] * tv_v[j] + ru[i] * ts_u[j];
+      const double c = ru[i] * tc_v[j] + rv[i] * ts_u[j], d = rv[i] * tc_u[j] + ru[i] * ts_v[j];
+      const double e = ru[i] * s_u[j] + rv[i] * s_v[j];
+      put(3 * i + j, a, b, c, d, e);
+      if (i != j) put(3 * j + i, a, b, d, c, e);
+    }
+  }
+  out.elastic_energy += energy;
+  out.viscous_power += power;
+}
+
 void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) {
   const int n = num_nodes();
   const bool jacobians = out.ck != 0.0 || out.cd != 0.0;
   out.force.resize(3 * n);
-  out.force.setZero();
-  out.stiffness_times_w = VecX::Zero(3 * n);
+  out.stiffness_times_w.resize(3 * n);
   if (out.matrix.pattern != &model_.pattern) out.matrix.reset(model_.pattern);
-  out.matrix.set_zero();
-  std::array<Vec3, 3> we, kw;
-  add_gravity_and_membranes(x, v, jacobians, false, out.force, out.elastic_energy, out.gravity_energy,
-                            out.viscous_power, [&](size_t t, const MembraneResult& mr) {
-    const auto& tri = model_.mesh.triangles[t];
-    const auto& slots = model_.membrane_slots[t];
-    for (int p = 0; p < 6; ++p) {
-      const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
-      const Mat3 b = mr.jacobian.block(p, out.ck, out.cd);
-      out.matrix.block[slots[3 * i + j]] += b;
-      if (i != j) out.matrix.block[slots[3 * j + i]] += b.transpose();
+  // Per vertex: gravity and the bending forces, energy, viscous power and K w. Summed over
+  // the stencils, Q and gamma Q live on the block pattern (bending_slot_q and
+  // bending_slot_damping_): E = 1/2 sum_ij Q_ij x_i . x_j; F = -Q x - gamma Q v; K = -Q (x) I3;
+  // D = -gamma Q (x) I3. This pass assigns force and K w; the membranes add to them.
+  const auto& rs = model_.pattern.row_start();
+  const auto& col = model_.pattern.column();
+  const double* q = model_.bending_slot_q.data();
+  const double* qd = bending_slot_damping_.data();
+  const double* X = x.data();
+  const double* Vel = v.data();
+  const double* W = w.data();
+  double* F = out.force.data();
+  double* KW = out.stiffness_times_w.data();
+  const Vec3& g = model_.gravity;
+  const bool bending = !model_.bending.empty();
+  double gravity_energy = 0, bending_energy = 0, bending_power = 0;
+  for (int i = 0; i < n; ++i) {
+    const double mi = model_.mass[i];
+    const double* xi = X + 3 * i;
+    double qx[3] = {0, 0, 0}, qv[3] = {0, 0, 0}, qw[3] = {0, 0, 0};
+    if (bending) {
+      for (int s = rs[i]; s < rs[i + 1]; ++s) {
+        const int j3 = 3 * col[s];
+        for (int c = 0; c < 3; ++c) {
+          qx[c] += q[s] * X[j3 + c];
+          qv[c] += qd[s] * Vel[j3 + c];
+          qw[c] += q[s] * W[j3 + c];
+        }
+      }
+      bending_energy += 0.5 * (xi[0] * qx[0] + xi[1] * qx[1] + xi[2] * qx[2]);
+      bending_power -= Vel[3 * i] * qv[0] + Vel[3 * i + 1] * qv[1] + Vel[3 * i + 2] * qv[2];
     }
-    for (int k = 0; k < 3; ++k) we[k] = node(w, tri[k]);
-    mr.jacobian.stiffness_times(model_.membranes[t], we, kw);
-    for (int k = 0; k < 3; ++k) node(out.stiffness_times_w, tri[k]) += kw[k];
-  });
-  add_bending(x, v, &w, out.ck, out.cd, jacobians, out.force, out.elastic_energy, out.viscous_power,
-              jacobians ? &out.matrix : nullptr, nullptr, &out.stiffness_times_w);
+    gravity_energy -= mi * (g[0] * xi[0] + g[1] * xi[1] + g[2] * xi[2]);
+    for (int c = 0; c < 3; ++c) {
+      F[3 * i + c] = mi * g[c] - (qx[c] + qv[c]);
+      KW[3 * i + c] = -qw[c];
+    }
+  }
+  out.gravity_energy = gravity_energy;
+  out.elastic_energy = 0;
+  out.viscous_power = 0;
+  if (!jacobians) out.matrix.set_zero();
+  if (linear_moduli_)
+    assemble_membranes<true>(x, v, w, jacobians, out);
+  else
+    assemble_membranes<false>(x, v, w, jacobians, out);
+  out.elastic_energy += bending_energy;
+  out.viscous_power += bending_power;
 }
 
 double ClothSystem::viscous_power(const VecX& x, const VecX& v) {
+  const double* X = x.data();
+  const double* Vel = v.data();
   double power = 0;
-  for (size_t t = 0; t < model_.membranes.size(); ++t) {
-    const auto& g = model_.membranes[t];
-    const auto& tri = model_.mesh.triangles[t];
-    Vec3 U = Vec3::Zero(), V = Vec3::Zero(), Ud = Vec3::Zero(), Vd = Vec3::Zero();
-    for (int k = 0; k < 3; ++k) {
-      U += g.ru[k] * node(x, tri[k]);
-      V += g.rv[k] * node(x, tri[k]);
-      Ud += g.ru[k] * node(v, tri[k]);
-      Vd += g.rv[k] * node(v, tri[k]);
+  for (size_t t = 0; t < triangles_.size(); ++t) {
+    const PackedTriangle& tr = triangles_[t];
+    const double* ru = tr.ru;
+    const double* rv = tr.rv;
+    const int o[3] = {3 * tr.vertex[0], 3 * tr.vertex[1], 3 * tr.vertex[2]};
+    double U[3], V[3], Ud[3], Vd[3];
+    for (int c = 0; c < 3; ++c) {
+      U[c] = ru[0] * X[o[0] + c] + ru[1] * X[o[1] + c] + ru[2] * X[o[2] + c];
+      V[c] = rv[0] * X[o[0] + c] + rv[1] * X[o[1] + c] + rv[2] * X[o[2] + c];
+      Ud[c] = ru[0] * Vel[o[0] + c] + ru[1] * Vel[o[1] + c] + ru[2] * Vel[o[2] + c];
+      Vd[c] = rv[0] * Vel[o[0] + c] + rv[1] * Vel[o[1] + c] + rv[2] * Vel[o[2] + c];
     }
-    const Vec3 rate(U.dot(Ud), V.dot(Vd), U.dot(Vd) + V.dot(Ud));
-    power -= g.area * membrane_viscosity_[t].dot(rate.cwiseAbs2());
+    const double r0 = U[0] * Ud[0] + U[1] * Ud[1] + U[2] * Ud[2];
+    const double r1 = V[0] * Vd[0] + V[1] * Vd[1] + V[2] * Vd[2];
+    const double r2 = U[0] * Vd[0] + U[1] * Vd[1] + U[2] * Vd[2] + V[0] * Ud[0] + V[1] * Ud[1] + V[2] * Ud[2];
+    const Vec3& eta = membrane_viscosity_[t];
+    power -= tr.area * (eta[0] * r0 * r0 + eta[1] * r1 * r1 + eta[2] * r2 * r2);
   }
   if (model_.bending.empty()) return power;
   const auto& rs = model_.pattern.row_start();
   const auto& col = model_.pattern.column();
+  const double* qd = bending_slot_damping_.data();
   for (int i = 0; i < num_nodes(); ++i) {
-    Vec3 qv = Vec3::Zero();
-    for (int s = rs[i]; s < rs[i + 1]; ++s) qv += bending_slot_damping_[s] * node(v, col[s]);
-    power -= node(v, i).dot(qv);
+    double qv[3] = {0, 0, 0};
+    for (int s = rs[i]; s < rs[i + 1]; ++s) {
+      const int j3 = 3 * col[s];
+      for (int c = 0; c < 3; ++c) qv[c] += qd[s] * Vel[j3 + c];
+    }
+    power -= Vel[3 * i] * qv[0] + Vel[3 * i + 1] * qv[1] + Vel[3 * i + 2] * qv[2];
   }
   return power;
 }
@@ -316,8 +616,7 @@ void ClothSystem::evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluat
         out.damping.block[slots[3 * a + b]] += mr.damping.block<3, 3>(3 * a, 3 * b);
       }
   });
-  add_bending(x, v, nullptr, 0.0, 0.0, jacobians, out.force, out.elastic_energy, out.viscous_power,
-              jacobians ? &out.stiffness : nullptr, jacobians ? &out.damping : nullptr, nullptr);
+  add_bending(x, v, jacobians, out.force, out.elastic_energy, out.viscous_power, &out.stiffness, &out.damping);
 }
 
 }  // namespace weft

@@ -102,14 +102,43 @@ class ClothSystem : public System {
   void add_gravity_and_membranes(const VecX& x, const VecX& v, bool jacobians, bool expand, VecX& force,
                                  double& elastic_energy, double& gravity_energy, double& viscous_power,
                                  const AddJacobians& add_jacobians) const;
-  /// Adds the bending elements: forces, energy, viscous power and either K and D (into
-  /// `first` and `damping`) or the step matrix -ck K - cd D (into `first`) and K w.
-  void add_bending(const VecX& x, const VecX& v, const VecX* w, double ck, double cd, bool jacobians, VecX& force,
-                   double& energy, double& viscous_power, BlockMatrix* first, BlockMatrix* damping,
-                   VecX* stiffness_times_w) const;
+  /// Adds the bending elements' forces, energy and viscous power, and with `jacobians` their
+  /// K and D into `stiffness` and `damping`.
+  void add_bending(const VecX& x, const VecX& v, bool jacobians, VecX& force, double& energy, double& viscous_power,
+                   BlockMatrix* stiffness, BlockMatrix* damping) const;
+
+  /// Per-triangle constants packed for the step's passes, in triangle order.
+  struct PackedTriangle {
+    std::array<int, 3> vertex;
+    /// Bit 3a + b set: this triangle is the first (in triangle order) to write block slot
+    /// (a, b), so it assigns the block instead of adding to it.
+    unsigned first_writer = 0;
+    std::array<int, 9> slot;  ///< block slots (a, b), row-major
+    /// bending_only_slots_[begin, end): the slots, with no membrane block, of the rows
+    /// this triangle is the first to touch; written with its blocks, while their cache
+    /// lines are at hand.
+    int bending_only_begin = 0, bending_only_end = 0;
+    double ru[3], rv[3];
+    double area;
+  };
+  /// The membranes' part of assemble_step: energies, forces, K w and the step matrix blocks
+  /// (with the bending diagonal on each slot's first write); kLinear: all curves linear.
+  template <bool kLinear>
+  void assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, StepAssembly& out) const;
+  /// Adaptive viscosity and the per-step statistics of a material whose curves are all
+  /// linear: the tangent moduli do not depend on the strain, so neither do they.
+  void prepare_linear_damping(double dt);
 
   const ClothModel& model_;
   DampingSettings damping_;
+  std::vector<PackedTriangle> triangles_;
+  std::vector<int> bending_only_slots_;  ///< block slots no membrane writes, by triangle
+  double coupling_ = 0;                  ///< the material's weft-warp coupling modulus
+  bool linear_moduli_ = false;           ///< weft, warp and shear curves all linear
+  bool linear_viscosity_ready_ = false;  ///< membrane_viscosity_ holds the adaptive values
+  double linear_stats_dt_ = -1;          ///< the dt of the membrane statistics below
+  LogStatistics linear_kappa_step_, linear_lambda_step_, linear_added_step_;
+  long linear_raised_per_step_ = 0;
   std::vector<Vec3> membrane_viscosity_;
   std::vector<double> bending_damping_;
   std::vector<double> bending_slot_damping_;  ///< sum of gamma Q_ij per block slot

@@ -102,6 +102,26 @@ TEST(MembraneElement, DefiniteStiffnessIsNegativeSemiDefiniteUnderCompression) {
   EXPECT_GT(indefinite_exact, 0) << "the test never reached a compressed (indefinite) state";
 }
 
+TEST(MembraneElement, PositivePartOfTwoByTwoMatchesEigenDecomposition) {
+  // Random symmetric matrices of every sign pattern, including nearly diagonal ones whose
+  // eigenvector is close to an axis, against clamping the eigenvalues at zero.
+  for (int trial = 0; trial < 2000; ++trial) {
+    const double scale = std::pow(10.0, uniform(-3, 3));
+    double a = scale * uniform(-1, 1), b = scale * uniform(-1, 1);
+    double c = scale * uniform(-1, 1) * (trial % 3 == 0 ? 1e-9 : 1.0);
+    if (trial % 7 == 0) b = a;
+    Mat2 A;
+    A << a, c, c, b;
+    Eigen::SelfAdjointEigenSolver<Mat2> es(A);
+    const Mat2 expected = es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).asDiagonal() *
+                          es.eigenvectors().transpose();
+    project_positive_2x2(a, b, c);
+    Mat2 P;
+    P << a, c, c, b;
+    EXPECT_LT((P - expected).cwiseAbs().maxCoeff(), 1e-14 * scale) << "trial " << trial << "\n" << A;
+  }
+}
+
 TEST(MembraneElement, RigidMotionHasNoStrainAndNoForce) {
   const Material mat = test_material();
   MembraneGeometry g;

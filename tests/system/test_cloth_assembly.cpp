@@ -63,9 +63,11 @@ TEST(MembraneElement, StiffnessTimesVectorEqualsExpandedStiffness) {
   }
 }
 
-TEST(ClothAssembly, FusedStepAssemblyEqualsElementJacobianReference) {
+namespace {
+
+void expect_fused_equals_reference(const Material& material, BendingModel bending) {
   const ClothModel model =
-      build_cloth_model(make_grid(0.2, 0.15, 7, 6), anisotropic_material(), Vec3(0, -9.81, 0), {0, 6});
+      build_cloth_model(make_grid(0.2, 0.15, 7, 6), material, Vec3(0, -9.81, 0), {0, 6}, bending);
   ClothSystem system(model, DampingSettings{0.05});
   VecX x = model.initial_positions(), v(x.size()), w(x.size());
   for (int i = 0; i < model.num_vertices(); ++i) {
@@ -77,6 +79,9 @@ TEST(ClothAssembly, FusedStepAssemblyEqualsElementJacobianReference) {
   StepAssembly fused, reference;
   fused.ck = reference.ck = 2.5e-5;
   fused.cd = reference.cd = 5e-3;
+  // A matrix left over from another step must not leak into the assembly.
+  fused.matrix.reset(model.pattern);
+  for (auto& b : fused.matrix.block) b.setConstant(123.0);
   system.assemble_step(x, v, w, fused);
   system.System::assemble_step(x, v, w, reference);
 
@@ -93,6 +98,73 @@ TEST(ClothAssembly, FusedStepAssemblyEqualsElementJacobianReference) {
   EXPECT_GT(system.bending_damping().front(), 0.0);
   // The separate viscous-power pass agrees with the assembly's.
   EXPECT_NEAR(system.viscous_power(x, v), reference.viscous_power, 1e-12 * std::abs(reference.viscous_power));
+  // Assembling again (the blocks now hold the previous result) gives the same matrix.
+  system.assemble_step(x, v, w, fused);
+  EXPECT_LT((fused.matrix.to_dense() - b).cwiseAbs().maxCoeff(), 1e-12 * b.cwiseAbs().maxCoeff());
+}
+
+}  // namespace
+
+TEST(ClothAssembly, FusedStepAssemblyEqualsElementJacobianReference) {
+  expect_fused_equals_reference(anisotropic_material(), BendingModel::kHinge);
+}
+
+TEST(ClothAssembly, FusedStepAssemblyEqualsReferenceForPlateBending) {
+  expect_fused_equals_reference(anisotropic_material(), BendingModel::kPlate);
+}
+
+TEST(ClothAssembly, FusedStepAssemblyEqualsReferenceForNonlinearCurves) {
+  // Tabulated (spline) curves: the tangent moduli vary with the strain.
+  Material m = anisotropic_material();
+  m.weft = StressCurve::tabulated({-0.05, 0.0, 0.02, 0.05}, {-2.0, 0.0, 5.0, 30.0});
+  m.warp = StressCurve::tabulated({-0.05, 0.0, 0.03, 0.06}, {-1.0, 0.0, 2.0, 12.0});
+  m.shear = StressCurve::odd_symmetric({0.0, 0.05, 0.2}, {0.0, 0.4, 3.0});
+  expect_fused_equals_reference(m, BendingModel::kHinge);
+}
+
+TEST(ClothAssembly, DampingStatisticsOfLinearCurvesEqualPerElementValues) {
+  // With linear curves the viscosity and the stiffness factors do not depend on the state:
+  // the statistics gathered over steps must be those of the per-element values, every step.
+  const ClothModel model =
+      build_cloth_model(make_grid(0.2, 0.15, 7, 6), anisotropic_material(), Vec3(0, -9.81, 0), {0, 6});
+  const double zeta = 0.3, eta0 = model.material.viscosity_Ns_m;
+  ClothSystem system(model, DampingSettings{zeta});
+  LogStatistics kappa, lambda, added;
+  long raised = 0;
+  VecX x = model.initial_positions(), v = VecX::Zero(x.size());
+  const double dts[] = {0.01, 0.01, 0.002, 0.01};
+  for (double dt : dts) {
+    for (int i = 0; i < model.num_vertices(); ++i) node(x, i) += random_vec(1e-3);
+    system.begin_step(x, v, dt);
+    for (size_t t = 0; t < model.membranes.size(); ++t) {
+      const auto& g = model.membranes[t];
+      const Vec3& S = model.membrane_mass_sums[t];
+      const Vec3 E = membrane_tangent_moduli(model.material, Vec3::Zero());
+      const Vec3 eta = Vec3::Constant(eta0).cwiseMax(membrane_required_viscosity(g.area, E, S, zeta));
+      EXPECT_EQ(system.membrane_viscosity()[t], eta);
+      int mode;
+      kappa.add(membrane_kappa(g.area, E, S, dt).maxCoeff(&mode));
+      lambda.add(membrane_lambda(g.area, eta, S, dt)[mode]);
+      const double a = (eta - Vec3::Constant(eta0)).maxCoeff();
+      if (a > 0) {
+        ++raised;
+        added.add(a);
+      }
+    }
+  }
+  const DampingStatistics& s = system.statistics();
+  EXPECT_EQ(s.element_steps, static_cast<long>(4 * model.membranes.size()));
+  EXPECT_EQ(s.raised_element_steps, raised);
+  EXPECT_GT(raised, 0);
+  const std::pair<const LogStatistics*, const LogStatistics*> pairs[] = {
+      {&s.membrane_kappa, &kappa}, {&s.membrane_lambda, &lambda}, {&s.added_viscosity, &added}};
+  for (const auto& [got, expected] : pairs) {
+    EXPECT_EQ(got->count(), expected->count());
+    EXPECT_EQ(got->min(), expected->min());
+    EXPECT_EQ(got->max(), expected->max());
+    EXPECT_EQ(got->median(), expected->median());
+    EXPECT_NEAR(got->mean(), expected->mean(), 1e-14 * expected->mean());
+  }
 }
 
 TEST(LogStatistics, MedianWithinHalfABinAndExactExtremes) {
