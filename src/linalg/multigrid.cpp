@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "linalg/lower_blocks.hpp"
+
 namespace weft {
 
 struct AggregationMultigrid::Level {
@@ -16,14 +18,11 @@ struct AggregationMultigrid::Level {
   std::vector<char> fixed;                    ///< n entries; only level 0 has fixed nodes
   std::vector<Mat3> inv_diag;                 ///< smoother: inverse diagonal blocks (0 if fixed)
 
-  // The smoother's copy of the matrix: the strictly lower blocks between free nodes, by rows
-  // (row i holds columns lo_col[k] < i, k in [lo_start[i], lo_start[i+1])), taken from the
-  // slots lo_slot[k], and the inverse diagonal blocks (symmetrized; zero on fixed nodes).
-  // One sweep over it reads half the matrix, contiguously.
-  std::vector<int> lo_start, lo_col, lo_slot;
-  std::vector<double> lo_val;    ///< 9 per block, column-major
-  std::vector<double> dinv_val;  ///< 9 per node, column-major
-  std::vector<double> diag_val;  ///< level 0: the diagonal blocks, 9 per node (0 if fixed)
+  // The smoother's copy of the matrix (the lower blocks between free nodes and the
+  // diagonal; on level 0 also CG's product) and its inverse diagonal blocks, symmetrized,
+  // 9 per node, zero on fixed nodes.
+  LowerBlocks lower;
+  std::vector<double> dinv_val;
 
   // Prolongator to the next level, stored by rows of this level: row i holds next-level
   // nodes p_col[k] with weights p_w[k] (times I3), k in [p_start[i], p_start[i+1]).
@@ -98,62 +97,6 @@ inline void solve_node(const double* inv, double s0, double s1, double s2, doubl
   xi[2] = inv[2] * s0 + inv[5] * s1 + inv[8] * s2;
 }
 
-// Gauss-Seidel sweeps on the compact lower copy of a level (Level::lo_*): blocks are 9
-// column-major doubles.
-struct LowerRows {
-  int n;
-  const char* fixed;
-  const int* start;
-  const int* col;
-  const double* val;   ///< 9 per block
-  const double* dinv;  ///< 9 per node
-};
-
-// Forward sweep from x = 0; t receives -(strictly upper part of A) x, so that r - A x = t.
-void forward_lower_sweep(const LowerRows& L, const double* r, double* x, double* t) {
-  for (int i = 0; i < L.n; ++i) {
-    double* xi = x + 3 * i;
-    if (L.fixed[i]) {
-      xi[0] = xi[1] = xi[2] = 0.0;
-      continue;
-    }
-    const int b = L.start[i], e = L.start[i + 1];
-    double y0 = 0, y1 = 0, y2 = 0;
-    for (int k = b; k < e; ++k) add_block_times(L.val + 9L * k, x + 3 * L.col[k], y0, y1, y2);
-    solve_node(L.dinv + 9L * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, xi);
-    const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
-    for (int k = b; k < e; ++k) {
-      const double* m = L.val + 9L * k;
-      double* o = t + 3 * L.col[k];
-      o[0] -= m[0] * v0 + m[1] * v1 + m[2] * v2;
-      o[1] -= m[3] * v0 + m[4] * v1 + m[5] * v2;
-      o[2] -= m[6] * v0 + m[7] * v1 + m[8] * v2;
-    }
-  }
-}
-
-// Backward sweep from the current x; `acc` (zero on entry) collects the upper parts
-// sum_{j > i} A_ji^T x_j from the rows already swept.
-void backward_lower_sweep(const LowerRows& L, const double* r, double* x, double* acc) {
-  for (int i = L.n - 1; i >= 0; --i) {
-    if (L.fixed[i]) continue;
-    const int b = L.start[i], e = L.start[i + 1];
-    double* xi = x + 3 * i;
-    const double* ai = acc + 3 * i;
-    double y0 = ai[0], y1 = ai[1], y2 = ai[2];
-    for (int k = e - 1; k >= b; --k) add_block_times(L.val + 9L * k, x + 3 * L.col[k], y0, y1, y2);
-    solve_node(L.dinv + 9L * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, xi);
-    const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
-    for (int k = e - 1; k >= b; --k) {
-      const double* m = L.val + 9L * k;
-      double* o = acc + 3 * L.col[k];
-      o[0] += m[0] * v0 + m[1] * v1 + m[2] * v2;
-      o[1] += m[3] * v0 + m[4] * v1 + m[5] * v2;
-      o[2] += m[6] * v0 + m[7] * v1 + m[8] * v2;
-    }
-  }
-}
-
 Mat3 invert_spd_block(const Mat3& d) {
   const double det = d.determinant();
   if (det > 0 && std::isfinite(det)) return d.inverse();
@@ -226,24 +169,9 @@ void AggregationMultigrid::build(const BlockPattern& pattern, const std::vector<
   }
   for (auto& lev : levels_) {
     // The compact lower copy for the smoother (all levels but the coarsest) and, on level 0,
-    // for CG's products.
-    const auto& rs = lev->pattern->row_start();
-    const auto& col = lev->pattern->column();
-    lev->lo_start.assign(lev->n + 1, 0);
-    lev->lo_col.clear();
-    lev->lo_slot.clear();
-    for (int i = 0; i < lev->n; ++i) {
-      if (!lev->fixed[i])
-        for (int s = rs[i]; s < rs[i + 1] && col[s] < i; ++s)
-          if (!lev->fixed[col[s]]) {
-            lev->lo_col.push_back(col[s]);
-            lev->lo_slot.push_back(s);
-          }
-      lev->lo_start[i + 1] = static_cast<int>(lev->lo_col.size());
-    }
-    lev->lo_val.assign(9 * lev->lo_col.size(), 0.0);
+    // for CG's products; scalar blocks are recognised in the setup's matrix, if any.
+    lev->lower.build(*lev->pattern, lev->fixed, A ? lev->A : nullptr);
     lev->dinv_val.assign(9 * lev->n, 0.0);
-    if (lev.get() == levels_.front().get()) lev->diag_val.assign(9 * lev->n, 0.0);
     lev->inv_diag.assign(lev->n, Mat3::Zero());
     lev->r.setZero(3 * lev->n);
     lev->x.setZero(3 * lev->n);
@@ -483,17 +411,9 @@ void AggregationMultigrid::update(const BlockMatrix& A) {
     Level& f = *levels_[l];
     const BlockMatrix& M = *f.A;
     if (l + 1 < num_levels()) galerkin(l);
-    if (l == 0 || !f.coarsest) {
-      // The compact lower copy (the smoother's, and level 0's product for CG).
-      const double* a = M.block.front().data();
-      double* lv = f.lo_val.data();
-      const int* slot = f.lo_slot.data();
-      const size_t nl = f.lo_slot.size();
-      for (size_t k = 0; k < nl; ++k) std::copy_n(a + 9L * slot[k], 9, lv + 9 * k);
-    }
-    if (l == 0)
-      for (int i = 0; i < f.n; ++i)
-        if (!f.fixed[i]) std::copy_n(M.block[f.pattern->diagonal_slot(i)].data(), 9, f.diag_val.data() + 9L * i);
+    // The compact lower copy (the smoother's, and level 0's product for CG); laid out again
+    // if a block kept as a scalar stopped being one.
+    if (l == 0 || !f.coarsest) f.lower.assign(M, f.fixed);
     if (!f.coarsest) {
       // The smoother's inverse diagonal, symmetrized so that the forward and backward sweeps
       // stay exact adjoints of each other.
@@ -529,34 +449,7 @@ void AggregationMultigrid::update(const BlockMatrix& A) {
 }
 
 void AggregationMultigrid::multiply_free(const VecX& x, VecX& y) const {
-  const Level& f = *levels_[0];
-  const int n = f.n;
-  y.setZero(3 * n);
-  const double* xp = x.data();
-  double* yp = y.data();
-  const int* ls = f.lo_start.data();
-  const int* lc = f.lo_col.data();
-  const double* lv = f.lo_val.data();
-  const double* dg = f.diag_val.data();
-  for (int i = 0; i < n; ++i) {
-    if (f.fixed[i]) continue;
-    const double* xi = xp + 3 * i;
-    const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
-    double* yi = yp + 3 * i;
-    double y0 = yi[0], y1 = yi[1], y2 = yi[2];
-    add_block_times(dg + 9L * i, xi, y0, y1, y2);
-    for (int k = ls[i]; k < ls[i + 1]; ++k) {
-      const double* m = lv + 9L * k;
-      add_block_times(m, xp + 3 * lc[k], y0, y1, y2);
-      double* o = yp + 3 * lc[k];
-      o[0] += m[0] * v0 + m[1] * v1 + m[2] * v2;
-      o[1] += m[3] * v0 + m[4] * v1 + m[5] * v2;
-      o[2] += m[6] * v0 + m[7] * v1 + m[8] * v2;
-    }
-    yi[0] = y0;
-    yi[1] = y1;
-    yi[2] = y2;
-  }
+  levels_[0]->lower.multiply(x, y);
 }
 
 void AggregationMultigrid::apply(const VecX& r, VecX& z) {
@@ -622,10 +515,9 @@ void AggregationMultigrid::vcycle(int l) {
   double* t = f.t.data();
   const int sweeps = std::max(1, settings_.smoothing_sweeps);
   const bool fused = sweeps == 1 && !f.coarsest;
-  const LowerRows lower{n, fixed, f.lo_start.data(), f.lo_col.data(), f.lo_val.data(), f.dinv_val.data()};
   if (fused) {
     f.t.setZero();
-    forward_lower_sweep(lower, r, x, t);
+    f.lower.forward_sweep(f.dinv_val.data(), r, x, t);
   } else {
     for (int i = 0; i < n; ++i) {
       if (fixed[i]) {
@@ -695,7 +587,7 @@ void AggregationMultigrid::vcycle(int l) {
     return;
   }
   f.t.setZero();
-  backward_lower_sweep(lower, r, x, t);
+  f.lower.backward_sweep(f.dinv_val.data(), r, x, t);
 }
 
 }  // namespace weft

@@ -49,7 +49,16 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
     result.converged = true;
     return result;
   }
-  A.multiply(x, ws.q);
+  // y = A x on the free nodes; with multigrid from the half of A in its compact lower copy.
+  auto multiply = [&](const VecX& v, VecX& y) {
+    if (multigrid) {
+      ws.multigrid.multiply_free(v, y);
+    } else {
+      A.multiply(v, y);
+      filter(ws.fixed_nodes, y);
+    }
+  };
+  multiply(x, ws.q);
   ws.r = ws.b - ws.q;
   filter(ws.fixed_nodes, ws.r);
   ws.z.resize(3 * n);
@@ -75,12 +84,7 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
   int it = 0;
   const long size = 3L * n;
   while (rnorm > target && it < settings.max_iterations) {
-    if (multigrid) {
-      ws.multigrid.multiply_free(ws.p, ws.q);  // half the bytes: the V-cycle's lower copy
-    } else {
-      A.multiply(ws.p, ws.q);
-      filter(ws.fixed_nodes, ws.q);
-    }
+    multiply(ws.p, ws.q);
     const double pq = ws.p.dot(ws.q);
     if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown
     const double a = rz / pq;

@@ -1,0 +1,195 @@
+#include "linalg/lower_blocks.hpp"
+
+#include <algorithm>
+
+namespace weft {
+
+namespace {
+
+bool is_scalar_block(const double* m) {
+  return m[1] == 0 && m[2] == 0 && m[3] == 0 && m[5] == 0 && m[6] == 0 && m[7] == 0 && m[0] == m[4] &&
+         m[0] == m[8];
+}
+
+// y += m v for a column-major 3x3 block.
+inline void add_block_times(const double* m, const double* v, double& y0, double& y1, double& y2) {
+  const double v0 = v[0], v1 = v[1], v2 = v[2];
+  y0 += m[0] * v0 + m[3] * v1 + m[6] * v2;
+  y1 += m[1] * v0 + m[4] * v1 + m[7] * v2;
+  y2 += m[2] * v0 + m[5] * v1 + m[8] * v2;
+}
+
+// o += s m^T (v0, v1, v2).
+inline void add_transpose_times(const double* m, double s, double v0, double v1, double v2, double* o) {
+  o[0] += s * (m[0] * v0 + m[1] * v1 + m[2] * v2);
+  o[1] += s * (m[3] * v0 + m[4] * v1 + m[5] * v2);
+  o[2] += s * (m[6] * v0 + m[7] * v1 + m[8] * v2);
+}
+
+// x_i = D_i^-1 (s0, s1, s2).
+inline void solve_node(const double* inv, double s0, double s1, double s2, double* xi) {
+  xi[0] = inv[0] * s0 + inv[3] * s1 + inv[6] * s2;
+  xi[1] = inv[1] * s0 + inv[4] * s1 + inv[7] * s2;
+  xi[2] = inv[2] * s0 + inv[5] * s1 + inv[8] * s2;
+}
+
+}  // namespace
+
+void LowerBlocks::build(const BlockPattern& pattern, const std::vector<char>& fixed, const BlockMatrix* sample) {
+  pattern_ = &pattern;
+  blocks_ = pattern.num_blocks();
+  n_ = pattern.num_nodes();
+  fixed_ = fixed;
+  const auto& rs = pattern.row_start();
+  const auto& col = pattern.column();
+  const double* a = sample && !sample->block.empty() ? sample->block.front().data() : nullptr;
+  d_start_.assign(n_ + 1, 0);
+  s_start_.assign(n_ + 1, 0);
+  d_col_.clear();
+  d_slot_.clear();
+  s_col_.clear();
+  s_slot_.clear();
+  for (int i = 0; i < n_; ++i) {
+    if (!fixed[i])
+      for (int s = rs[i]; s < rs[i + 1] && col[s] < i; ++s) {
+        if (fixed[col[s]]) continue;
+        if (a && is_scalar_block(a + 9L * s)) {
+          s_col_.push_back(col[s]);
+          s_slot_.push_back(s);
+        } else {
+          d_col_.push_back(col[s]);
+          d_slot_.push_back(s);
+        }
+      }
+    d_start_[i + 1] = static_cast<int>(d_col_.size());
+    s_start_[i + 1] = static_cast<int>(s_col_.size());
+  }
+  d_val_.assign(9 * d_col_.size(), 0.0);
+  s_val_.assign(s_col_.size(), 0.0);
+  diag_.assign(9L * n_, 0.0);
+}
+
+bool LowerBlocks::matches(const BlockPattern& pattern, const std::vector<char>& fixed) const {
+  return pattern_ == &pattern && blocks_ == pattern.num_blocks() && n_ == pattern.num_nodes() && fixed_ == fixed;
+}
+
+bool LowerBlocks::fill(const BlockMatrix& A) {
+  const double* a = A.block.front().data();
+  for (size_t k = 0; k < d_slot_.size(); ++k) std::copy_n(a + 9L * d_slot_[k], 9, d_val_.data() + 9 * k);
+  for (size_t k = 0; k < s_slot_.size(); ++k) {
+    const double* m = a + 9L * s_slot_[k];
+    if (!is_scalar_block(m)) return false;
+    s_val_[k] = m[0];
+  }
+  for (int i = 0; i < n_; ++i)
+    if (!fixed_[i]) std::copy_n(a + 9L * pattern_->diagonal_slot(i), 9, diag_.data() + 9L * i);
+  return true;
+}
+
+void LowerBlocks::assign(const BlockMatrix& A, const std::vector<char>& fixed) {
+  if (!matches(*A.pattern, fixed)) build(*A.pattern, fixed, &A);
+  if (!fill(A)) {
+    build(*A.pattern, fixed, &A);
+    fill(A);
+  }
+}
+
+void LowerBlocks::multiply(const VecX& x, VecX& y) const {
+  y.setZero(3 * n_);
+  const double* xp = x.data();
+  double* yp = y.data();
+  for (int i = 0; i < n_; ++i) {
+    if (fixed_[i]) continue;
+    const double* xi = xp + 3 * i;
+    const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
+    double* yi = yp + 3 * i;
+    double y0 = yi[0], y1 = yi[1], y2 = yi[2];
+    add_block_times(diag_.data() + 9L * i, xi, y0, y1, y2);
+    for (int k = d_start_[i]; k < d_start_[i + 1]; ++k) {
+      const double* m = d_val_.data() + 9L * k;
+      const int j = d_col_[k];
+      add_block_times(m, xp + 3 * j, y0, y1, y2);
+      add_transpose_times(m, 1.0, v0, v1, v2, yp + 3 * j);
+    }
+    for (int k = s_start_[i]; k < s_start_[i + 1]; ++k) {
+      const double s = s_val_[k];
+      const int j = s_col_[k];
+      const double* xj = xp + 3 * j;
+      y0 += s * xj[0];
+      y1 += s * xj[1];
+      y2 += s * xj[2];
+      double* yj = yp + 3 * j;
+      yj[0] += s * v0;
+      yj[1] += s * v1;
+      yj[2] += s * v2;
+    }
+    yi[0] = y0;
+    yi[1] = y1;
+    yi[2] = y2;
+  }
+}
+
+void LowerBlocks::forward_sweep(const double* dinv, const double* r, double* x, double* t) const {
+  for (int i = 0; i < n_; ++i) {
+    double* xi = x + 3 * i;
+    if (fixed_[i]) {
+      xi[0] = xi[1] = xi[2] = 0.0;
+      continue;
+    }
+    double y0 = 0, y1 = 0, y2 = 0;
+    for (int k = d_start_[i]; k < d_start_[i + 1]; ++k)
+      add_block_times(d_val_.data() + 9L * k, x + 3 * d_col_[k], y0, y1, y2);
+    for (int k = s_start_[i]; k < s_start_[i + 1]; ++k) {
+      const double s = s_val_[k];
+      const double* xj = x + 3 * s_col_[k];
+      y0 += s * xj[0];
+      y1 += s * xj[1];
+      y2 += s * xj[2];
+    }
+    solve_node(dinv + 9L * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, xi);
+    const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
+    for (int k = d_start_[i]; k < d_start_[i + 1]; ++k)
+      add_transpose_times(d_val_.data() + 9L * k, -1.0, v0, v1, v2, t + 3 * d_col_[k]);
+    for (int k = s_start_[i]; k < s_start_[i + 1]; ++k) {
+      const double s = s_val_[k];
+      double* o = t + 3 * s_col_[k];
+      o[0] -= s * v0;
+      o[1] -= s * v1;
+      o[2] -= s * v2;
+    }
+  }
+}
+
+void LowerBlocks::backward_sweep(const double* dinv, const double* r, double* x, double* acc) const {
+  // Row i's upper part sum_{j > i} A_ij x_j = sum_{j > i} A_ji^T x_j is scattered into acc
+  // from the rows already swept (descending); its lower part is gathered from the nodes not
+  // swept yet. Blocks are visited in descending order so the loads run downwards with the rows.
+  for (int i = n_ - 1; i >= 0; --i) {
+    if (fixed_[i]) continue;
+    double* xi = x + 3 * i;
+    const double* ai = acc + 3 * i;
+    double y0 = ai[0], y1 = ai[1], y2 = ai[2];
+    for (int k = d_start_[i + 1] - 1; k >= d_start_[i]; --k)
+      add_block_times(d_val_.data() + 9L * k, x + 3 * d_col_[k], y0, y1, y2);
+    for (int k = s_start_[i + 1] - 1; k >= s_start_[i]; --k) {
+      const double s = s_val_[k];
+      const double* xj = x + 3 * s_col_[k];
+      y0 += s * xj[0];
+      y1 += s * xj[1];
+      y2 += s * xj[2];
+    }
+    solve_node(dinv + 9L * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, xi);
+    const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
+    for (int k = d_start_[i + 1] - 1; k >= d_start_[i]; --k)
+      add_transpose_times(d_val_.data() + 9L * k, 1.0, v0, v1, v2, acc + 3 * d_col_[k]);
+    for (int k = s_start_[i + 1] - 1; k >= s_start_[i]; --k) {
+      const double s = s_val_[k];
+      double* o = acc + 3 * s_col_[k];
+      o[0] += s * v0;
+      o[1] += s * v1;
+      o[2] += s * v2;
+    }
+  }
+}
+
+}  // namespace weft
