@@ -14,7 +14,10 @@ import sys
 def main(path):
     with open(path) as f:
         data = json.load(f)
-    rows = [b for b in data["benchmarks"] if b.get("aggregate_name") == "median"]
+    # The Step benchmarks only (a file from `make bench` also holds the solver and
+    # skinning benchmarks).
+    rows = [b for b in data["benchmarks"]
+            if b.get("aggregate_name") == "median" and b.get("run_name", "").startswith("Step/")]
     ctx = data["context"]
     cpu = "unknown CPU"
     try:
