@@ -129,67 +129,60 @@ void LowerBlocks::multiply(const VecX& x, VecX& y) const {
   }
 }
 
-void LowerBlocks::forward_sweep(const double* dinv, const double* r, double* x, double* t) const {
-  for (int i = 0; i < n_; ++i) {
+template <bool kForward>
+void LowerBlocks::sweep(const double* dinv, const double* r, double* x, double* scattered) const {
+  // Forward (x = 0 on entry): x_i = D_i^-1 (r_i - sum_{j<i} A_ij x_j), then row i's lower
+  // blocks scatter -A_ij^T x_i into t, which ends as -(strictly upper part of A) x = r - A x.
+  // Backward: row i's upper part sum_{j > i} A_ij x_j = sum_{j > i} A_ji^T x_j is scattered
+  // into acc from the rows already swept (descending) and its lower part gathered from the
+  // nodes not swept yet; blocks are visited in descending order so that the loads run
+  // downwards with the rows.
+  const double sign = kForward ? -1.0 : 1.0;
+  for (int step = 0; step < n_; ++step) {
+    const int i = kForward ? step : n_ - 1 - step;
     double* xi = x + 3 * i;
     if (fixed_[i]) {
-      xi[0] = xi[1] = xi[2] = 0.0;
+      if (kForward) xi[0] = xi[1] = xi[2] = 0.0;
       continue;
     }
     double y0 = 0, y1 = 0, y2 = 0;
-    for (int k = d_start_[i]; k < d_start_[i + 1]; ++k)
+    if (!kForward) y0 = scattered[3 * i], y1 = scattered[3 * i + 1], y2 = scattered[3 * i + 2];
+    const int db = d_start_[i], de = d_start_[i + 1], sb = s_start_[i], se = s_start_[i + 1];
+    for (int q = 0; q < de - db; ++q) {
+      const int k = kForward ? db + q : de - 1 - q;
       add_block_times(d_val_.data() + 9L * k, x + 3 * d_col_[k], y0, y1, y2);
-    for (int k = s_start_[i]; k < s_start_[i + 1]; ++k) {
-      const double s = s_val_[k];
+    }
+    for (int q = 0; q < se - sb; ++q) {
+      const int k = kForward ? sb + q : se - 1 - q;
+      const double sv = s_val_[k];
       const double* xj = x + 3 * s_col_[k];
-      y0 += s * xj[0];
-      y1 += s * xj[1];
-      y2 += s * xj[2];
+      y0 += sv * xj[0];
+      y1 += sv * xj[1];
+      y2 += sv * xj[2];
     }
     solve_node(dinv + 9L * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, xi);
     const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
-    for (int k = d_start_[i]; k < d_start_[i + 1]; ++k)
-      add_transpose_times(d_val_.data() + 9L * k, -1.0, v0, v1, v2, t + 3 * d_col_[k]);
-    for (int k = s_start_[i]; k < s_start_[i + 1]; ++k) {
-      const double s = s_val_[k];
-      double* o = t + 3 * s_col_[k];
-      o[0] -= s * v0;
-      o[1] -= s * v1;
-      o[2] -= s * v2;
+    for (int q = 0; q < de - db; ++q) {
+      const int k = kForward ? db + q : de - 1 - q;
+      add_transpose_times(d_val_.data() + 9L * k, sign, v0, v1, v2, scattered + 3 * d_col_[k]);
+    }
+    for (int q = 0; q < se - sb; ++q) {
+      const int k = kForward ? sb + q : se - 1 - q;
+      const double sv = sign * s_val_[k];
+      double* o = scattered + 3 * s_col_[k];
+      o[0] += sv * v0;
+      o[1] += sv * v1;
+      o[2] += sv * v2;
     }
   }
 }
 
+void LowerBlocks::forward_sweep(const double* dinv, const double* r, double* x, double* t) const {
+  sweep<true>(dinv, r, x, t);
+}
+
 void LowerBlocks::backward_sweep(const double* dinv, const double* r, double* x, double* acc) const {
-  // Row i's upper part sum_{j > i} A_ij x_j = sum_{j > i} A_ji^T x_j is scattered into acc
-  // from the rows already swept (descending); its lower part is gathered from the nodes not
-  // swept yet. Blocks are visited in descending order so the loads run downwards with the rows.
-  for (int i = n_ - 1; i >= 0; --i) {
-    if (fixed_[i]) continue;
-    double* xi = x + 3 * i;
-    const double* ai = acc + 3 * i;
-    double y0 = ai[0], y1 = ai[1], y2 = ai[2];
-    for (int k = d_start_[i + 1] - 1; k >= d_start_[i]; --k)
-      add_block_times(d_val_.data() + 9L * k, x + 3 * d_col_[k], y0, y1, y2);
-    for (int k = s_start_[i + 1] - 1; k >= s_start_[i]; --k) {
-      const double s = s_val_[k];
-      const double* xj = x + 3 * s_col_[k];
-      y0 += s * xj[0];
-      y1 += s * xj[1];
-      y2 += s * xj[2];
-    }
-    solve_node(dinv + 9L * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, xi);
-    const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
-    for (int k = d_start_[i + 1] - 1; k >= d_start_[i]; --k)
-      add_transpose_times(d_val_.data() + 9L * k, 1.0, v0, v1, v2, acc + 3 * d_col_[k]);
-    for (int k = s_start_[i + 1] - 1; k >= s_start_[i]; --k) {
-      const double s = s_val_[k];
-      double* o = acc + 3 * s_col_[k];
-      o[0] += s * v0;
-      o[1] += s * v1;
-      o[2] += s * v2;
-    }
-  }
+  sweep<false>(dinv, r, x, acc);
 }
 
 }  // namespace weft

@@ -42,6 +42,10 @@ class LowerBlocks {
   void backward_sweep(const double* dinv, const double* r, double* x, double* acc) const;
 
  private:
+  /// forward_sweep (kForward) or backward_sweep; `scattered` is t or acc.
+  template <bool kForward>
+  void sweep(const double* dinv, const double* r, double* x, double* scattered) const;
+
   const BlockPattern* pattern_ = nullptr;
   int blocks_ = 0;
   int n_ = 0;

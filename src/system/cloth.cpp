@@ -323,6 +323,18 @@ void ClothSystem::add_gravity_and_membranes(
 }
 
 namespace {
+// The deformation gradient's columns U = sum_k r_u,k x_k, V = sum_k r_v,k x_k and their
+// rates (the same sums of the velocities) for a triangle whose vertices start at offsets o.
+inline void deformation_gradient(const double* ru, const double* rv, const int* o, const double* X,
+                                 const double* Vel, double* U, double* V, double* Ud, double* Vd) {
+  for (int c = 0; c < 3; ++c) {
+    U[c] = ru[0] * X[o[0] + c] + ru[1] * X[o[1] + c] + ru[2] * X[o[2] + c];
+    V[c] = rv[0] * X[o[0] + c] + rv[1] * X[o[1] + c] + rv[2] * X[o[2] + c];
+    Ud[c] = ru[0] * Vel[o[0] + c] + ru[1] * Vel[o[1] + c] + ru[2] * Vel[o[2] + c];
+    Vd[c] = rv[0] * Vel[o[0] + c] + rv[1] * Vel[o[1] + c] + rv[2] * Vel[o[2] + c];
+  }
+}
+
 // A stress curve's stress, tangent and energy; a linear curve's in line (the same values as
 // StressCurve's own functions).
 template <bool kLinear>
@@ -371,12 +383,7 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
     const double* rv = tr.rv;
     const int o[3] = {3 * tr.vertex[0], 3 * tr.vertex[1], 3 * tr.vertex[2]};
     double U[3], V[3], Ud[3], Vd[3];
-    for (int c = 0; c < 3; ++c) {
-      U[c] = ru[0] * X[o[0] + c] + ru[1] * X[o[1] + c] + ru[2] * X[o[2] + c];
-      V[c] = rv[0] * X[o[0] + c] + rv[1] * X[o[1] + c] + rv[2] * X[o[2] + c];
-      Ud[c] = ru[0] * Vel[o[0] + c] + ru[1] * Vel[o[1] + c] + ru[2] * Vel[o[2] + c];
-      Vd[c] = rv[0] * Vel[o[0] + c] + rv[1] * Vel[o[1] + c] + rv[2] * Vel[o[2] + c];
-    }
+    deformation_gradient(ru, rv, o, X, Vel, U, V, Ud, Vd);
     const double euu = 0.5 * (U[0] * U[0] + U[1] * U[1] + U[2] * U[2] - 1);
     const double evv = 0.5 * (V[0] * V[0] + V[1] * V[1] + V[2] * V[2] - 1);
     const double euv = U[0] * V[0] + U[1] * V[1] + U[2] * V[2];
@@ -572,12 +579,7 @@ double ClothSystem::viscous_power(const VecX& x, const VecX& v) {
     const double* rv = tr.rv;
     const int o[3] = {3 * tr.vertex[0], 3 * tr.vertex[1], 3 * tr.vertex[2]};
     double U[3], V[3], Ud[3], Vd[3];
-    for (int c = 0; c < 3; ++c) {
-      U[c] = ru[0] * X[o[0] + c] + ru[1] * X[o[1] + c] + ru[2] * X[o[2] + c];
-      V[c] = rv[0] * X[o[0] + c] + rv[1] * X[o[1] + c] + rv[2] * X[o[2] + c];
-      Ud[c] = ru[0] * Vel[o[0] + c] + ru[1] * Vel[o[1] + c] + ru[2] * Vel[o[2] + c];
-      Vd[c] = rv[0] * Vel[o[0] + c] + rv[1] * Vel[o[1] + c] + rv[2] * Vel[o[2] + c];
-    }
+    deformation_gradient(ru, rv, o, X, Vel, U, V, Ud, Vd);
     const double r0 = U[0] * Ud[0] + U[1] * Ud[1] + U[2] * Ud[2];
     const double r1 = V[0] * Vd[0] + V[1] * Vd[1] + V[2] * Vd[2];
     const double r2 = U[0] * Vd[0] + U[1] * Vd[1] + U[2] * Vd[2] + V[0] * Ud[0] + V[1] * Ud[1] + V[2] * Ud[2];
