@@ -11,16 +11,16 @@
 // (the three translations, which dominate the coarse scales where mass outweighs
 // stiffness). It is smoothed once with the weighted graph Laplacian L of those couplings,
 // P = (I - omega D_L^-1 L) P_tent, so every entry of P is a scalar times I3 and each row of
-// P sums to one (translations are kept exactly). The coarse pattern and a list of (fine
-// slot -> coarse slot, scalar weight) contributions are precomputed, so the per-step
-// Galerkin product A_c = P^T A P is a weighted scatter of blocks (upper coarse blocks only;
-// the lower ones are their transposes). Fixed nodes have zero rows in P and are held at
-// zero by the smoothers.
+// P sums to one (translations are kept exactly). The coarse pattern and, per coarse block,
+// the list of (fine slot, scalar weight) contributions are precomputed, so the per-step
+// Galerkin product A_c = P^T A P is a weighted sum of fine blocks gathered into each coarse
+// block and written once (upper coarse blocks only; the lower ones are their transposes).
+// Fixed nodes have zero rows in P and are held at zero by the smoothers.
 //
 // Update (every matrix): coarse operators, inverted diagonal blocks for the smoothers, a
-// compact copy of each level's strictly lower blocks between free nodes (the sweeps read
-// only that half of the symmetric matrix, contiguously, and scatter its transposes) and a
-// dense Cholesky factor of the coarsest operator.
+// compact copy of each level's strictly lower blocks between free nodes (LowerBlocks: the
+// sweeps read only that half of the symmetric matrix, contiguously, and scatter its
+// transposes) and a dense Cholesky factor of the coarsest operator.
 //
 // Apply: one V-cycle with forward block Gauss-Seidel pre-smoothing and backward block
 // Gauss-Seidel post-smoothing (the adjoint of the pre-smoother) and an exact coarsest
