@@ -16,7 +16,6 @@ struct AggregationMultigrid::Level {
   const BlockMatrix* A = nullptr;             ///< level 0: the caller's matrix
   BlockMatrix own_A;                          ///< coarse levels
   std::vector<char> fixed;                    ///< n entries; only level 0 has fixed nodes
-  std::vector<Mat3> inv_diag;                 ///< smoother: inverse diagonal blocks (0 if fixed)
 
   // The smoother's copy of the matrix (the lower blocks between free nodes and the
   // diagonal; on level 0 also CG's product) and its inverse diagonal blocks, symmetrized,
@@ -172,7 +171,6 @@ void AggregationMultigrid::build(const BlockPattern& pattern, const std::vector<
     // for CG's products; scalar blocks are recognised in the setup's matrix, if any.
     lev->lower.build(*lev->pattern, lev->fixed, A ? lev->A : nullptr);
     lev->dinv_val.assign(9 * lev->n, 0.0);
-    lev->inv_diag.assign(lev->n, Mat3::Zero());
     lev->r.setZero(3 * lev->n);
     lev->x.setZero(3 * lev->n);
     lev->t.setZero(3 * lev->n);
@@ -412,6 +410,20 @@ void AggregationMultigrid::galerkin(int l) {
   }
 }
 
+// The smoother's inverse diagonal blocks, symmetrized so that the forward and backward
+// sweeps stay exact adjoints of each other; zero on fixed nodes.
+void AggregationMultigrid::set_inverse_diagonal(Level& f) {
+  const BlockMatrix& M = *f.A;
+  for (int i = 0; i < f.n; ++i) {
+    Mat3 d = Mat3::Zero();
+    if (!f.fixed[i]) {
+      d = invert_spd_block(M.block[f.pattern->diagonal_slot(i)]);
+      d = (0.5 * (d + d.transpose())).eval();
+    }
+    std::copy_n(d.data(), 9, f.dinv_val.data() + 9L * i);
+  }
+}
+
 void AggregationMultigrid::update(const BlockMatrix& A) {
   if (!is_setup() || A.pattern != pattern_)
     throw std::logic_error("AggregationMultigrid::update: matrix is not on the setup's pattern");
@@ -424,14 +436,7 @@ void AggregationMultigrid::update(const BlockMatrix& A) {
     // if a block kept as a scalar stopped being one.
     if (l == 0 || !f.coarsest) f.lower.assign(M, f.fixed);
     if (!f.coarsest) {
-      // The smoother's inverse diagonal, symmetrized so that the forward and backward sweeps
-      // stay exact adjoints of each other.
-      double* dv = f.dinv_val.data();
-      for (int i = 0; i < f.n; ++i) {
-        f.inv_diag[i] = f.fixed[i] ? Mat3::Zero() : invert_spd_block(M.block[f.pattern->diagonal_slot(i)]);
-        const Mat3 d = 0.5 * (f.inv_diag[i] + f.inv_diag[i].transpose());
-        std::copy_n(d.data(), 9, dv + 9L * i);
-      }
+      set_inverse_diagonal(f);
     } else {
       // Dense Cholesky of the coarsest operator; fixed rows and columns become identity.
       f.dense.setZero();
@@ -449,10 +454,7 @@ void AggregationMultigrid::update(const BlockMatrix& A) {
       f.dense_ok = f.llt.info() == Eigen::Success;
       // Without a factor (matrix not SPD to working precision) the coarsest level is
       // smoothed like the others instead.
-      if (!f.dense_ok)
-        for (int i = 0; i < f.n; ++i)
-          f.inv_diag[i] = f.fixed[i] ? Mat3::Zero()
-                                     : invert_spd_block(M.block[f.pattern->diagonal_slot(i)]);
+      if (!f.dense_ok) set_inverse_diagonal(f);
     }
   }
 }
@@ -478,7 +480,7 @@ void AggregationMultigrid::vcycle(int l) {
   const double* r = f.r.data();
   double* x = f.x.data();
   const char* fixed = f.fixed.data();
-  const double* inv = f.inv_diag.front().data();
+  const double* inv = f.dinv_val.data();
 
   if (f.coarsest && f.dense_ok) {
     f.x = f.r;

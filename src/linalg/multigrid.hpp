@@ -95,6 +95,7 @@ class AggregationMultigrid {
              const MultigridSettings& settings, const BlockMatrix* A);
   void build_coarse(int level, bool with_values);
   void galerkin(int level);
+  static void set_inverse_diagonal(Level& level);
   void vcycle(int level);
   std::vector<std::unique_ptr<Level>> levels_;
   MultigridSettings settings_;
