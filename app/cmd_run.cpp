@@ -121,9 +121,9 @@ weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write fram
                    "Conjugate-gradient relative residual (semi-implicit methods) or local error tolerance (rk45)");
     sub.add_option("--preconditioner", a->preconditioner,
                    "Conjugate-gradient preconditioner: auto (multigrid from " +
-                       std::to_string(weft::kMultigridMinFreeNodes) + " free vertices, block-jacobi below), "
-                       "block-jacobi or multigrid (default: the scene's, else auto)")
-        ->check(CLI::IsMember({"auto", "block-jacobi", "multigrid"}));
+                       std::to_string(weft::kMultigridMinFreeNodes) + " free vertices, ssor below), "
+                       "block-jacobi, ssor or multigrid (default: the scene's, else auto)")
+        ->check(CLI::IsMember({"auto", "block-jacobi", "ssor", "multigrid"}));
     sub.add_option("--damping-ratio", a->damping_ratio,
                    "Adaptive damping target as a fraction of critical (0 turns it off; default 0.05 for "
                    "Implicit Midpoint and BDF-2, 0 for the others)");

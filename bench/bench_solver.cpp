@@ -43,6 +43,7 @@ void Solve(benchmark::State& bs, Preconditioner pc) {
   PcgSettings settings;
   settings.relative_tolerance = 1e-6;
   settings.preconditioner = pc;
+  if (pc == Preconditioner::kSsor) settings.ssor_omega = bs.range(1) / 10.0;
   PcgWorkspace ws;
   VecX x = p.guess;
   PcgResult r = solve_pcg(p.step.matrix, p.rhs, fixed, settings, x, ws);  // warm-up, setup
@@ -72,12 +73,14 @@ void Solve(benchmark::State& bs, Preconditioner pc) {
     for (int l = 1; l < mg.num_levels(); ++l)
       bs.counters["nodes_L" + std::to_string(l)] = mg.level_nodes(l);
   }
-  bs.SetLabel(pc == Preconditioner::kMultigrid ? "multigrid" : "block-jacobi");
+  bs.SetLabel(pc == Preconditioner::kMultigrid ? "multigrid" : pc == Preconditioner::kSsor ? "ssor" : "block-jacobi");
 }
 
 }  // namespace
 
 BENCHMARK_CAPTURE(Solve, BlockJacobi, Preconditioner::kBlockJacobi)
-    ->Arg(33)->Arg(65)->Arg(129)->Unit(benchmark::kMillisecond)->MinTime(0.5);
+    ->Arg(33)->Arg(65)->Arg(129)->Arg(257)->Unit(benchmark::kMillisecond)->MinTime(0.5);
 BENCHMARK_CAPTURE(Solve, Multigrid, Preconditioner::kMultigrid)
-    ->Arg(33)->Arg(65)->Arg(129)->Unit(benchmark::kMillisecond)->MinTime(0.5);
+    ->Arg(33)->Arg(65)->Arg(129)->Arg(257)->Unit(benchmark::kMillisecond)->MinTime(0.5);
+BENCHMARK_CAPTURE(Solve, Ssor, Preconditioner::kSsor)
+    ->ArgsProduct({{33, 65, 129, 257}, {10, 12, 14, 16}})->Unit(benchmark::kMillisecond)->MinTime(0.5);

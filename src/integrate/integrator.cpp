@@ -55,18 +55,27 @@ Integrator::Integrator(System& system, IntegratorSettings settings)
 
 Preconditioner choose_preconditioner(const IntegratorSettings& settings, int free_nodes) {
   if (settings.preconditioner) return *settings.preconditioner;
-  return free_nodes >= kMultigridMinFreeNodes ? Preconditioner::kMultigrid : Preconditioner::kBlockJacobi;
+  return free_nodes >= kMultigridMinFreeNodes ? Preconditioner::kMultigrid : Preconditioner::kSsor;
 }
 
 std::optional<std::optional<Preconditioner>> parse_preconditioner(const std::string& name) {
   if (name == "auto") return std::optional<Preconditioner>();
   if (name == "block-jacobi") return std::optional<Preconditioner>(Preconditioner::kBlockJacobi);
   if (name == "multigrid") return std::optional<Preconditioner>(Preconditioner::kMultigrid);
+  if (name == "ssor") return std::optional<Preconditioner>(Preconditioner::kSsor);
   return std::nullopt;
 }
 
 std::string preconditioner_name(Preconditioner p) {
-  return p == Preconditioner::kMultigrid ? "multigrid" : "block-jacobi";
+  switch (p) {
+    case Preconditioner::kMultigrid:
+      return "multigrid";
+    case Preconditioner::kSsor:
+      return "ssor";
+    case Preconditioner::kBlockJacobi:
+      break;
+  }
+  return "block-jacobi";
 }
 
 void Integrator::advance(State& s, double t_end, StepStatistics& stats) {

@@ -27,13 +27,14 @@ struct IntegratorSettings {
   double error_tolerance = 1e-6;    ///< RK45 local error tolerance (relative and absolute)
 };
 
-/// Free nodes from which the automatic choice is multigrid rather than block-Jacobi: below,
-/// block-Jacobi needs few iterations and the V-cycle's extra work does not pay
-/// (docs/performance.md).
-constexpr int kMultigridMinFreeNodes = 4000;
+/// Free nodes from which the automatic choice is multigrid rather than SSOR: below, SSOR's
+/// iterations (two triangular solves each) win over the V-cycle's and the per-step coarse
+/// operators; above, its iteration count keeps growing with the mesh while multigrid's
+/// barely does (docs/performance.md).
+constexpr int kMultigridMinFreeNodes = 30000;
 /// The preconditioner `settings` selects for a system with `free_nodes` unpinned nodes.
 Preconditioner choose_preconditioner(const IntegratorSettings& settings, int free_nodes);
-/// "auto", "block-jacobi" or "multigrid"; nullopt for an unknown name.
+/// "auto", "block-jacobi", "ssor" or "multigrid"; nullopt for an unknown name.
 std::optional<std::optional<Preconditioner>> parse_preconditioner(const std::string& name);
 std::string preconditioner_name(Preconditioner p);
 

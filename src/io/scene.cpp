@@ -191,7 +191,7 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
   if (in.has("preconditioner")) {
     const std::string name = in.string("preconditioner");
     const auto p = parse_preconditioner(name);
-    if (!p) in.fail("preconditioner", "unknown preconditioner '" + name + "' (expected auto, block-jacobi or multigrid)");
+    if (!p) in.fail("preconditioner", "unknown preconditioner '" + name + "' (expected auto, block-jacobi, ssor or multigrid)");
     s.integrator.preconditioner = *p;
   }
   if (r.has("damping")) {

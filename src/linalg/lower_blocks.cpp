@@ -129,6 +129,40 @@ void LowerBlocks::multiply(const VecX& x, VecX& y) const {
   }
 }
 
+template <bool kDescending>
+void LowerBlocks::gather_row(int i, const double* x, double& y0, double& y1, double& y2) const {
+  const int db = d_start_[i], de = d_start_[i + 1], sb = s_start_[i], se = s_start_[i + 1];
+  for (int q = 0; q < de - db; ++q) {
+    const int k = kDescending ? de - 1 - q : db + q;
+    add_block_times(d_val_.data() + 9L * k, x + 3 * d_col_[k], y0, y1, y2);
+  }
+  for (int q = 0; q < se - sb; ++q) {
+    const int k = kDescending ? se - 1 - q : sb + q;
+    const double sv = s_val_[k];
+    const double* xj = x + 3 * s_col_[k];
+    y0 += sv * xj[0];
+    y1 += sv * xj[1];
+    y2 += sv * xj[2];
+  }
+}
+
+template <bool kDescending>
+void LowerBlocks::scatter_row(int i, double sign, double v0, double v1, double v2, double* out) const {
+  const int db = d_start_[i], de = d_start_[i + 1], sb = s_start_[i], se = s_start_[i + 1];
+  for (int q = 0; q < de - db; ++q) {
+    const int k = kDescending ? de - 1 - q : db + q;
+    add_transpose_times(d_val_.data() + 9L * k, sign, v0, v1, v2, out + 3 * d_col_[k]);
+  }
+  for (int q = 0; q < se - sb; ++q) {
+    const int k = kDescending ? se - 1 - q : sb + q;
+    const double sv = sign * s_val_[k];
+    double* o = out + 3 * s_col_[k];
+    o[0] += sv * v0;
+    o[1] += sv * v1;
+    o[2] += sv * v2;
+  }
+}
+
 template <bool kForward>
 void LowerBlocks::sweep(const double* dinv, const double* r, double* x, double* scattered) const {
   // Forward (x = 0 on entry): x_i = D_i^-1 (r_i - sum_{j<i} A_ij x_j), then row i's lower
@@ -147,33 +181,9 @@ void LowerBlocks::sweep(const double* dinv, const double* r, double* x, double* 
     }
     double y0 = 0, y1 = 0, y2 = 0;
     if (!kForward) y0 = scattered[3 * i], y1 = scattered[3 * i + 1], y2 = scattered[3 * i + 2];
-    const int db = d_start_[i], de = d_start_[i + 1], sb = s_start_[i], se = s_start_[i + 1];
-    for (int q = 0; q < de - db; ++q) {
-      const int k = kForward ? db + q : de - 1 - q;
-      add_block_times(d_val_.data() + 9L * k, x + 3 * d_col_[k], y0, y1, y2);
-    }
-    for (int q = 0; q < se - sb; ++q) {
-      const int k = kForward ? sb + q : se - 1 - q;
-      const double sv = s_val_[k];
-      const double* xj = x + 3 * s_col_[k];
-      y0 += sv * xj[0];
-      y1 += sv * xj[1];
-      y2 += sv * xj[2];
-    }
+    gather_row<!kForward>(i, x, y0, y1, y2);
     solve_node(dinv + 9L * i, r[3 * i] - y0, r[3 * i + 1] - y1, r[3 * i + 2] - y2, xi);
-    const double v0 = xi[0], v1 = xi[1], v2 = xi[2];
-    for (int q = 0; q < de - db; ++q) {
-      const int k = kForward ? db + q : de - 1 - q;
-      add_transpose_times(d_val_.data() + 9L * k, sign, v0, v1, v2, scattered + 3 * d_col_[k]);
-    }
-    for (int q = 0; q < se - sb; ++q) {
-      const int k = kForward ? sb + q : se - 1 - q;
-      const double sv = sign * s_val_[k];
-      double* o = scattered + 3 * s_col_[k];
-      o[0] += sv * v0;
-      o[1] += sv * v1;
-      o[2] += sv * v2;
-    }
+    scatter_row<!kForward>(i, sign, xi[0], xi[1], xi[2], scattered);
   }
 }
 
@@ -183,6 +193,34 @@ void LowerBlocks::forward_sweep(const double* dinv, const double* r, double* x, 
 
 void LowerBlocks::backward_sweep(const double* dinv, const double* r, double* x, double* acc) const {
   sweep<false>(dinv, r, x, acc);
+}
+
+void LowerBlocks::solve_lower(const double* binv, const double* v, double* y) const {
+  for (int i = 0; i < n_; ++i) {
+    double* yi = y + 3 * i;
+    if (fixed_[i]) {
+      yi[0] = yi[1] = yi[2] = 0.0;
+      continue;
+    }
+    double y0 = 0, y1 = 0, y2 = 0;
+    gather_row<false>(i, y, y0, y1, y2);
+    solve_node(binv + 9L * i, v[3 * i] - y0, v[3 * i + 1] - y1, v[3 * i + 2] - y2, yi);
+  }
+}
+
+void LowerBlocks::solve_upper(const double* binv, const double* v, double* y, double* acc) const {
+  // Row i's sum_{j > i} A_ji^T y_j is scattered into acc from the rows already solved
+  // (descending), blocks in descending order so the loads run downwards with the rows.
+  for (int i = n_ - 1; i >= 0; --i) {
+    double* yi = y + 3 * i;
+    if (fixed_[i]) {
+      yi[0] = yi[1] = yi[2] = 0.0;
+      continue;
+    }
+    solve_node(binv + 9L * i, v[3 * i] - acc[3 * i], v[3 * i + 1] - acc[3 * i + 1], v[3 * i + 2] - acc[3 * i + 2],
+               yi);
+    scatter_row<true>(i, 1.0, yi[0], yi[1], yi[2], acc);
+  }
 }
 
 }  // namespace weft

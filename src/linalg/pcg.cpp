@@ -1,12 +1,149 @@
 #include "linalg/pcg.hpp"
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 namespace weft {
 
 namespace {
 void filter(const std::vector<int>& fixed_nodes, VecX& v) {
   for (int i : fixed_nodes) v.segment<3>(3 * i).setZero();
+}
+
+// sum_k term(k) for k < size, where term may also update vectors at k. Four partial sums
+// keep the loop from waiting on one chain of additions (and let it vectorize).
+template <class Term>
+inline double reduce(long size, Term term) {
+  double s0 = 0, s1 = 0, s2 = 0, s3 = 0;
+  long k = 0;
+  for (; k + 4 <= size; k += 4) {
+    s0 += term(k);
+    s1 += term(k + 1);
+    s2 += term(k + 2);
+    s3 += term(k + 3);
+  }
+  for (; k < size; ++k) s0 += term(k);
+  return (s0 + s1) + (s2 + s3);
+}
+
+// Inverse of a diagonal block of an SPD matrix (itself SPD); the inverse of its diagonal if
+// it is numerically singular.
+Mat3 invert_diagonal_block(const Mat3& d) {
+  const double det = d.determinant();
+  if (det > 0 && std::isfinite(det)) return d.inverse();
+  return d.diagonal().cwiseAbs().cwiseMax(1e-300).cwiseInverse().asDiagonal();
+}
+
+// y = s B x for the 3x3 blocks B of `blocks` (9 column-major doubles per node), zero on
+// fixed nodes (whose blocks are zero).
+void block_diagonal_times(const LowerBlocks& lower, double s, const VecX& x, VecX& y) {
+  const int n = lower.num_nodes();
+  const double* xp = x.data();
+  double* yp = y.data();
+  for (int i = 0; i < n; ++i) {
+    const double* m = lower.diagonal(i);
+    const double* v = xp + 3 * i;
+    yp[3 * i] = s * (m[0] * v[0] + m[3] * v[1] + m[6] * v[2]);
+    yp[3 * i + 1] = s * (m[1] * v[0] + m[4] * v[1] + m[7] * v[2]);
+    yp[3 * i + 2] = s * (m[2] * v[0] + m[5] * v[1] + m[8] * v[2]);
+  }
+}
+
+// Symmetric block SOR preconditioning with Eisenstat's trick. With A = L + D + L^T and
+// B = D/w, CG runs on the transformed system
+//   A^ = (B + L)^-1 A (B + L^T)^-1,  x^ = (B + L^T) x,  b^ = (B + L)^-1 b,
+// which is symmetric positive definite, preconditioned by B (together the SSOR-preconditioned
+// CG on A). Since A = (B + L) + (B + L^T) + (D - 2B), a product is
+//   A^ p = t + (B + L)^-1 (p + (1 - 2/w) D t),  t = (B + L^T)^-1 p,
+// two triangular solves over the lower half of A; and x itself is updated with the t's. The
+// transformed residual r^ = (B + L)^-1 r is not the true one, so the true residual is
+// computed (one product) whenever |r^| scaled by the last known |r| / |r^| reaches the
+// target, and CG stops only when the true |r| does.
+PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const PcgSettings& settings,
+                     double target, VecX& x, PcgWorkspace& ws) {
+  const int n = A.pattern->num_nodes();
+  const long size = 3L * n;
+  const double omega = settings.ssor_omega;
+  ws.lower.assign(A, fixed);
+  const LowerBlocks& L = ws.lower;
+  ws.ssor_inverse.assign(9L * n, 0.0);
+  for (int i = 0; i < n; ++i) {
+    if (fixed[i]) continue;
+    const Mat3 inv = omega * invert_diagonal_block(Eigen::Map<const Mat3>(L.diagonal(i)));
+    std::copy_n(inv.data(), 9, ws.ssor_inverse.data() + 9L * i);
+  }
+  const double* binv = ws.ssor_inverse.data();
+  ws.t.resize(size);
+  ws.w.resize(size);
+  ws.z.resize(size);
+  ws.acc.resize(size);
+
+  PcgResult result;
+  L.multiply(x, ws.q);
+  ws.r = ws.b - ws.q;  // true residual (zero on fixed nodes)
+  double rnorm = ws.r.norm();
+  int it = 0;
+  bool rnorm_current = true;  // rnorm is the residual of the current x
+  if (rnorm > target) {
+    // r^ is kept in ws.r from here on.
+    L.solve_lower(binv, ws.r.data(), ws.z.data());
+    ws.r = ws.z;
+    double scale = rnorm / std::max(ws.r.norm(), 1e-300);
+    block_diagonal_times(L, 1.0 / omega, ws.r, ws.z);  // z^ = B r^
+    ws.p = ws.z;
+    double rz = ws.r.dot(ws.z);
+    double* xp = x.data();
+    double* rp = ws.r.data();
+    double* pp = ws.p.data();
+    double* qp = ws.q.data();
+    double* tp = ws.t.data();
+    double* wp = ws.w.data();
+    double* zp = ws.z.data();
+    const double* ap = ws.acc.data();
+    // B t = p - acc after the upper solve, so p + (1 - 2/w) D t = (w - 1) p + (2 - w) acc.
+    const double cp = omega - 1.0, ca = 2.0 - omega;
+    while (it < settings.max_iterations) {
+      ws.acc.setZero();
+      L.solve_upper(binv, pp, tp, ws.acc.data());
+      for (long k = 0; k < size; ++k) wp[k] = cp * pp[k] + ca * ap[k];
+      L.solve_lower(binv, wp, qp);
+      const double pq = reduce(size, [&](long k) {
+        qp[k] += tp[k];
+        return pp[k] * qp[k];
+      });
+      if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown
+      const double a = rz / pq;
+      const double rr = reduce(size, [&](long k) {
+        xp[k] += a * tp[k];
+        rp[k] -= a * qp[k];
+        return rp[k] * rp[k];
+      });
+      ++it;
+      rnorm_current = false;
+      const double rh_norm = std::sqrt(rr);
+      if (rh_norm * scale <= target) {
+        L.multiply(x, ws.w);
+        rnorm = (ws.b - ws.w).norm();
+        rnorm_current = true;
+        if (rnorm <= target) break;
+        scale = rnorm / std::max(rh_norm, 1e-300);
+      }
+      block_diagonal_times(L, 1.0 / omega, ws.r, ws.z);
+      const double rz_new = reduce(size, [&](long k) { return rp[k] * zp[k]; });
+      const double beta = rz_new / rz;
+      for (long k = 0; k < size; ++k) pp[k] = zp[k] + beta * pp[k];
+      rz = rz_new;
+    }
+  }
+  if (!rnorm_current) {  // stopped by the iteration cap or a breakdown
+    L.multiply(x, ws.w);
+    rnorm = (ws.b - ws.w).norm();
+  }
+  result.iterations = it;
+  result.relative_residual = rnorm / std::max(ws.b.norm(), 1e-300);
+  result.converged = rnorm <= target;
+  return result;
 }
 }  // namespace
 
@@ -16,27 +153,21 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
   ws.fixed_nodes.clear();
   for (int i = 0; i < n; ++i)
     if (fixed[i]) ws.fixed_nodes.push_back(i);
+  if (settings.preconditioner == Preconditioner::kSsor && !(settings.ssor_omega > 0 && settings.ssor_omega < 2))
+    throw std::invalid_argument("SSOR relaxation must be in (0, 2), got " + std::to_string(settings.ssor_omega));
   const bool multigrid = settings.preconditioner == Preconditioner::kMultigrid;
   if (multigrid) {
     if (!ws.multigrid.matches(*A.pattern, fixed, settings.multigrid))
       ws.multigrid.setup(A, fixed, settings.multigrid);
     ws.multigrid.update(A);
-  } else {
+  } else if (settings.preconditioner == Preconditioner::kBlockJacobi) {
     ws.inverse_diagonal.resize(n);
     for (int i = 0; i < n; ++i) {
       if (fixed[i]) {
         ws.inverse_diagonal[i].setZero();  // keeps the preconditioned vector zero there
         continue;
       }
-      const Mat3& d = A.block[A.pattern->diagonal_slot(i)];
-      // The diagonal blocks of an SPD matrix are SPD; fall back to the diagonal if singular.
-      const double det = d.determinant();
-      if (det > 0 && std::isfinite(det)) {
-        ws.inverse_diagonal[i] = d.inverse();
-      } else {
-        ws.inverse_diagonal[i] =
-            d.diagonal().cwiseAbs().cwiseMax(1e-300).cwiseInverse().asDiagonal();
-      }
+      ws.inverse_diagonal[i] = invert_diagonal_block(A.block[A.pattern->diagonal_slot(i)]);
     }
   }
   filter(ws.fixed_nodes, x);
@@ -47,6 +178,10 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
   if (bnorm == 0.0) {
     x.setZero();
     result.converged = true;
+    return result;
+  }
+  if (settings.preconditioner == Preconditioner::kSsor) {
+    result = solve_ssor(A, fixed, settings, settings.relative_tolerance * bnorm, x, ws);
     return result;
   }
   // y = A x on the free nodes; with multigrid from the half of A in its compact lower copy.
@@ -85,19 +220,20 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
   const long size = 3L * n;
   while (rnorm > target && it < settings.max_iterations) {
     multiply(ws.p, ws.q);
-    const double pq = ws.p.dot(ws.q);
+    const double* pq_p = ws.p.data();
+    const double* pq_q = ws.q.data();
+    const double pq = reduce(size, [&](long k) { return pq_p[k] * pq_q[k]; });
     if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown
     const double a = rz / pq;
-    double rr = 0;
     double* xp = x.data();
     double* rp = ws.r.data();
     const double* pp = ws.p.data();
     const double* qp = ws.q.data();
-    for (long k = 0; k < size; ++k) {
+    const double rr = reduce(size, [&](long k) {
       xp[k] += a * pp[k];
       rp[k] -= a * qp[k];
-      rr += rp[k] * rp[k];
-    }
+      return rp[k] * rp[k];
+    });
     rnorm = std::sqrt(rr);
     ++it;
     if (rnorm <= target) break;

@@ -3,6 +3,7 @@
 // (Baraff-Witkin style): a filtered node's unknowns are held at zero, so the system
 // restricted to the free nodes stays symmetric positive definite.
 #include "linalg/block_sparse.hpp"
+#include "linalg/lower_blocks.hpp"
 #include "linalg/multigrid.hpp"
 
 namespace weft {
@@ -10,6 +11,10 @@ namespace weft {
 enum class Preconditioner {
   kBlockJacobi,  ///< inverse 3x3 diagonal blocks
   kMultigrid,    ///< one V-cycle of aggregation multigrid (linalg/multigrid.hpp)
+  /// Symmetric block successive over-relaxation, M = (D/w + L) (D/w)^-1 (D/w + L^T), applied
+  /// with Eisenstat's trick: an iteration costs two triangular solves over the lower half of A
+  /// instead of a product plus the preconditioner.
+  kSsor,
 };
 
 struct PcgSettings {
@@ -17,6 +22,7 @@ struct PcgSettings {
   int max_iterations = 1000;
   Preconditioner preconditioner = Preconditioner::kBlockJacobi;
   MultigridSettings multigrid{};     ///< used by kMultigrid when the hierarchy is (re)built
+  double ssor_omega = 1.4;           ///< relaxation w in (0, 2) of kSsor
 };
 
 struct PcgResult {
@@ -33,6 +39,10 @@ struct PcgWorkspace {
   /// Multigrid hierarchy; rebuilt when the pattern, node count or fixed set changes, its
   /// operators updated every solve.
   AggregationMultigrid multigrid;
+  /// kSsor: compact lower copy of A, omega D_i^-1 per node, and the transformed system's vectors.
+  LowerBlocks lower;
+  std::vector<double> ssor_inverse;
+  VecX t, acc, w;
 };
 
 /// Solves A x = b for the nodes with fixed[i] == 0; x_i = 0 on fixed nodes.

@@ -67,14 +67,15 @@ TEST_F(RunCommand, OverridesApply) {
   EXPECT_FALSE(std::filesystem::exists(out / "frames" / "frame_00000.obj"));
 }
 
-TEST_F(RunCommand, PreconditionerOptionReachesTheSolverAndBothSolveTheSameMotion) {
-  // The default scene is small: automatic choice is block-Jacobi; --preconditioner multigrid
-  // must be used (the summary says so) and give the same motion to the solver's tolerance.
+TEST_F(RunCommand, PreconditionerOptionReachesTheSolverAndAllSolveTheSameMotion) {
+  // The default scene is small: the automatic choice is SSOR; --preconditioner block-jacobi
+  // and multigrid must be used (the summary says so) and give the same motion to the
+  // solver's tolerance.
   const std::string sc = std::string(WEFT_SOURCE_DIR) + "/scenes/swing.json";
-  nlohmann::json summaries[2];
+  const char* names[3] = {"auto", "block-jacobi", "multigrid"};
+  nlohmann::json summaries[3];
   std::vector<std::string> last_rows;
-  const char* names[2] = {"auto", "multigrid"};
-  for (int k = 0; k < 2; ++k) {
+  for (int k = 0; k < 3; ++k) {
     const auto out = folder_ / (std::string("pc_") + names[k]);
     const auto r = weft("run '" + sc + "' --out '" + out.string() + "' --quiet --no-frames --duration 0.4 --tolerance 1e-10 --preconditioner " + names[k]);
     ASSERT_EQ(r.exit_code, 0) << r.error_output;
@@ -82,15 +83,22 @@ TEST_F(RunCommand, PreconditionerOptionReachesTheSolverAndBothSolveTheSameMotion
     const std::string csv = read_text(out / "energy.csv");
     last_rows.push_back(csv.substr(csv.rfind('\n', csv.size() - 2) + 1));
   }
-  EXPECT_EQ(summaries[0]["preconditioner"], "block-jacobi");
-  EXPECT_EQ(summaries[1]["preconditioner"], "multigrid");
-  // Multigrid needs fewer iterations than block-Jacobi at any size (its V-cycle includes a
-  // Gauss-Seidel sweep each way, stronger than one Jacobi step).
-  EXPECT_LT(summaries[1]["solver_iterations_mean"].get<double>(), summaries[0]["solver_iterations_mean"].get<double>());
+  EXPECT_EQ(summaries[0]["preconditioner"], "ssor");
+  EXPECT_EQ(summaries[1]["preconditioner"], "block-jacobi");
+  EXPECT_EQ(summaries[2]["preconditioner"], "multigrid");
+  // SSOR and multigrid need fewer iterations than block-Jacobi at any size (SSOR is a
+  // Gauss-Seidel sweep each way, the V-cycle adds coarse corrections to that; both stronger
+  // than one Jacobi step).
+  const double bj = summaries[1]["solver_iterations_mean"].get<double>();
+  EXPECT_LT(summaries[0]["solver_iterations_mean"].get<double>(), bj);
+  EXPECT_LT(summaries[2]["solver_iterations_mean"].get<double>(), bj);
   // Same energies at the end (columns printed to 6+ significant digits).
-  std::istringstream a(last_rows[0]), b(last_rows[1]);
-  std::string fa, fb;
-  while (std::getline(a, fa, ',') && std::getline(b, fb, ',')) EXPECT_NEAR(std::stod(fa), std::stod(fb), 1e-6 + 1e-5 * std::abs(std::stod(fb)));
+  for (int k : {0, 2}) {
+    std::istringstream a(last_rows[k]), b(last_rows[1]);
+    std::string fa, fb;
+    while (std::getline(a, fa, ',') && std::getline(b, fb, ','))
+      EXPECT_NEAR(std::stod(fa), std::stod(fb), 1e-6 + 1e-5 * std::abs(std::stod(fb))) << names[k];
+  }
   const auto bad = weft("run '" + sc + "' --out '" + (folder_ / "pc_bad").string() + "' --preconditioner ilu");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.error_output.find("--preconditioner"), std::string::npos) << bad.error_output;
@@ -115,7 +123,7 @@ TEST_F(RunCommand, BadScenesExitTwoWithAMessageNamingTheProblemAndWriteNothing) 
                              R"({"grid": {"size": [0.2, 0.2], "vertices": [5, 5], "pattern": "hexagonal"}})"),
        "key cloth.mesh.grid.pattern: unknown grid pattern 'hexagonal'"},
       {"preconditioner", scene(R"({"method": "implicit-midpoint", "dt": 0.01, "preconditioner": "ilu"})"),
-       "key integrator.preconditioner: unknown preconditioner 'ilu' (expected auto, block-jacobi or multigrid)"},
+       "key integrator.preconditioner: unknown preconditioner 'ilu' (expected auto, block-jacobi, ssor or multigrid)"},
       {"frame_interval", scene(R"({"method": "implicit-midpoint", "dt": 0.03})"),
        "frame_interval 0.02 s is not a whole number of steps of dt 0.03 s"},
   };

@@ -6,21 +6,13 @@
 
 #include "linalg/lower_blocks.hpp"
 #include "support/cloth_step_problem.hpp"
+#include "support/random_vectors.hpp"
 
 namespace weft {
 namespace {
 
-VecX random_vector(int size, std::mt19937& rng) {
-  std::normal_distribution<double> g;
-  VecX v(size);
-  for (auto& e : v) e = g(rng);
-  return v;
-}
-
-void zero_fixed(const std::vector<char>& fixed, VecX& v) {
-  for (size_t i = 0; i < fixed.size(); ++i)
-    if (fixed[i]) v.segment<3>(3 * i).setZero();
-}
+using test::random_vector;
+using test::zero_fixed;
 
 // The cloth's step matrix has whole (membrane) and scalar (bending-only) lower blocks; the
 // product from the copy must equal the full product with pinned rows and columns removed.

@@ -7,18 +7,12 @@
 #include "linalg/multigrid.hpp"
 #include "linalg/pcg.hpp"
 #include "support/cloth_step_problem.hpp"
+#include "support/random_vectors.hpp"
 
 namespace weft {
 namespace {
 
-VecX random_free_vector(const std::vector<char>& fixed, std::mt19937& rng) {
-  std::normal_distribution<double> g;
-  VecX v(3 * fixed.size());
-  for (auto& e : v) e = g(rng);
-  for (size_t i = 0; i < fixed.size(); ++i)
-    if (fixed[i]) v.segment<3>(3 * i).setZero();
-  return v;
-}
+using test::random_free_vector;
 
 int count_free(const std::vector<char>& fixed) {
   int k = 0;
