@@ -130,7 +130,7 @@ void LowerBlocks::multiply(const VecX& x, VecX& y) const {
 }
 
 template <bool kDescending>
-void LowerBlocks::gather_row(int i, const double* x, double& y0, double& y1, double& y2) const {
+[[gnu::always_inline]] inline void LowerBlocks::gather_row(int i, const double* x, double& y0, double& y1, double& y2) const {
   const int db = d_start_[i], de = d_start_[i + 1], sb = s_start_[i], se = s_start_[i + 1];
   for (int q = 0; q < de - db; ++q) {
     const int k = kDescending ? de - 1 - q : db + q;
@@ -147,7 +147,7 @@ void LowerBlocks::gather_row(int i, const double* x, double& y0, double& y1, dou
 }
 
 template <bool kDescending>
-void LowerBlocks::scatter_row(int i, double sign, double v0, double v1, double v2, double* out) const {
+[[gnu::always_inline]] inline void LowerBlocks::scatter_row(int i, double sign, double v0, double v1, double v2, double* out) const {
   const int db = d_start_[i], de = d_start_[i + 1], sb = s_start_[i], se = s_start_[i + 1];
   for (int q = 0; q < de - db; ++q) {
     const int k = kDescending ? de - 1 - q : db + q;
