@@ -131,11 +131,10 @@ void LowerBlocks::multiply(const VecX& x, VecX& y) const {
 
 template <bool kDescending>
 [[gnu::always_inline]] inline void LowerBlocks::gather_row(int i, const double* x, double& y0, double& y1, double& y2) const {
+  // Ascending (forward sweeps and lower solves): x_j of the last column, i - 1 on a grid, was
+  // computed just before; the scalar blocks go first and that block last, so little of the
+  // sum waits for it.
   const int db = d_start_[i], de = d_start_[i + 1], sb = s_start_[i], se = s_start_[i + 1];
-  for (int q = 0; q < de - db; ++q) {
-    const int k = kDescending ? de - 1 - q : db + q;
-    add_block_times(d_val_.data() + 9L * k, x + 3 * d_col_[k], y0, y1, y2);
-  }
   for (int q = 0; q < se - sb; ++q) {
     const int k = kDescending ? se - 1 - q : sb + q;
     const double sv = s_val_[k];
@@ -143,6 +142,10 @@ template <bool kDescending>
     y0 += sv * xj[0];
     y1 += sv * xj[1];
     y2 += sv * xj[2];
+  }
+  for (int q = 0; q < de - db; ++q) {
+    const int k = kDescending ? de - 1 - q : db + q;
+    add_block_times(d_val_.data() + 9L * k, x + 3 * d_col_[k], y0, y1, y2);
   }
 }
 
