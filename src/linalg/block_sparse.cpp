@@ -1,6 +1,7 @@
 #include "linalg/block_sparse.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace weft {
 
@@ -66,6 +67,12 @@ MatX BlockMatrix::to_dense() const {
     for (int s = pattern->row_start()[i]; s < pattern->row_start()[i + 1]; ++s)
       d.block<3, 3>(3 * i, 3 * pattern->column()[s]) = block[s];
   return d;
+}
+
+Mat3 invert_spd_block(const Mat3& d) {
+  const double det = d.determinant();
+  if (det > 0 && std::isfinite(det)) return d.inverse();
+  return d.diagonal().cwiseAbs().cwiseMax(1e-300).cwiseInverse().asDiagonal();
 }
 
 }  // namespace weft

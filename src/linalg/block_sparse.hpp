@@ -46,4 +46,14 @@ struct BlockMatrix {
   MatX to_dense() const;
 };
 
+/// Whether a column-major 3x3 block is a multiple of the identity (then stored as one number).
+inline bool is_multiple_of_identity(const double* m) {
+  return m[1] == 0 && m[2] == 0 && m[3] == 0 && m[5] == 0 && m[6] == 0 && m[7] == 0 && m[0] == m[4] &&
+         m[0] == m[8];
+}
+
+/// Inverse of a diagonal block of an SPD matrix (itself SPD); the inverse of its diagonal when
+/// it is numerically singular.
+Mat3 invert_spd_block(const Mat3& d);
+
 }  // namespace weft

@@ -6,11 +6,6 @@ namespace weft {
 
 namespace {
 
-bool is_scalar_block(const double* m) {
-  return m[1] == 0 && m[2] == 0 && m[3] == 0 && m[5] == 0 && m[6] == 0 && m[7] == 0 && m[0] == m[4] &&
-         m[0] == m[8];
-}
-
 // y += m v for a column-major 3x3 block.
 inline void add_block_times(const double* m, const double* v, double& y0, double& y1, double& y2) {
   const double v0 = v[0], v1 = v[1], v2 = v[2];
@@ -53,7 +48,7 @@ void LowerBlocks::build(const BlockPattern& pattern, const std::vector<char>& fi
     if (!fixed[i])
       for (int s = rs[i]; s < rs[i + 1] && col[s] < i; ++s) {
         if (fixed[col[s]]) continue;
-        if (a && is_scalar_block(a + 9L * s)) {
+        if (a && is_multiple_of_identity(a + 9L * s)) {
           s_col_.push_back(col[s]);
           s_slot_.push_back(s);
         } else {
@@ -78,7 +73,7 @@ bool LowerBlocks::fill(const BlockMatrix& A) {
   for (size_t k = 0; k < d_slot_.size(); ++k) std::copy_n(a + 9L * d_slot_[k], 9, d_val_.data() + 9 * k);
   for (size_t k = 0; k < s_slot_.size(); ++k) {
     const double* m = a + 9L * s_slot_[k];
-    if (!is_scalar_block(m)) return false;
+    if (!is_multiple_of_identity(m)) return false;
     s_val_[k] = m[0];
   }
   for (int i = 0; i < n_; ++i)
@@ -196,34 +191,6 @@ void LowerBlocks::forward_sweep(const double* dinv, const double* r, double* x, 
 
 void LowerBlocks::backward_sweep(const double* dinv, const double* r, double* x, double* acc) const {
   sweep<false>(dinv, r, x, acc);
-}
-
-void LowerBlocks::solve_lower(const double* binv, const double* v, double* y) const {
-  for (int i = 0; i < n_; ++i) {
-    double* yi = y + 3 * i;
-    if (fixed_[i]) {
-      yi[0] = yi[1] = yi[2] = 0.0;
-      continue;
-    }
-    double y0 = 0, y1 = 0, y2 = 0;
-    gather_row<false>(i, y, y0, y1, y2);
-    solve_node(binv + 9L * i, v[3 * i] - y0, v[3 * i + 1] - y1, v[3 * i + 2] - y2, yi);
-  }
-}
-
-void LowerBlocks::solve_upper(const double* binv, const double* v, double* y, double* acc) const {
-  // Row i's sum_{j > i} A_ji^T y_j is scattered into acc from the rows already solved
-  // (descending), blocks in descending order so the loads run downwards with the rows.
-  for (int i = n_ - 1; i >= 0; --i) {
-    double* yi = y + 3 * i;
-    if (fixed_[i]) {
-      yi[0] = yi[1] = yi[2] = 0.0;
-      continue;
-    }
-    solve_node(binv + 9L * i, v[3 * i] - acc[3 * i], v[3 * i + 1] - acc[3 * i + 1], v[3 * i + 2] - acc[3 * i + 2],
-               yi);
-    scatter_row<true>(i, 1.0, yi[0], yi[1], yi[2], acc);
-  }
 }
 
 }  // namespace weft

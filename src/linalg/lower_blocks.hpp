@@ -40,13 +40,6 @@ class LowerBlocks {
   /// Backward block Gauss-Seidel sweep from the current x; `acc` (3n, zero on entry) is
   /// scratch. Fixed nodes keep their x.
   void backward_sweep(const double* dinv, const double* r, double* x, double* acc) const;
-  /// Block lower-triangular solve (B + L) y = v, where B is block diagonal with inverse
-  /// blocks `binv` (9 column-major doubles per node, zero on fixed nodes) and L the strictly
-  /// lower part of A: y_i = B_i^-1 (v_i - sum_{j<i} A_ij y_j). y is zero on fixed nodes.
-  void solve_lower(const double* binv, const double* v, double* y) const;
-  /// Block upper-triangular solve (B + L^T) y = v: y_i = B_i^-1 (v_i - sum_{j>i} A_ji^T y_j).
-  /// `acc` (3n, zero on entry) is scratch. y is zero on fixed nodes.
-  void solve_upper(const double* binv, const double* v, double* y, double* acc) const;
 
  private:
   /// forward_sweep (kForward) or backward_sweep; `scattered` is t or acc.

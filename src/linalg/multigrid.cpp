@@ -96,11 +96,6 @@ inline void solve_node(const double* inv, double s0, double s1, double s2, doubl
   xi[2] = inv[2] * s0 + inv[5] * s1 + inv[8] * s2;
 }
 
-Mat3 invert_spd_block(const Mat3& d) {
-  const double det = d.determinant();
-  if (det > 0 && std::isfinite(det)) return d.inverse();
-  return d.diagonal().cwiseAbs().cwiseMax(1e-300).cwiseInverse().asDiagonal();
-}
 
 }  // namespace
 

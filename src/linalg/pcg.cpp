@@ -27,28 +27,6 @@ inline double reduce(long size, Term term) {
   return (s0 + s1) + (s2 + s3);
 }
 
-// Inverse of a diagonal block of an SPD matrix (itself SPD); the inverse of its diagonal if
-// it is numerically singular.
-Mat3 invert_diagonal_block(const Mat3& d) {
-  const double det = d.determinant();
-  if (det > 0 && std::isfinite(det)) return d.inverse();
-  return d.diagonal().cwiseAbs().cwiseMax(1e-300).cwiseInverse().asDiagonal();
-}
-
-// y = s B x for the 3x3 blocks B of `blocks` (9 column-major doubles per node), zero on
-// fixed nodes (whose blocks are zero).
-void block_diagonal_times(const LowerBlocks& lower, double s, const VecX& x, VecX& y) {
-  const int n = lower.num_nodes();
-  const double* xp = x.data();
-  double* yp = y.data();
-  for (int i = 0; i < n; ++i) {
-    const double* m = lower.diagonal(i);
-    const double* v = xp + 3 * i;
-    yp[3 * i] = s * (m[0] * v[0] + m[3] * v[1] + m[6] * v[2]);
-    yp[3 * i + 1] = s * (m[1] * v[0] + m[4] * v[1] + m[7] * v[2]);
-    yp[3 * i + 2] = s * (m[2] * v[0] + m[5] * v[1] + m[8] * v[2]);
-  }
-}
 
 // Symmetric block SOR preconditioning with Eisenstat's trick. With A = L + D + L^T and
 // B = D/w, CG runs on the transformed system
@@ -56,58 +34,50 @@ void block_diagonal_times(const LowerBlocks& lower, double s, const VecX& x, Vec
 // which is symmetric positive definite, preconditioned by B (together the SSOR-preconditioned
 // CG on A). Since A = (B + L) + (B + L^T) + (D - 2B), a product is
 //   A^ p = t + (B + L)^-1 (p + (1 - 2/w) D t),  t = (B + L^T)^-1 p,
-// two triangular solves over the lower half of A; and x itself is updated with the t's. The
-// transformed residual r^ = (B + L)^-1 r is not the true one, so the true residual is
+// two triangular solves (linalg/ssor.hpp); B t = p - L^T t makes the right-hand side of the
+// second (w - 1) p + (2 - w) L^T t, written by the first. x itself is updated with the t's.
+// The transformed residual r^ = (B + L)^-1 r is not the true one, so the true residual is
 // computed (one product) whenever |r^| scaled by the last known |r| / |r^| reaches the
-// target, and CG stops only when the true |r| does.
+// target, and CG stops only when the true |r| does. Vectors have 4 doubles per node.
 PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const PcgSettings& settings,
                      double target, VecX& x, PcgWorkspace& ws) {
-  const int n = A.pattern->num_nodes();
-  const long size = 3L * n;
   const double omega = settings.ssor_omega;
-  ws.lower.assign(A, fixed);
-  const LowerBlocks& L = ws.lower;
-  ws.ssor_inverse.assign(9L * n, 0.0);
-  for (int i = 0; i < n; ++i) {
-    if (fixed[i]) continue;
-    const Mat3 inv = omega * invert_diagonal_block(Eigen::Map<const Mat3>(L.diagonal(i)));
-    std::copy_n(inv.data(), 9, ws.ssor_inverse.data() + 9L * i);
-  }
-  const double* binv = ws.ssor_inverse.data();
-  ws.t.resize(size);
-  ws.w.resize(size);
-  ws.z.resize(size);
-  ws.acc.resize(size);
+  SsorOperator& S = ws.ssor;
+  S.assign(A, fixed, omega);
+  const long size = 4L * S.num_nodes();
+  VecX& x4 = ws.x4;
+  VecX& b4 = ws.b4;
+  S.pad(x, x4);
+  S.pad(ws.b, b4);
+  for (VecX* v : {&ws.r, &ws.z, &ws.p, &ws.q, &ws.t, &ws.w}) v->resize(size);
+  double* xp = x4.data();
+  const double* bp = b4.data();
+  double* rp = ws.r.data();
+  double* pp = ws.p.data();
+  double* qp = ws.q.data();
+  double* tp = ws.t.data();
+  double* wp = ws.w.data();
+  double* zp = ws.z.data();
+  // |b - A x| from a product into q.
+  auto true_residual = [&]() {
+    S.multiply(xp, qp);
+    return std::sqrt(reduce(size, [&](long k) { return (bp[k] - qp[k]) * (bp[k] - qp[k]); }));
+  };
 
   PcgResult result;
-  L.multiply(x, ws.q);
-  ws.r = ws.b - ws.q;  // true residual (zero on fixed nodes)
-  double rnorm = ws.r.norm();
+  double rnorm = true_residual();
   int it = 0;
   bool rnorm_current = true;  // rnorm is the residual of the current x
   if (rnorm > target) {
-    // r^ is kept in ws.r from here on.
-    L.solve_lower(binv, ws.r.data(), ws.z.data());
-    ws.r = ws.z;
+    for (long k = 0; k < size; ++k) wp[k] = bp[k] - qp[k];
+    S.solve_lower(wp, rp);  // r^
     double scale = rnorm / std::max(ws.r.norm(), 1e-300);
-    block_diagonal_times(L, 1.0 / omega, ws.r, ws.z);  // z^ = B r^
-    ws.p = ws.z;
-    double rz = ws.r.dot(ws.z);
-    double* xp = x.data();
-    double* rp = ws.r.data();
-    double* pp = ws.p.data();
-    double* qp = ws.q.data();
-    double* tp = ws.t.data();
-    double* wp = ws.w.data();
-    double* zp = ws.z.data();
-    const double* ap = ws.acc.data();
-    // B t = p - acc after the upper solve, so p + (1 - 2/w) D t = (w - 1) p + (2 - w) acc.
-    const double cp = omega - 1.0, ca = 2.0 - omega;
+    S.diagonal_times(1.0 / omega, rp, pp);  // p = z^ = B r^
+    double rz = reduce(size, [&](long k) { return rp[k] * pp[k]; });
+    const double cp = omega - 1.0, cu = 2.0 - omega;
     while (it < settings.max_iterations) {
-      ws.acc.setZero();
-      L.solve_upper(binv, pp, tp, ws.acc.data());
-      for (long k = 0; k < size; ++k) wp[k] = cp * pp[k] + ca * ap[k];
-      L.solve_lower(binv, wp, qp);
+      S.solve_upper(pp, tp, wp, cp, cu);
+      S.solve_lower(wp, qp);
       const double pq = reduce(size, [&](long k) {
         qp[k] += tp[k];
         return pp[k] * qp[k];
@@ -123,23 +93,20 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
       rnorm_current = false;
       const double rh_norm = std::sqrt(rr);
       if (rh_norm * scale <= target) {
-        L.multiply(x, ws.w);
-        rnorm = (ws.b - ws.w).norm();
+        rnorm = true_residual();
         rnorm_current = true;
         if (rnorm <= target) break;
         scale = rnorm / std::max(rh_norm, 1e-300);
       }
-      block_diagonal_times(L, 1.0 / omega, ws.r, ws.z);
+      S.diagonal_times(1.0 / omega, rp, zp);
       const double rz_new = reduce(size, [&](long k) { return rp[k] * zp[k]; });
       const double beta = rz_new / rz;
       for (long k = 0; k < size; ++k) pp[k] = zp[k] + beta * pp[k];
       rz = rz_new;
     }
   }
-  if (!rnorm_current) {  // stopped by the iteration cap or a breakdown
-    L.multiply(x, ws.w);
-    rnorm = (ws.b - ws.w).norm();
-  }
+  if (!rnorm_current) rnorm = true_residual();  // stopped by the iteration cap or a breakdown
+  S.unpad(x4, x);
   result.iterations = it;
   result.relative_residual = rnorm / std::max(ws.b.norm(), 1e-300);
   result.converged = rnorm <= target;
@@ -167,7 +134,7 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
         ws.inverse_diagonal[i].setZero();  // keeps the preconditioned vector zero there
         continue;
       }
-      ws.inverse_diagonal[i] = invert_diagonal_block(A.block[A.pattern->diagonal_slot(i)]);
+      ws.inverse_diagonal[i] = invert_spd_block(A.block[A.pattern->diagonal_slot(i)]);
     }
   }
   filter(ws.fixed_nodes, x);

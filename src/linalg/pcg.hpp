@@ -3,8 +3,8 @@
 // (Baraff-Witkin style): a filtered node's unknowns are held at zero, so the system
 // restricted to the free nodes stays symmetric positive definite.
 #include "linalg/block_sparse.hpp"
-#include "linalg/lower_blocks.hpp"
 #include "linalg/multigrid.hpp"
+#include "linalg/ssor.hpp"
 
 namespace weft {
 
@@ -39,10 +39,9 @@ struct PcgWorkspace {
   /// Multigrid hierarchy; rebuilt when the pattern, node count or fixed set changes, its
   /// operators updated every solve.
   AggregationMultigrid multigrid;
-  /// kSsor: compact lower copy of A, omega D_i^-1 per node, and the transformed system's vectors.
-  LowerBlocks lower;
-  std::vector<double> ssor_inverse;
-  VecX t, acc, w;
+  /// kSsor: the SSOR operators on a copy of A, and vectors with 4 doubles per node.
+  SsorOperator ssor;
+  VecX t, w, x4, b4;
 };
 
 /// Solves A x = b for the nodes with fixed[i] == 0; x_i = 0 on fixed nodes.

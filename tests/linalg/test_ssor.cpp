@@ -1,12 +1,12 @@
 // Symmetric block SOR preconditioned CG with Eisenstat's trick (linalg/pcg.hpp, kSsor) and
-// the triangular solves it is built on (linalg/lower_blocks.hpp), against dense algebra.
+// the operators it is built on (linalg/ssor.hpp), against dense algebra.
 #include <gtest/gtest.h>
 
 #include <random>
 #include <stdexcept>
 
-#include "linalg/lower_blocks.hpp"
 #include "linalg/pcg.hpp"
+#include "linalg/ssor.hpp"
 #include "support/cloth_step_problem.hpp"
 #include "support/random_vectors.hpp"
 
@@ -16,78 +16,123 @@ namespace {
 using test::random_vector;
 using test::zero_fixed;
 
-// The step matrix on the free nodes as a dense matrix (pinned rows and columns replaced by
-// the identity), split into its block-diagonal, strictly lower and strictly upper parts.
+// The step matrix on the free nodes as a dense matrix with the nodes in the solves' order
+// (pinned rows and columns replaced by the identity), split into its block-diagonal,
+// strictly lower and strictly upper parts.
 struct DenseSplit {
   MatX A, diag, lower, upper;
 };
 
-DenseSplit split(const BlockMatrix& M, const std::vector<char>& fixed) {
+DenseSplit split(const BlockMatrix& M, const std::vector<char>& fixed, const std::vector<int>& order) {
   const int n = M.pattern->num_nodes();
+  const MatX full = M.to_dense();
   DenseSplit s;
-  s.A = M.to_dense();
-  for (int i = 0; i < n; ++i)
-    if (fixed[i]) {
-      s.A.middleRows(3 * i, 3).setZero();
-      s.A.middleCols(3 * i, 3).setZero();
-      s.A.block<3, 3>(3 * i, 3 * i).setIdentity();
+  s.A = MatX::Zero(3 * n, 3 * n);
+  for (int p = 0; p < n; ++p)
+    for (int q = 0; q < n; ++q) {
+      const int i = order[p], j = order[q];
+      if (fixed[i] || fixed[j]) continue;
+      s.A.block<3, 3>(3 * p, 3 * q) = full.block<3, 3>(3 * i, 3 * j);
     }
+  for (int p = 0; p < n; ++p)
+    if (fixed[order[p]]) s.A.block<3, 3>(3 * p, 3 * p).setIdentity();
   s.diag = s.lower = s.upper = MatX::Zero(3 * n, 3 * n);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      MatX& part = j < i ? s.lower : (j > i ? s.upper : s.diag);
-      part.block<3, 3>(3 * i, 3 * j) = s.A.block<3, 3>(3 * i, 3 * j);
+  for (int p = 0; p < n; ++p)
+    for (int q = 0; q < n; ++q) {
+      MatX& part = q < p ? s.lower : (q > p ? s.upper : s.diag);
+      part.block<3, 3>(3 * p, 3 * q) = s.A.block<3, 3>(3 * p, 3 * q);
     }
   return s;
 }
 
-// (B + L) y = v and (B + L^T) y = v with B = D/omega, from the compact copy, against dense
-// triangular solves; pinned nodes come out zero.
-TEST(Ssor, TriangularSolvesMatchDense) {
+// Node-ordered 3-per-node vector <-> position-ordered 4-per-node vector of the operator.
+VecX by_position(const VecX& v4) {
+  const long n = v4.size() / 4;
+  VecX v(3 * n);
+  for (long p = 0; p < n; ++p) v.segment<3>(3 * p) = v4.segment<3>(4 * p);
+  return v;
+}
+
+double fourth_lanes(const VecX& v4) {
+  double s = 0;
+  for (long p = 0; p < v4.size() / 4; ++p) s += std::abs(v4(4 * p + 3));
+  return s;
+}
+
+// The order interleaves stretches of the numbering and is a permutation.
+TEST(Ssor, OrderInterleavesStretchesOfTheNumbering) {
+  test::ClothStepProblem p;
+  test::make_cloth_step_problem(9, 0.0, p);
+  SsorOperator S;
+  S.assign(p.matrix(), p.fixed(), 1.0);
+  const auto& order = S.order();
+  ASSERT_EQ(order.size(), 81u);
+  std::vector<int> sorted = order;
+  std::sort(sorted.begin(), sorted.end());
+  for (int i = 0; i < 81; ++i) EXPECT_EQ(sorted[i], i);
+  const int stretch = (81 + SsorOperator::kChains - 1) / SsorOperator::kChains;
+  for (int p = 0; p + 1 < 81; ++p)
+    if (SsorOperator::kChains > 1) EXPECT_GE(std::abs(order[p + 1] - order[p]), stretch - 1) << p;
+}
+
+// (B + L) y = v and (B + L^T) y = v with B = D/omega, y = A x and y = s D x, against dense
+// algebra in the solves' order; pinned nodes come out zero and so do the padding lanes.
+TEST(Ssor, OperatorsMatchDense) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(9, 0.02, p);
   std::vector<char> fixed = p.fixed();
   fixed[40] = 1;
-  const int n = 81;
   const double omega = 1.3;
-  LowerBlocks L;
-  L.assign(p.matrix(), fixed);
-  const DenseSplit d = split(p.matrix(), fixed);
-  std::vector<double> binv(9 * n, 0.0);
-  for (int i = 0; i < n; ++i) {
-    if (fixed[i]) continue;
-    const Mat3 inv = omega * Mat3(d.diag.block<3, 3>(3 * i, 3 * i)).inverse();
-    std::copy_n(inv.data(), 9, binv.data() + 9 * i);
-  }
-  // On the free nodes B + L is block lower triangular; on pinned nodes y is zero, which the
-  // identity rows give for a v that is zero there.
-  std::mt19937 rng(4);
-  VecX v = random_vector(3 * n, rng);
-  zero_fixed(fixed, v);
+  SsorOperator S;
+  S.assign(p.matrix(), fixed, omega);
+  EXPECT_GT(S.num_scalar(), 0) << "the hinge couplings are multiples of the identity";
+  EXPECT_GT(S.num_whole(), 0);
+  const DenseSplit d = split(p.matrix(), fixed, S.order());
   const MatX B = d.diag / omega;
-  VecX y(3 * n);
-  L.solve_lower(binv.data(), v.data(), y.data());
-  EXPECT_LE(((B + d.lower) * y - v).norm(), 1e-12 * v.norm());
-  VecX acc = VecX::Zero(3 * n);
-  v(3 * 40) = 7.0;  // a pinned entry must not be read
-  L.solve_upper(binv.data(), v.data(), y.data(), acc.data());
+  std::mt19937 rng(4);
+  VecX v = random_vector(3 * 81, rng), v4, y4(4 * 81), u4(4 * 81);
+  S.pad(v, v4);  // zero on pinned nodes
+  const VecX vp = by_position(v4);
+  S.solve_lower(v4.data(), y4.data());
+  EXPECT_LE(((B + d.lower) * by_position(y4) - vp).norm(), 1e-12 * vp.norm());
+  EXPECT_EQ(fourth_lanes(y4), 0.0);
+  const double cp = 0.3, cu = 0.6;
+  S.solve_upper(v4.data(), y4.data(), u4.data(), cp, cu);
+  const VecX yp = by_position(y4);
+  EXPECT_LE(((B + d.upper) * yp - vp).norm(), 1e-12 * vp.norm());
+  EXPECT_LE((by_position(u4) - (cp * vp + cu * d.upper * yp)).norm(), 1e-12 * vp.norm());
+  EXPECT_EQ(fourth_lanes(y4) + fourth_lanes(u4), 0.0);
+  S.multiply(v4.data(), y4.data());
+  VecX expected = d.A * vp;
+  for (int q = 0; q < 81; ++q)
+    if (fixed[S.order()[q]]) expected.segment<3>(3 * q).setZero();
+  EXPECT_LE((by_position(y4) - expected).norm(), 1e-12 * expected.norm());
+  EXPECT_EQ(fourth_lanes(y4), 0.0);
+  S.diagonal_times(0.7, v4.data(), y4.data());
+  EXPECT_LE((by_position(y4) - 0.7 * d.diag * vp).norm(), 1e-12 * vp.norm());
+  // Back to node order.
+  VecX back;
+  S.unpad(v4, back);
   zero_fixed(fixed, v);
-  EXPECT_EQ(y.segment<3>(3 * 40).norm(), 0.0);
-  EXPECT_LE(((B + d.upper) * y - v).norm(), 1e-12 * v.norm());
+  EXPECT_EQ((back - v).norm(), 0.0);
 }
 
 // In exact arithmetic CG on the transformed system produces the same iterates as textbook
-// PCG with the explicit SSOR preconditioner M^-1 = (B + U)^-1 B (B + L)^-1. After the same
-// number of iterations from the same guess both must agree to rounding.
+// PCG with the explicit SSOR preconditioner M^-1 = (B + U)^-1 B (B + L)^-1 (in the solves'
+// order). After the same number of iterations from the same guess both must agree to
+// rounding.
 TEST(Ssor, EisenstatIteratesEqualExplicitPreconditioner) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(9, 0.02, p);
   const auto& fixed = p.fixed();
   const double omega = 1.4;
-  const DenseSplit d = split(p.matrix(), fixed);
+  SsorOperator S;
+  S.assign(p.matrix(), fixed, omega);
+  const DenseSplit d = split(p.matrix(), fixed, S.order());
   const MatX B = d.diag / omega;
-  VecX b = p.rhs;
-  zero_fixed(fixed, b);
+  VecX b4;
+  S.pad(p.rhs, b4);
+  const VecX b = by_position(b4);
   // Block (not scalar) triangular factors: solved densely.
   const Eigen::PartialPivLU<MatX> BL(B + d.lower), BU(B + d.upper);
   auto precondition = [&](const VecX& r) -> VecX { return BU.solve(B * BL.solve(r)); };
@@ -114,7 +159,9 @@ TEST(Ssor, EisenstatIteratesEqualExplicitPreconditioner) {
     VecX x = VecX::Zero(b.size());
     const PcgResult res = solve_pcg(p.matrix(), p.rhs, fixed, s, x, ws);
     EXPECT_EQ(res.iterations, k);
-    EXPECT_LE((x - x_ref).norm(), 1e-10 * x_ref.norm()) << k << " iterations";
+    VecX x4;
+    S.pad(x, x4);
+    EXPECT_LE((by_position(x4) - x_ref).norm(), 1e-10 * x_ref.norm()) << k << " iterations";
   }
 }
 
@@ -171,8 +218,7 @@ TEST(Ssor, RejectsRelaxationOutsideTheOpenInterval) {
       solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x, ws);
       ADD_FAILURE() << "omega " << omega << " accepted";
     } catch (const std::invalid_argument& e) {
-      EXPECT_EQ(std::string(e.what()),
-                "SSOR relaxation must be in (0, 2), got " + std::to_string(omega));
+      EXPECT_EQ(std::string(e.what()), "SSOR relaxation must be in (0, 2), got " + std::to_string(omega));
     }
   }
 }

@@ -1,0 +1,198 @@
+#include "linalg/ssor.hpp"
+
+#include <algorithm>
+#include <numeric>
+
+namespace weft {
+
+namespace {
+
+// Four doubles, loaded and stored without alignment requirements (GCC/Clang vector
+// extension: one AVX register where available, two SSE ones otherwise).
+typedef double V4 __attribute__((vector_size(32), aligned(8), may_alias));
+
+inline V4 load(const double* p) { return *reinterpret_cast<const V4*>(p); }
+inline void store(double* p, V4 v) { *reinterpret_cast<V4*>(p) = v; }
+
+// A column-major 3x3 block times a node's vector: three four-wide loads of the columns at
+// offsets 0, 3 and 6 (the fourth lane reads the next entry: its result is not used).
+inline V4 block_times(const double* m, const double* x) {
+  return load(m) * x[0] + load(m + 3) * x[1] + load(m + 6) * x[2];
+}
+
+// The same for a padded block (12 doubles, fourth lane zero): the result's fourth lane is 0.
+inline V4 padded_times(const double* m, V4 r) {
+  return load(m) * r[0] + load(m + 4) * r[1] + load(m + 8) * r[2];
+}
+
+
+}  // namespace
+
+void SsorOperator::Rows::build(const BlockPattern& pattern, const std::vector<int>& order,
+                               const std::vector<int>& position, const std::vector<char>& fixed,
+                               const double* sample, bool upper) {
+  const int n = pattern.num_nodes();
+  const auto& rs = pattern.row_start();
+  const auto& col = pattern.column();
+  d_start.assign(n + 1, 0);
+  s_start.assign(n + 1, 0);
+  d_col.clear();
+  d_slot.clear();
+  s_col.clear();
+  s_slot.clear();
+  std::vector<std::pair<int, int>> row;  // (position, slot)
+  for (int p = 0; p < n; ++p) {
+    const int i = order[p];
+    if (!fixed[i]) {
+      row.clear();
+      for (int s = rs[i]; s < rs[i + 1]; ++s) {
+        const int q = position[col[s]];
+        if ((upper ? q > p : q < p) && !fixed[col[s]]) row.emplace_back(q, s);
+      }
+      // By distance from the diagonal, farthest first: the lower row ascending, the upper
+      // row descending.
+      std::sort(row.begin(), row.end());
+      if (upper) std::reverse(row.begin(), row.end());
+      for (auto [q, s] : row) {
+        if (is_multiple_of_identity(sample + 9L * s)) {
+          s_col.push_back(q);
+          s_slot.push_back(s);
+        } else {
+          d_col.push_back(q);
+          d_slot.push_back(s);
+        }
+      }
+    }
+    d_start[p + 1] = static_cast<int>(d_col.size());
+    s_start[p + 1] = static_cast<int>(s_col.size());
+  }
+  d_val.assign(9 * d_col.size() + 1, 0.0);
+  s_val.assign(s_col.size(), 0.0);
+}
+
+bool SsorOperator::Rows::fill(const double* a) {
+  for (size_t k = 0; k < d_slot.size(); ++k) std::copy_n(a + 9L * d_slot[k], 9, d_val.data() + 9 * k);
+  for (size_t k = 0; k < s_slot.size(); ++k) {
+    const double* m = a + 9L * s_slot[k];
+    if (!is_multiple_of_identity(m)) return false;
+    s_val[k] = m[0];
+  }
+  return true;
+}
+
+inline void SsorOperator::Rows::gather(int i, const double* x, double* sum) const {
+  V4 acc = {0, 0, 0, 0};
+  for (int k = s_start[i]; k < s_start[i + 1]; ++k) acc += s_val[k] * load(x + 4 * s_col[k]);
+  for (int k = d_start[i]; k < d_start[i + 1]; ++k) acc += block_times(d_val.data() + 9L * k, x + 4 * d_col[k]);
+  store(sum, acc);
+}
+
+void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed) {
+  pattern_ = A.pattern;
+  blocks_ = A.pattern->num_blocks();
+  n_ = A.pattern->num_nodes();
+  fixed_ = fixed;
+  // Interleave kChains stretches of the node numbering (on a grid mesh, bands of rows):
+  // consecutive positions then belong to different stretches and are rarely coupled, so
+  // the triangular solves run kChains independent chains of dependent nodes side by side.
+  order_.clear();
+  const int stretch = (n_ + kChains - 1) / kChains;
+  for (int k = 0; k < stretch; ++k)
+    for (int c = 0; c < kChains; ++c)
+      if (c * stretch + k < n_) order_.push_back(c * stretch + k);
+  position_.assign(n_, 0);
+  for (int p = 0; p < n_; ++p) position_[order_[p]] = p;
+  fixed_at_.assign(n_, 0);
+  for (int p = 0; p < n_; ++p) fixed_at_[p] = fixed[order_[p]];
+  const double* a = A.block.front().data();
+  lower_.build(*pattern_, order_, position_, fixed, a, false);
+  upper_.build(*pattern_, order_, position_, fixed, a, true);
+}
+
+void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega) {
+  const bool same = pattern_ == A.pattern && blocks_ == A.pattern->num_blocks() &&
+                    n_ == A.pattern->num_nodes() && fixed_ == fixed;
+  if (!same) build(A, fixed);
+  const double* a = A.block.front().data();
+  if (!lower_.fill(a) || !upper_.fill(a)) {
+    build(A, fixed);
+    lower_.fill(a);
+    upper_.fill(a);
+  }
+  omega_ = omega;
+  diag_.assign(12L * n_, 0.0);
+  binv_.assign(12L * n_, 0.0);
+  for (int p = 0; p < n_; ++p) {
+    if (fixed_at_[p]) continue;
+    const Mat3& d = A.block[pattern_->diagonal_slot(order_[p])];
+    const Mat3 inv = invert_spd_block(d);
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) {
+        diag_[12L * p + 4 * c + r] = d(r, c);
+        binv_[12L * p + 4 * c + r] = omega * inv(r, c);
+      }
+  }
+}
+
+void SsorOperator::solve_lower(const double* v, double* y) const {
+  alignas(32) double sum[4];
+  for (int i = 0; i < n_; ++i) {
+    if (fixed_at_[i]) {
+      store(y + 4 * i, V4{0, 0, 0, 0});
+      continue;
+    }
+    lower_.gather(i, y, sum);
+    store(y + 4 * i, padded_times(binv_.data() + 12L * i, load(v + 4 * i) - load(sum)));
+  }
+}
+
+void SsorOperator::solve_upper(const double* v, double* y, double* u, double cp, double cu) const {
+  alignas(32) double sum[4];
+  for (int i = n_ - 1; i >= 0; --i) {
+    if (fixed_at_[i]) {
+      store(y + 4 * i, V4{0, 0, 0, 0});
+      if (u) store(u + 4 * i, V4{0, 0, 0, 0});
+      continue;
+    }
+    upper_.gather(i, y, sum);
+    const V4 vi = load(v + 4 * i), s = load(sum);
+    store(y + 4 * i, padded_times(binv_.data() + 12L * i, vi - s));
+    if (u) {
+      V4 ui = cp * vi + cu * s;
+      ui[3] = 0.0;
+      store(u + 4 * i, ui);
+    }
+  }
+}
+
+void SsorOperator::multiply(const double* x, double* y) const {
+  alignas(32) double lo[4], up[4];
+  for (int i = 0; i < n_; ++i) {
+    if (fixed_at_[i]) {
+      store(y + 4 * i, V4{0, 0, 0, 0});
+      continue;
+    }
+    lower_.gather(i, x, lo);
+    upper_.gather(i, x, up);
+    V4 yi = padded_times(diag_.data() + 12L * i, load(x + 4 * i)) + load(lo) + load(up);
+    yi[3] = 0.0;
+    store(y + 4 * i, yi);
+  }
+}
+
+void SsorOperator::diagonal_times(double s, const double* x, double* y) const {
+  for (int i = 0; i < n_; ++i) store(y + 4 * i, s * padded_times(diag_.data() + 12L * i, load(x + 4 * i)));
+}
+
+void SsorOperator::pad(const VecX& v, VecX& v4) const {
+  v4.setZero(4L * n_);
+  for (int p = 0; p < n_; ++p)
+    if (!fixed_at_[p]) v4.segment<3>(4 * p) = v.segment<3>(3 * order_[p]);
+}
+
+void SsorOperator::unpad(const VecX& v4, VecX& v) const {
+  v.resize(3L * n_);
+  for (int p = 0; p < n_; ++p) v.segment<3>(3 * order_[p]) = v4.segment<3>(4 * p);
+}
+
+}  // namespace weft
