@@ -41,7 +41,9 @@ inline double reduce(long size, Term term) {
 // target, and CG stops only when the true |r| does. Vectors have 4 doubles per node.
 PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const PcgSettings& settings,
                      double target, VecX& x, PcgWorkspace& ws) {
-  const double omega = settings.ssor_omega;
+  int free_nodes = 0;
+  for (char f : fixed) free_nodes += f ? 0 : 1;
+  const double omega = settings.ssor_omega > 0 ? settings.ssor_omega : ssor_relaxation_for(free_nodes);
   SsorOperator& S = ws.ssor;
   S.assign(A, fixed, omega);
   const long size = 4L * S.num_nodes();
@@ -114,14 +116,20 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
 }
 }  // namespace
 
+double ssor_relaxation_for(int free_nodes) {
+  return 2.0 / (1.0 + 3.5 / std::sqrt(std::sqrt(std::max(free_nodes, 1))));
+}
+
 PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>& fixed,
                     const PcgSettings& settings, VecX& x, PcgWorkspace& ws) {
   const int n = A.pattern->num_nodes();
   ws.fixed_nodes.clear();
   for (int i = 0; i < n; ++i)
     if (fixed[i]) ws.fixed_nodes.push_back(i);
-  if (settings.preconditioner == Preconditioner::kSsor && !(settings.ssor_omega > 0 && settings.ssor_omega < 2))
-    throw std::invalid_argument("SSOR relaxation must be in (0, 2), got " + std::to_string(settings.ssor_omega));
+  if (settings.preconditioner == Preconditioner::kSsor && settings.ssor_omega != 0.0 &&
+      !(settings.ssor_omega > 0 && settings.ssor_omega < 2))
+    throw std::invalid_argument("SSOR relaxation must be in (0, 2) (or 0 for automatic), got " +
+                                std::to_string(settings.ssor_omega));
   const bool multigrid = settings.preconditioner == Preconditioner::kMultigrid;
   if (multigrid) {
     if (!ws.multigrid.matches(*A.pattern, fixed, settings.multigrid))

@@ -204,23 +204,35 @@ TEST(Ssor, SolvesToTheTrueResidualInFewerIterationsThanBlockJacobi) {
   }
 }
 
-// Outside 0 < omega < 2 the SSOR operator is not positive definite; the solver refuses.
+// Outside 0 < omega < 2 the SSOR operator is not positive definite; the solver refuses
+// (0 asks for the automatic choice, which must lie inside and grow with the mesh).
 TEST(Ssor, RejectsRelaxationOutsideTheOpenInterval) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(5, 0.0, p);
   PcgSettings s;
   s.preconditioner = Preconditioner::kSsor;
   PcgWorkspace ws;
-  for (double omega : {0.0, 2.0, -1.0}) {
+  for (double omega : {2.0, -1.0, 2.5}) {
     s.ssor_omega = omega;
     VecX x = p.guess;
     try {
       solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x, ws);
       ADD_FAILURE() << "omega " << omega << " accepted";
     } catch (const std::invalid_argument& e) {
-      EXPECT_EQ(std::string(e.what()), "SSOR relaxation must be in (0, 2), got " + std::to_string(omega));
+      EXPECT_EQ(std::string(e.what()),
+                "SSOR relaxation must be in (0, 2) (or 0 for automatic), got " + std::to_string(omega));
     }
   }
+  double previous = 0.0;
+  for (int n : {1, 100, 1089, 16641, 1000000}) {
+    const double w = ssor_relaxation_for(n);
+    EXPECT_GT(w, previous) << n;
+    EXPECT_LT(w, 2.0) << n;
+    previous = w;
+  }
+  s.ssor_omega = 0.0;
+  VecX x = p.guess;
+  EXPECT_TRUE(solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x, ws).converged);
 }
 
 }  // namespace
