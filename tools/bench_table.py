@@ -34,37 +34,42 @@ def main(path):
           "| solve ms | step matrices MB | peak RSS MB |")
     print("|---|---|---|---|---|---|---|---|---|---|")
 
+    names = {0: "block-Jacobi", 1: "multigrid", 2: "SSOR"}
+
     def key(b):
-        return (b["run_name"].split("/")[1], int(b["vertices"]), int(b.get("multigrid", 0)),
+        return (b["run_name"].split("/")[1], int(b["vertices"]), int(b.get("preconditioner", 0)),
                 float(f"{float(b.get('tolerance', 1e-6)):.0e}"))
 
     rows.sort(key=lambda b: (key(b)[0] != "ImplicitMidpoint", -key(b)[3], key(b)[1], key(b)[2]))
     for b in rows:
         method, vertices, mg, tol = key(b)
         unit = {"ms": 1.0, "us": 1e-3, "ns": 1e-6, "s": 1e3}[b.get("time_unit", "ns")]
-        print(f"| {method} | {vertices} | {'multigrid' if mg else 'block-Jacobi'} | {tol:.0e} | "
+        print(f"| {method} | {vertices} | {names[mg]} | {tol:.0e} | "
               f"{b['real_time'] * unit:.3f} | {b['cg_iterations']:.1f} | "
               f"{b['assembly_ms']:.3f} | {b['solve_ms']:.3f} | {b['matrix_MB']:.1f} | {b['peak_rss_MB']:.0f} |")
     by = {key(b): b for b in rows}
     sizes = sorted({k[1] for k in by})
-    # Ratios from the same run: Implicit Midpoint / backward Euler, and multigrid / block-Jacobi.
+    # Ratios from the same run: Implicit Midpoint / backward Euler, and each preconditioner
+    # against block-Jacobi and SSOR against multigrid.
     print("\n| vertices | preconditioner | time IM / BE | CG iterations IM / BE |")
     print("|---|---|---|---|")
     for v in sizes:
-        for mg in (0, 1):
-            im, be = by.get(("ImplicitMidpoint", v, mg, 1e-6)), by.get(("BackwardEuler", v, mg, 1e-6))
+        for pc in names:
+            im, be = by.get(("ImplicitMidpoint", v, pc, 1e-6)), by.get(("BackwardEuler", v, pc, 1e-6))
             if im and be:
-                print(f"| {v} | {'multigrid' if mg else 'block-Jacobi'} | {im['real_time'] / be['real_time']:.2f} | "
+                print(f"| {v} | {names[pc]} | {im['real_time'] / be['real_time']:.2f} | "
                       f"{im['cg_iterations'] / be['cg_iterations']:.2f} |")
-    print("\n| vertices | method | CG tolerance | time multigrid / block-Jacobi | solve multigrid / block-Jacobi |")
-    print("|---|---|---|---|---|")
+    print("\n| vertices | method | CG tolerance | time multigrid / block-Jacobi | time SSOR / block-Jacobi "
+          "| time SSOR / multigrid |")
+    print("|---|---|---|---|---|---|")
     for method in ("ImplicitMidpoint", "BackwardEuler"):
         for tol in (1e-6, 1e-4):
             for v in sizes:
-                bj, mg = by.get((method, v, 0, tol)), by.get((method, v, 1, tol))
-                if bj and mg:
+                bj, mg, ss = (by.get((method, v, pc, tol)) for pc in names)
+                if bj and mg and ss:
                     print(f"| {v} | {method} | {tol:.0e} | {mg['real_time'] / bj['real_time']:.2f} | "
-                          f"{mg['solve_ms'] / bj['solve_ms']:.2f} |")
+                          f"{ss['real_time'] / bj['real_time']:.2f} | {ss['real_time'] / mg['real_time']:.2f} |")
+
 
 if __name__ == "__main__":
     main(sys.argv[1])

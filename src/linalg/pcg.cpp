@@ -74,23 +74,21 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
     for (long k = 0; k < size; ++k) wp[k] = bp[k] - qp[k];
     S.solve_lower(wp, rp);  // r^
     double scale = rnorm / std::max(ws.r.norm(), 1e-300);
-    S.diagonal_times(1.0 / omega, rp, pp);  // p = z^ = B r^
-    double rz = reduce(size, [&](long k) { return rp[k] * pp[k]; });
+    ws.p.setZero();
+    S.diagonal_times(1.0 / omega, rp, zp);  // z^ = B r^
+    double rz = reduce(size, [&](long k) { return rp[k] * zp[k]; });
+    double beta = 0.0;
     const double cp = omega - 1.0, cu = 2.0 - omega;
     while (it < settings.max_iterations) {
-      S.solve_upper(pp, tp, wp, cp, cu);
+      S.step_and_solve_upper(zp, beta, pp, tp, wp, cp, cu);  // p = z^ + beta p first
       S.solve_lower(wp, qp);
       const double pq = reduce(size, [&](long k) {
         qp[k] += tp[k];
         return pp[k] * qp[k];
       });
       if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown
-      const double a = rz / pq;
-      const double rr = reduce(size, [&](long k) {
-        xp[k] += a * tp[k];
-        rp[k] -= a * qp[k];
-        return rp[k] * rp[k];
-      });
+      double rz_new;
+      const double rr = S.update(rz / pq, tp, qp, xp, rp, 1.0 / omega, zp, rz_new);
       ++it;
       rnorm_current = false;
       const double rh_norm = std::sqrt(rr);
@@ -100,10 +98,7 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
         if (rnorm <= target) break;
         scale = rnorm / std::max(rh_norm, 1e-300);
       }
-      S.diagonal_times(1.0 / omega, rp, zp);
-      const double rz_new = reduce(size, [&](long k) { return rp[k] * zp[k]; });
-      const double beta = rz_new / rz;
-      for (long k = 0; k < size; ++k) pp[k] = zp[k] + beta * pp[k];
+      beta = rz_new / rz;
       rz = rz_new;
     }
   }

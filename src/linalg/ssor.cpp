@@ -147,6 +147,17 @@ void SsorOperator::solve_lower(const double* v, double* y) const {
 }
 
 void SsorOperator::solve_upper(const double* v, double* y, double* u, double cp, double cu) const {
+  upper_solve<false>(nullptr, 0.0, const_cast<double*>(v), y, u, cp, cu);
+}
+
+void SsorOperator::step_and_solve_upper(const double* z, double beta, double* p, double* y, double* u, double cp,
+                                        double cu) const {
+  upper_solve<true>(z, beta, p, y, u, cp, cu);
+}
+
+template <bool kStep>
+void SsorOperator::upper_solve(const double* z, double beta, double* v, double* y, double* u, double cp,
+                               double cu) const {
   alignas(32) double sum[4];
   for (int i = n_ - 1; i >= 0; --i) {
     if (fixed_at_[i]) {
@@ -154,8 +165,13 @@ void SsorOperator::solve_upper(const double* v, double* y, double* u, double cp,
       if (u) store(u + 4 * i, V4{0, 0, 0, 0});
       continue;
     }
+    V4 vi = load(v + 4 * i);
+    if constexpr (kStep) {
+      vi = load(z + 4 * i) + beta * vi;
+      store(v + 4 * i, vi);
+    }
     upper_.gather(i, y, sum);
-    const V4 vi = load(v + 4 * i), s = load(sum);
+    const V4 s = load(sum);
     store(y + 4 * i, padded_times(binv_.data() + 12L * i, vi - s));
     if (u) {
       V4 ui = cp * vi + cu * s;
@@ -163,6 +179,23 @@ void SsorOperator::solve_upper(const double* v, double* y, double* u, double cp,
       store(u + 4 * i, ui);
     }
   }
+}
+
+double SsorOperator::update(double a, const double* t, const double* q, double* x, double* r, double s, double* z,
+                            double& rz) const {
+  V4 rr4 = {0, 0, 0, 0}, rz4 = {0, 0, 0, 0};
+  for (int i = 0; i < n_; ++i) {
+    const long k = 4L * i;
+    store(x + k, load(x + k) + a * load(t + k));
+    const V4 ri = load(r + k) - a * load(q + k);
+    store(r + k, ri);
+    const V4 zi = s * padded_times(diag_.data() + 12L * i, ri);
+    store(z + k, zi);
+    rr4 += ri * ri;
+    rz4 += ri * zi;
+  }
+  rz = (rz4[0] + rz4[1]) + (rz4[2] + rz4[3]);
+  return (rr4[0] + rr4[1]) + (rr4[2] + rr4[3]);
 }
 
 void SsorOperator::multiply(const double* x, double* y) const {

@@ -39,6 +39,12 @@ class SsorOperator {
   void solve_lower(const double* v, double* y) const;
   /// (B + L^T) y = v; also writes u = cp v + cu (L^T y) when u is not null.
   void solve_upper(const double* v, double* y, double* u = nullptr, double cp = 0, double cu = 0) const;
+  /// p = z + beta p, then the upper solve with v = p (one pass: a CG step's new direction).
+  void step_and_solve_upper(const double* z, double beta, double* p, double* y, double* u, double cp,
+                            double cu) const;
+  /// A CG update in one pass: x += a t, r -= a q, z = s D r; returns r.r and sets rz = r.z.
+  double update(double a, const double* t, const double* q, double* x, double* r, double s, double* z,
+                double& rz) const;
   /// y = A x on the free nodes, zero on fixed nodes.
   void multiply(const double* x, double* y) const;
   /// y = s D x.
@@ -63,6 +69,8 @@ class SsorOperator {
     inline void gather(int i, const double* x, double* sum) const;
   };
   void build(const BlockMatrix& A, const std::vector<char>& fixed);
+  template <bool kStep>
+  void upper_solve(const double* z, double beta, double* v, double* y, double* u, double cp, double cu) const;
 
   const BlockPattern* pattern_ = nullptr;
   int blocks_ = 0;
