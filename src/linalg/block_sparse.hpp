@@ -46,6 +46,12 @@ struct BlockMatrix {
   MatX to_dense() const;
 };
 
+/// Copies the 9 doubles of a block (a fixed-length loop the compiler unrolls, where a
+/// library copy would be a call per block).
+inline void copy_block(const double* from, double* to) {
+  for (int e = 0; e < 9; ++e) to[e] = from[e];
+}
+
 /// Whether a column-major 3x3 block is a multiple of the identity (then stored as one number).
 inline bool is_multiple_of_identity(const double* m) {
   return m[1] == 0 && m[2] == 0 && m[3] == 0 && m[5] == 0 && m[6] == 0 && m[7] == 0 && m[0] == m[4] &&

@@ -70,14 +70,14 @@ bool LowerBlocks::matches(const BlockPattern& pattern, const std::vector<char>& 
 
 bool LowerBlocks::fill(const BlockMatrix& A) {
   const double* a = A.block.front().data();
-  for (size_t k = 0; k < d_slot_.size(); ++k) std::copy_n(a + 9L * d_slot_[k], 9, d_val_.data() + 9 * k);
+  for (size_t k = 0; k < d_slot_.size(); ++k) copy_block(a + 9L * d_slot_[k], d_val_.data() + 9 * k);
   for (size_t k = 0; k < s_slot_.size(); ++k) {
     const double* m = a + 9L * s_slot_[k];
     if (!is_multiple_of_identity(m)) return false;
     s_val_[k] = m[0];
   }
   for (int i = 0; i < n_; ++i)
-    if (!fixed_[i]) std::copy_n(a + 9L * pattern_->diagonal_slot(i), 9, diag_.data() + 9L * i);
+    if (!fixed_[i]) copy_block(a + 9L * pattern_->diagonal_slot(i), diag_.data() + 9L * i);
   return true;
 }
 

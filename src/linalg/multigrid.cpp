@@ -396,7 +396,7 @@ void AggregationMultigrid::galerkin(int l) {
       const double w = gw[k];
       for (int e = 0; e < 9; ++e) acc[e] += w * m[e];
     }
-    std::copy_n(acc, 9, ac + 9L * q);  // lower blocks (no contributions) are mirrored below
+    copy_block(acc, ac + 9L * q);  // lower blocks (no contributions) are mirrored below
   }
   for (auto [s, m] : c.lower_mirror) c.own_A.block[s] = c.own_A.block[m].transpose();
   for (int I = 0; I < c.n; ++I) {
@@ -415,7 +415,7 @@ void AggregationMultigrid::set_inverse_diagonal(Level& f) {
       d = invert_spd_block(M.block[f.pattern->diagonal_slot(i)]);
       d = (0.5 * (d + d.transpose())).eval();
     }
-    std::copy_n(d.data(), 9, f.dinv_val.data() + 9L * i);
+    copy_block(d.data(), f.dinv_val.data() + 9L * i);
   }
 }
 

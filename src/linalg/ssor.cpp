@@ -71,7 +71,7 @@ void SsorOperator::Rows::build(const BlockPattern& pattern, const std::vector<in
 }
 
 bool SsorOperator::Rows::fill(const double* a) {
-  for (size_t k = 0; k < d_slot.size(); ++k) std::copy_n(a + 9L * d_slot[k], 9, d_val.data() + 9 * k);
+  for (size_t k = 0; k < d_slot.size(); ++k) copy_block(a + 9L * d_slot[k], d_val.data() + 9 * k);
   for (size_t k = 0; k < s_slot.size(); ++k) {
     const double* m = a + 9L * s_slot[k];
     if (!is_multiple_of_identity(m)) return false;
@@ -107,6 +107,9 @@ void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed) {
   const double* a = A.block.front().data();
   lower_.build(*pattern_, order_, position_, fixed, a, false);
   upper_.build(*pattern_, order_, position_, fixed, a, true);
+  // Padding lanes and fixed nodes stay zero; assign writes the rest.
+  diag_.assign(12L * n_, 0.0);
+  binv_.assign(12L * n_, 0.0);
 }
 
 void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega) {
@@ -120,8 +123,6 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
     upper_.fill(a);
   }
   omega_ = omega;
-  diag_.assign(12L * n_, 0.0);
-  binv_.assign(12L * n_, 0.0);
   for (int p = 0; p < n_; ++p) {
     if (fixed_at_[p]) continue;
     const Mat3& d = A.block[pattern_->diagonal_slot(order_[p])];
