@@ -1,8 +1,9 @@
 // Linear solve of one Implicit Midpoint step of the benchmark cloth (bench_step.cpp: 1 m,
 // pinned at two corners, dt = 5 ms) at 33x33, 65x65, 129x129 and (multigrid and SSOR)
 // 257x257 vertices, with PCG and the block-Jacobi, aggregation-multigrid or SSOR
-// preconditioner (the second argument: SSOR's relaxation times 10), relative tolerance 1e-6,
-// warm started from the previous step's dv as the integrator does. The time per iteration
+// preconditioner (the second argument: SSOR's relaxation times 10, 0 for the automatic
+// choice), relative tolerance 1e-6, warm started from the previous step's dv as the
+// integrator does. The time per iteration
 // is one whole solve_pcg call (including the per-matrix multigrid update or SSOR copy).
 // Counters: CG iterations; for multigrid the setup, update and one V-cycle in milliseconds,
 // the number of levels and the nodes and blocks of each coarse level.
@@ -45,7 +46,7 @@ void Solve(benchmark::State& bs, Preconditioner pc) {
   PcgSettings settings;
   settings.relative_tolerance = 1e-6;
   settings.preconditioner = pc;
-  if (pc == Preconditioner::kSsor) settings.ssor_omega = bs.range(1) / 10.0;
+  if (pc == Preconditioner::kSsor) settings.ssor_omega = bs.range(1) / 10.0;  // 0: automatic
   PcgWorkspace ws;
   VecX x = p.guess;
   PcgResult r = solve_pcg(p.step.matrix, p.rhs, fixed, settings, x, ws);  // warm-up, setup
@@ -85,7 +86,7 @@ BENCHMARK_CAPTURE(Solve, BlockJacobi, Preconditioner::kBlockJacobi)
 BENCHMARK_CAPTURE(Solve, Multigrid, Preconditioner::kMultigrid)
     ->Arg(33)->Arg(65)->Arg(129)->Arg(257)->Unit(benchmark::kMillisecond)->MinTime(0.5);
 BENCHMARK_CAPTURE(Solve, Ssor, Preconditioner::kSsor)
-    ->ArgsProduct({{33, 65, 129, 257}, {12, 14, 15, 16, 17}})->Unit(benchmark::kMillisecond)->MinTime(0.5);
+    ->ArgsProduct({{33, 65, 129, 257}, {0, 12, 14, 16}})->Unit(benchmark::kMillisecond)->MinTime(0.5);
 
 namespace {
 void SsorLowerSolve(benchmark::State& bs) {
