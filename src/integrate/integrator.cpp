@@ -169,6 +169,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   // Warm start from the previous change in velocity.
   if (s.dv_prev.size() == 3 * n) dv_ = s.dv_prev; else dv_ = VecX::Zero(3 * n);
   PcgSettings ps{settings_.cg_tolerance, settings_.cg_max_iterations, preconditioner_};
+  ps.node_order = system_.solver_order();
   PcgResult r = solve_pcg(step_.matrix, rhs_, system_.fixed(), ps, dv_, pcg_);
   stats.cg_iterations += r.iterations;
   ++stats.cg_solves;

@@ -45,7 +45,7 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
   for (char f : fixed) free_nodes += f ? 0 : 1;
   const double omega = settings.ssor_omega > 0 ? settings.ssor_omega : ssor_relaxation_for(free_nodes);
   SsorOperator& S = ws.ssor;
-  S.assign(A, fixed, omega);
+  S.assign(A, fixed, omega, settings.node_order);
   const long size = 4L * S.num_nodes();
   VecX& x4 = ws.x4;
   VecX& b4 = ws.b4;

@@ -25,6 +25,9 @@ struct PcgSettings {
   /// Relaxation w in (0, 2) of kSsor; 0 chooses it from the number of free nodes N:
   /// w = 2 / (1 + 3.5 N^-1/4) (ssor_relaxation_for).
   double ssor_omega = 0.0;
+  /// kSsor: the node order its solves start from (a permutation of the nodes, neighbours
+  /// close together: see SsorOperator); the nodes' numbering when null.
+  const std::vector<int>* node_order = nullptr;
 };
 
 struct PcgResult {

@@ -1,6 +1,8 @@
 #include "linalg/ssor.hpp"
 
 #include <algorithm>
+#include <stdexcept>
+#include <string>
 #include <numeric>
 
 namespace weft {
@@ -87,19 +89,31 @@ inline void SsorOperator::Rows::gather(int i, const double* x, double* sum) cons
   store(sum, acc);
 }
 
-void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed) {
+void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed, const std::vector<int>* base) {
   pattern_ = A.pattern;
   blocks_ = A.pattern->num_blocks();
   n_ = A.pattern->num_nodes();
   fixed_ = fixed;
-  // Interleave kChains stretches of the node numbering (on a grid mesh, bands of rows):
-  // consecutive positions then belong to different stretches and are rarely coupled, so
-  // the triangular solves run kChains independent chains of dependent nodes side by side.
+  base_ = base ? *base : std::vector<int>();
+  if (!base_.empty()) {
+    std::vector<char> seen(n_, 0);
+    bool permutation = static_cast<int>(base_.size()) == n_;
+    for (int i : base_) {
+      if (!permutation) break;
+      permutation = i >= 0 && i < n_ && !seen[i];
+      if (permutation) seen[i] = 1;
+    }
+    if (!permutation)
+      throw std::invalid_argument("SSOR node order is not a permutation of the " + std::to_string(n_) + " nodes");
+  }
+  // Interleave kChains stretches of the base order (on a mesh, bands of rows): consecutive
+  // positions then belong to different stretches and are rarely coupled, so the triangular
+  // solves run kChains independent chains of dependent nodes side by side.
   order_.clear();
   const int stretch = (n_ + kChains - 1) / kChains;
   for (int k = 0; k < stretch; ++k)
     for (int c = 0; c < kChains; ++c)
-      if (c * stretch + k < n_) order_.push_back(c * stretch + k);
+      if (c * stretch + k < n_) order_.push_back(base_.empty() ? c * stretch + k : base_[c * stretch + k]);
   position_.assign(n_, 0);
   for (int p = 0; p < n_; ++p) position_[order_[p]] = p;
   fixed_at_.assign(n_, 0);
@@ -112,13 +126,15 @@ void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed) {
   binv_.assign(12L * n_, 0.0);
 }
 
-void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega) {
+void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega,
+                          const std::vector<int>* base) {
   const bool same = pattern_ == A.pattern && blocks_ == A.pattern->num_blocks() &&
-                    n_ == A.pattern->num_nodes() && fixed_ == fixed;
-  if (!same) build(A, fixed);
+                    n_ == A.pattern->num_nodes() && fixed_ == fixed &&
+                    (base ? *base == base_ : base_.empty());
+  if (!same) build(A, fixed, base);
   const double* a = A.block.front().data();
   if (!lower_.fill(a) || !upper_.fill(a)) {
-    build(A, fixed);
+    build(A, fixed, base);
     lower_.fill(a);
     upper_.fill(a);
   }

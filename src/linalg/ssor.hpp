@@ -3,9 +3,11 @@
 // (linalg/pcg.hpp, Preconditioner::kSsor), on a copy of the symmetric step matrix laid out for
 // SIMD.
 //
-// The nodes are taken in an order that interleaves kChains stretches of their numbering (on
-// a grid mesh, bands of rows), so consecutive nodes of a solve are rarely coupled and the
-// processor works on kChains independent chains at once. With A = L + D + L^T on the free
+// The nodes are taken in an order that interleaves kChains stretches of a base order (the
+// cloth's rows across its pattern, mesh/mesh.hpp banded_order; else the node numbering), so
+// consecutive nodes of a solve are rarely coupled and the processor works on kChains
+// independent chains at once. (Gauss-Seidel-type solves need neighbours close together in
+// the order: on a scrambled numbering SSOR needs about twice the iterations.) With A = L + D + L^T on the free
 // nodes in that order (L strictly lower, D block diagonal) and B = D/omega, it provides the two block-triangular solves (B + L) y = v and (B + L^T) y = v, y = A x and
 // y = s D x. Both triangles are kept by rows, so each solve gathers its row's known values and
 // writes its own node once. Vectors have four doubles per node (the fourth is zero), so a
@@ -25,8 +27,11 @@ class SsorOperator {
   /// Stretches of the node numbering interleaved in the solves' order.
   static constexpr int kChains = 2;
   /// Copies A's free-node values with relaxation omega in (0, 2), laying the copy out again
-  /// when the pattern or fixed set changed or a block stored as a scalar stopped being one.
-  void assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega);
+  /// when the pattern, fixed set or base order changed or a block stored as a scalar stopped
+  /// being one. `base` (a permutation of the nodes, neighbours close together, e.g. rows of a
+  /// mesh) is the order whose stretches are interleaved; the nodes' numbering when null.
+  void assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega,
+              const std::vector<int>* base = nullptr);
 
   int num_nodes() const { return n_; }
   /// The node at each position of the solves' order; vectors are by position.
@@ -68,7 +73,7 @@ class SsorOperator {
     /// Sum over row i of A_ij x_j.
     inline void gather(int i, const double* x, double* sum) const;
   };
-  void build(const BlockMatrix& A, const std::vector<char>& fixed);
+  void build(const BlockMatrix& A, const std::vector<char>& fixed, const std::vector<int>* base);
   template <bool kStep>
   void upper_solve(const double* z, double beta, double* v, double* y, double* u, double cp, double cu) const;
 
@@ -77,6 +82,7 @@ class SsorOperator {
   int n_ = 0;
   double omega_ = 1.0;
   std::vector<char> fixed_;
+  std::vector<int> base_;  ///< the base order of the last layout (empty: the numbering)
   /// Nodes in the order of the solves (order_[p] is the node at position p), position_ its
   /// inverse, fixed_at_ the fixed flags by position. Vectors and rows are by position.
   std::vector<int> order_, position_;

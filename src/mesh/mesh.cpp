@@ -2,8 +2,11 @@
 
 #include <tiny_obj_loader.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
+#include <numeric>
 
 #include "weft/atomic_file.hpp"
 #include "weft/error.hpp"
@@ -110,6 +113,55 @@ TriMesh load_obj(const std::string& path, double uv_scale) {
     if (e1.x() * e2.y() - e1.y() * e2.x() < 0) std::swap(t[1], t[2]);
   }
   return m;
+}
+
+std::vector<int> banded_order(const TriMesh& mesh) {
+  const int n = mesh.num_vertices();
+  // Connected pieces (union-find over the triangles' edges) and the median edge length.
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  // The band height: the median rise |dv| of the edges that cross rows (rise above a quarter
+  // of their length), the row spacing on a grid.
+  std::vector<double> rises;
+  rises.reserve(3 * mesh.triangles.size());
+  for (const auto& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const int a = t[k], b = t[(k + 1) % 3];
+      parent[find(a)] = find(b);
+      const Vec2 d = mesh.pattern[a] - mesh.pattern[b];
+      if (std::abs(d.y()) > 0.25 * d.norm()) rises.push_back(std::abs(d.y()));
+    }
+  double h = 1.0;
+  if (!rises.empty()) {
+    std::nth_element(rises.begin(), rises.begin() + rises.size() / 2, rises.end());
+    if (rises[rises.size() / 2] > 0) h = rises[rises.size() / 2];
+  }
+  std::vector<int> piece(n), rank(n, -1);
+  std::vector<double> v_min;
+  for (int i = 0; i < n; ++i) {
+    const int root = find(i);
+    if (rank[root] < 0) {
+      rank[root] = static_cast<int>(v_min.size());
+      v_min.push_back(mesh.pattern[i].y());
+    }
+    piece[i] = rank[root];
+    v_min[piece[i]] = std::min(v_min[piece[i]], mesh.pattern[i].y());
+  }
+  std::vector<long> band(n);
+  for (int i = 0; i < n; ++i) band[i] = std::lround((mesh.pattern[i].y() - v_min[piece[i]]) / h);
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    if (piece[a] != piece[b]) return piece[a] < piece[b];
+    if (band[a] != band[b]) return band[a] < band[b];
+    if (mesh.pattern[a].x() != mesh.pattern[b].x()) return mesh.pattern[a].x() < mesh.pattern[b].x();
+    return a < b;
+  });
+  return order;
 }
 
 std::vector<std::array<int, 4>> interior_edge_stencils(const TriMesh& mesh) {

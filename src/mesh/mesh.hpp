@@ -38,6 +38,14 @@ TriMesh load_obj(const std::string& path, double uv_scale = 1.0);
 /// the vertex indices (A, B, C, D).
 std::vector<std::array<int, 4>> interior_edge_stencils(const TriMesh& mesh);
 
+/// The vertices in bands across the pattern: each connected piece in turn (by its lowest
+/// vertex index), within a piece by v in units of the row spacing (the median rise of the
+/// edges that cross rows), rounded, then by u.
+/// On a grid this is its own numbering (rows along u); on a mesh whose vertex numbering is
+/// scrambled it restores rows, which the Gauss-Seidel-type solvers need (the SSOR
+/// preconditioner takes the nodes in this order).
+std::vector<int> banded_order(const TriMesh& mesh);
+
 /// Writes positions and triangles as an OBJ file (atomically).
 void write_obj(const std::string& path, const VecX& x, const std::vector<std::array<int, 3>>& triangles);
 

@@ -98,6 +98,7 @@ ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3&
     for (Eigen::Index a = 0; a < k; ++a)
       for (Eigen::Index c = 0; c < k; ++c) m.bending_slot_q[m.bending_slots[e][k * a + c]] += b.Q(a, c);
   }
+  m.solver_order = banded_order(m.mesh);
   return m;
 }
 

@@ -32,6 +32,8 @@ struct ClothModel {
   /// Sum of the stencils' Q_ij per block slot (i, j): the bending stiffness is -Q (x) I3,
   /// constant, so a step applies it as one pass over the pattern.
   std::vector<double> bending_slot_q;
+  /// The vertices in bands across the pattern (banded_order): the order of the SSOR solves.
+  std::vector<int> solver_order;
 
   int num_vertices() const { return mesh.num_vertices(); }
   /// Initial positions as a 3n vector.
@@ -76,6 +78,7 @@ class ClothSystem : public System {
   const VecX& node_mass() const override { return model_.mass; }
   const std::vector<char>& fixed() const override { return model_.fixed; }
   const BlockPattern& pattern() const override { return model_.pattern; }
+  const std::vector<int>* solver_order() const override { return &model_.solver_order; }
   void begin_step(const VecX& x, const VecX& v, double dt) override;
   void evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluation& out) override;
   /// Fused assembly: forces, step matrix and K w in one pass over the elements.

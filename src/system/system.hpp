@@ -38,6 +38,9 @@ class System {
   /// Per-node constraint filter: 1 = the node does not move (pinned).
   virtual const std::vector<char>& fixed() const = 0;
   virtual const BlockPattern& pattern() const = 0;
+  /// The order in which Gauss-Seidel-type solvers should take the nodes (a permutation,
+  /// neighbours close together); null for the nodes' own numbering.
+  virtual const std::vector<int>* solver_order() const { return nullptr; }
   /// Called once at the start of every step with the step's size (adaptive damping).
   virtual void begin_step(const VecX& /*x*/, const VecX& /*v*/, double /*dt*/) {}
   /// Fills `out` (force and energies always; Jacobians when `jacobians`).

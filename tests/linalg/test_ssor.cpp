@@ -75,6 +75,25 @@ TEST(Ssor, OrderInterleavesStretchesOfTheNumbering) {
     if (SsorOperator::kChains > 1) EXPECT_GE(std::abs(order[p + 1] - order[p]), stretch - 1) << p;
 }
 
+// A base order is interleaved the same way; one that is not a permutation is refused.
+TEST(Ssor, OrderInterleavesStretchesOfTheBaseOrder) {
+  test::ClothStepProblem p;
+  test::make_cloth_step_problem(9, 0.0, p);
+  std::vector<int> base(81);
+  for (int i = 0; i < 81; ++i) base[i] = 80 - i;
+  SsorOperator S, T;
+  S.assign(p.matrix(), p.fixed(), 1.0);
+  T.assign(p.matrix(), p.fixed(), 1.0, &base);
+  for (int q = 0; q < 81; ++q) EXPECT_EQ(T.order()[q], base[S.order()[q]]) << q;
+  base[3] = base[4];
+  try {
+    T.assign(p.matrix(), p.fixed(), 1.0, &base);
+    ADD_FAILURE() << "a repeated node was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "SSOR node order is not a permutation of the 81 nodes");
+  }
+}
+
 // (B + L) y = v and (B + L^T) y = v with B = D/omega, y = A x and y = s D x, against dense
 // algebra in the solves' order; pinned nodes come out zero and so do the padding lanes.
 TEST(Ssor, OperatorsMatchDense) {
