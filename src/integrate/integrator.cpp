@@ -176,19 +176,23 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   if (!r.converged) ++stats.cg_failures;
   stats.solve_seconds += seconds_since(t1);
 
-  // dx = beta dx_p + dt_b (v + alpha dv)
-  VecX dx = dt_b * (s.v + alpha * dv_);
-  if (beta != 0.0) dx += beta * s.dx_prev;
+  // dx = beta dx_p + dt_b (v + alpha dv), built in dx_prev's storage (no allocation per step);
+  // tmp_ holds the mean velocity dx/dt.
+  if (beta != 0.0) {
+    s.dx_prev = beta * s.dx_prev + dt_b * (s.v + alpha * dv_);
+  } else {
+    s.dx_prev = dt_b * (s.v + alpha * dv_);
+  }
   // Viscous work over the step, at the start's positions with the step's mean velocity
   // dx/dt (METHOD.md 6); for forward Euler the start's velocity.
   if (alpha > 0.0) {
-    s.viscous_dissipated -= dt * system_.viscous_power(s.x, dx / dt);
+    tmp_ = s.dx_prev / dt;
+    s.viscous_dissipated -= dt * system_.viscous_power(s.x, tmp_);
   } else {
     s.viscous_dissipated -= dt * step_.viscous_power;
   }
-  s.x += dx;
+  s.x += s.dx_prev;
   s.v += dv_;
-  s.dx_prev = std::move(dx);
   s.dv_prev = dv_;
   s.has_history = true;
   s.t += dt;

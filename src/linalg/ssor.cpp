@@ -72,9 +72,9 @@ void SsorOperator::Rows::build(const BlockPattern& pattern, const std::vector<in
   s_val.assign(s_col.size(), 0.0);
 }
 
-bool SsorOperator::Rows::fill(const double* a) {
-  for (size_t k = 0; k < d_slot.size(); ++k) copy_block(a + 9L * d_slot[k], d_val.data() + 9 * k);
-  for (size_t k = 0; k < s_slot.size(); ++k) {
+inline bool SsorOperator::Rows::fill_row(int p, const double* a) {
+  for (int k = d_start[p]; k < d_start[p + 1]; ++k) copy_block(a + 9L * d_slot[k], d_val.data() + 9L * k);
+  for (int k = s_start[p]; k < s_start[p + 1]; ++k) {
     const double* m = a + 9L * s_slot[k];
     if (!is_multiple_of_identity(m)) return false;
     s_val[k] = m[0];
@@ -132,22 +132,25 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
                     n_ == A.pattern->num_nodes() && fixed_ == fixed &&
                     (base ? *base == base_ : base_.empty());
   if (!same) build(A, fixed, base);
-  const double* a = A.block.front().data();
-  if (!lower_.fill(a) || !upper_.fill(a)) {
-    build(A, fixed, base);
-    lower_.fill(a);
-    upper_.fill(a);
-  }
   omega_ = omega;
-  for (int p = 0; p < n_; ++p) {
-    if (fixed_at_[p]) continue;
-    const Mat3& d = A.block[pattern_->diagonal_slot(order_[p])];
-    const Mat3 inv = invert_spd_block(d);
-    for (int c = 0; c < 3; ++c)
-      for (int r = 0; r < 3; ++r) {
-        diag_[12L * p + 4 * c + r] = d(r, c);
-        binv_[12L * p + 4 * c + r] = omega * inv(r, c);
-      }
+  // One pass by position: a node's lower and upper blocks and its diagonal block all lie in
+  // its row of A, read once.
+  const double* a = A.block.front().data();
+  for (int pass = 0; pass < 2; ++pass) {
+    bool fits = true;
+    for (int p = 0; p < n_ && fits; ++p) {
+      if (fixed_at_[p]) continue;
+      fits = lower_.fill_row(p, a) && upper_.fill_row(p, a);
+      const Mat3& d = A.block[pattern_->diagonal_slot(order_[p])];
+      const Mat3 inv = invert_spd_block(d);
+      for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r) {
+          diag_[12L * p + 4 * c + r] = d(r, c);
+          binv_[12L * p + 4 * c + r] = omega * inv(r, c);
+        }
+    }
+    if (fits) return;
+    build(A, fixed, base);  // a block stored as a scalar stopped being one: lay out again
   }
 }
 

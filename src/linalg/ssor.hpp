@@ -69,7 +69,9 @@ class SsorOperator {
     std::vector<double> s_val;
     void build(const BlockPattern& pattern, const std::vector<int>& order, const std::vector<int>& position,
                const std::vector<char>& fixed, const double* sample, bool upper);
-    bool fill(const double* a);
+    /// Copies row (position) p's values from A's blocks; false when a block stored as a
+    /// scalar is not a multiple of the identity.
+    inline bool fill_row(int p, const double* a);
     /// Sum over row i of A_ij x_j.
     inline void gather(int i, const double* x, double* sum) const;
   };
