@@ -53,6 +53,13 @@ Integrator::Integrator(System& system, IntegratorSettings settings)
   preconditioner_ = choose_preconditioner(settings_, free_nodes);
 }
 
+double Integrator::ssor_relaxation() const {
+  if (settings_.ssor_relaxation > 0) return settings_.ssor_relaxation;
+  int free_nodes = 0;
+  for (char f : system_.fixed()) free_nodes += f ? 0 : 1;
+  return ssor_relaxation_for(free_nodes);
+}
+
 Preconditioner choose_preconditioner(const IntegratorSettings& settings, int free_nodes) {
   if (settings.preconditioner) return *settings.preconditioner;
   return free_nodes >= kMultigridMinFreeNodes ? Preconditioner::kMultigrid : Preconditioner::kSsor;
@@ -170,6 +177,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   if (s.dv_prev.size() == 3 * n) dv_ = s.dv_prev; else dv_ = VecX::Zero(3 * n);
   PcgSettings ps{settings_.cg_tolerance, settings_.cg_max_iterations, preconditioner_};
   ps.node_order = system_.solver_order();
+  ps.ssor_omega = settings_.ssor_relaxation;
   PcgResult r = solve_pcg(step_.matrix, rhs_, system_.fixed(), ps, dv_, pcg_);
   stats.cg_iterations += r.iterations;
   ++stats.cg_solves;

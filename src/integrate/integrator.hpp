@@ -25,6 +25,8 @@ struct IntegratorSettings {
   /// Preconditioner of the conjugate-gradient solve; unset: chosen by size (below).
   std::optional<Preconditioner> preconditioner;
   double error_tolerance = 1e-6;    ///< RK45 local error tolerance (relative and absolute)
+  /// SSOR relaxation in (0, 2); 0 chooses it from the mesh size (ssor_relaxation_for).
+  double ssor_relaxation = 0.0;
 };
 
 /// Free nodes from which the automatic choice is multigrid rather than SSOR: below, SSOR's
@@ -81,6 +83,8 @@ class Integrator {
   const IntegratorSettings& settings() const { return settings_; }
   /// The preconditioner the linear solves use.
   Preconditioner preconditioner() const { return preconditioner_; }
+  /// The SSOR relaxation the solves use (the setting, or the automatic one for this system).
+  double ssor_relaxation() const;
 
  private:
   void linear_step(State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);

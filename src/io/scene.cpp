@@ -174,7 +174,7 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
   if (r.has("gravity")) s.gravity = r.vec3("gravity");
 
   const Reader in = r.object("integrator");
-  in.allow_only({"method", "alpha", "dt", "tolerance", "max_iterations", "preconditioner"});
+  in.allow_only({"method", "alpha", "dt", "tolerance", "max_iterations", "preconditioner", "ssor_relaxation"});
   std::optional<double> alpha;
   if (in.has("alpha")) alpha = in.number("alpha");
   set_method(s, in.string("method"), alpha, in.where("method"));
@@ -193,6 +193,11 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
     const auto p = parse_preconditioner(name);
     if (!p) in.fail("preconditioner", "unknown preconditioner '" + name + "' (expected auto, block-jacobi, ssor or multigrid)");
     s.integrator.preconditioner = *p;
+  }
+  if (in.has("ssor_relaxation")) {
+    const double w = in.number("ssor_relaxation");
+    if (!(w > 0 && w < 2)) in.fail("ssor_relaxation", "must be in (0, 2), got " + nlohmann::json(w).dump());
+    s.integrator.ssor_relaxation = w;
   }
   if (r.has("damping")) {
     const Reader d = r.object("damping");

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "linalg/pcg.hpp"
 #include "support/command.hpp"
 
 using weft::test::CommandTest;
@@ -99,6 +100,21 @@ TEST_F(RunCommand, PreconditionerOptionReachesTheSolverAndAllSolveTheSameMotion)
     while (std::getline(a, fa, ',') && std::getline(b, fb, ','))
       EXPECT_NEAR(std::stod(fa), std::stod(fb), 1e-6 + 1e-5 * std::abs(std::stod(fb))) << names[k];
   }
+  // The automatic relaxation is the documented function of the free vertices (the default
+  // scene: an 11 x 11 grid with two pinned corners); a scene's own value reaches the solver.
+  const auto swing = nlohmann::json::parse(read_text(sc));
+  const auto& v = swing["cloth"]["mesh"]["grid"]["vertices"];
+  const int free = v[0].get<int>() * v[1].get<int>() - static_cast<int>(swing["cloth"]["pins"]["grid"].size());
+  EXPECT_DOUBLE_EQ(summaries[0]["ssor_relaxation"].get<double>(), weft::ssor_relaxation_for(free));
+  EXPECT_FALSE(summaries[1].contains("ssor_relaxation"));
+  const auto own = write("ssor.json", scene(R"({"method": "implicit-midpoint", "dt": 0.01, "preconditioner": "ssor",
+                                               "ssor_relaxation": 1.7})"));
+  const auto own_out = folder_ / "pc_own";
+  const auto r_own = weft("run '" + own.string() + "' --out '" + own_out.string() + "' --quiet --no-frames");
+  ASSERT_EQ(r_own.exit_code, 0) << r_own.error_output;
+  const auto own_summary = nlohmann::json::parse(read_text(own_out / "summary.json"));
+  EXPECT_EQ(own_summary["ssor_relaxation"], 1.7);
+  EXPECT_EQ(own_summary["solver_failures"], 0);
   const auto bad = weft("run '" + sc + "' --out '" + (folder_ / "pc_bad").string() + "' --preconditioner ilu");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.error_output.find("--preconditioner"), std::string::npos) << bad.error_output;
@@ -124,6 +140,8 @@ TEST_F(RunCommand, BadScenesExitTwoWithAMessageNamingTheProblemAndWriteNothing) 
        "key cloth.mesh.grid.pattern: unknown grid pattern 'hexagonal'"},
       {"preconditioner", scene(R"({"method": "implicit-midpoint", "dt": 0.01, "preconditioner": "ilu"})"),
        "key integrator.preconditioner: unknown preconditioner 'ilu' (expected auto, block-jacobi, ssor or multigrid)"},
+      {"ssor_relaxation", scene(R"({"method": "implicit-midpoint", "dt": 0.01, "ssor_relaxation": 2})"),
+       "key integrator.ssor_relaxation: must be in (0, 2), got 2.0"},
       {"frame_interval", scene(R"({"method": "implicit-midpoint", "dt": 0.03})"),
        "frame_interval 0.02 s is not a whole number of steps of dt 0.03 s"},
   };
