@@ -27,7 +27,6 @@ inline double reduce(long size, Term term) {
   return (s0 + s1) + (s2 + s3);
 }
 
-
 // Symmetric block SOR preconditioning with Eisenstat's trick. With A = L + D + L^T and
 // B = D/w, CG runs on the transformed system
 //   A^ = (B + L)^-1 A (B + L^T)^-1,  x^ = (B + L^T) x,  b^ = (B + L)^-1 b,

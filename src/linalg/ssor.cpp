@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <stdexcept>
 #include <string>
-#include <numeric>
 
 namespace weft {
 
@@ -26,7 +25,6 @@ inline V4 block_times(const double* m, const double* x) {
 inline V4 padded_times(const double* m, V4 r) {
   return load(m) * r[0] + load(m + 4) * r[1] + load(m + 8) * r[2];
 }
-
 
 }  // namespace
 
