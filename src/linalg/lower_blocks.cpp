@@ -6,26 +6,11 @@ namespace weft {
 
 namespace {
 
-// y += m v for a column-major 3x3 block.
-inline void add_block_times(const double* m, const double* v, double& y0, double& y1, double& y2) {
-  const double v0 = v[0], v1 = v[1], v2 = v[2];
-  y0 += m[0] * v0 + m[3] * v1 + m[6] * v2;
-  y1 += m[1] * v0 + m[4] * v1 + m[7] * v2;
-  y2 += m[2] * v0 + m[5] * v1 + m[8] * v2;
-}
-
 // o += s m^T (v0, v1, v2).
 inline void add_transpose_times(const double* m, double s, double v0, double v1, double v2, double* o) {
   o[0] += s * (m[0] * v0 + m[1] * v1 + m[2] * v2);
   o[1] += s * (m[3] * v0 + m[4] * v1 + m[5] * v2);
   o[2] += s * (m[6] * v0 + m[7] * v1 + m[8] * v2);
-}
-
-// x_i = D_i^-1 (s0, s1, s2).
-inline void solve_node(const double* inv, double s0, double s1, double s2, double* xi) {
-  xi[0] = inv[0] * s0 + inv[3] * s1 + inv[6] * s2;
-  xi[1] = inv[1] * s0 + inv[4] * s1 + inv[7] * s2;
-  xi[2] = inv[2] * s0 + inv[5] * s1 + inv[8] * s2;
 }
 
 }  // namespace

@@ -52,14 +52,6 @@ AggregationMultigrid& AggregationMultigrid::operator=(AggregationMultigrid&&) no
 
 namespace {
 
-// y += m v for one column-major 3x3 block m.
-inline void add_block_times(const double* m, const double* v, double& y0, double& y1, double& y2) {
-  const double v0 = v[0], v1 = v[1], v2 = v[2];
-  y0 += m[0] * v0 + m[3] * v1 + m[6] * v2;
-  y1 += m[1] * v0 + m[4] * v1 + m[7] * v2;
-  y2 += m[2] * v0 + m[5] * v1 + m[8] * v2;
-}
-
 // Sum over the slots [begin, end) of row blocks times x's nodes.
 inline void row_accumulate(const double* a, const int* col, int begin, int end, const double* x,
                            double& y0, double& y1, double& y2) {
@@ -88,14 +80,6 @@ inline void prefetch_range(const double* a, int num_blocks, int begin, int end, 
   const char* base = reinterpret_cast<const char*>(a);
   for (long p = lo; p < hi; p += 64) __builtin_prefetch(base + p);
 }
-
-// x_i = D_i^-1 (r_i - s) for a column-major 3x3 inverse.
-inline void solve_node(const double* inv, double s0, double s1, double s2, double* xi) {
-  xi[0] = inv[0] * s0 + inv[3] * s1 + inv[6] * s2;
-  xi[1] = inv[1] * s0 + inv[4] * s1 + inv[7] * s2;
-  xi[2] = inv[2] * s0 + inv[5] * s1 + inv[8] * s2;
-}
-
 
 }  // namespace
 

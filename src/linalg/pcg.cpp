@@ -39,9 +39,9 @@ inline double reduce(long size, Term term) {
 // computed (one product) whenever |r^| scaled by the last known |r| / |r^| reaches the
 // target, and CG stops only when the true |r| does. Vectors have 4 doubles per node.
 PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const PcgSettings& settings,
-                     double target, VecX& x, PcgWorkspace& ws) {
-  int free_nodes = 0;
-  for (char f : fixed) free_nodes += f ? 0 : 1;
+                     double bnorm, VecX& x, PcgWorkspace& ws) {
+  const double target = settings.relative_tolerance * bnorm;
+  const int free_nodes = static_cast<int>(fixed.size() - ws.fixed_nodes.size());
   const double omega = settings.ssor_omega > 0 ? settings.ssor_omega : ssor_relaxation_for(free_nodes);
   SsorOperator& S = ws.ssor;
   S.assign(A, fixed, omega, settings.node_order);
@@ -104,7 +104,7 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
   if (!rnorm_current) rnorm = true_residual();  // stopped by the iteration cap or a breakdown
   S.unpad(x4, x);
   result.iterations = it;
-  result.relative_residual = rnorm / std::max(ws.b.norm(), 1e-300);
+  result.relative_residual = rnorm / bnorm;
   result.converged = rnorm <= target;
   return result;
 }
@@ -150,7 +150,7 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
     return result;
   }
   if (settings.preconditioner == Preconditioner::kSsor) {
-    result = solve_ssor(A, fixed, settings, settings.relative_tolerance * bnorm, x, ws);
+    result = solve_ssor(A, fixed, settings, bnorm, x, ws);
     return result;
   }
   // y = A x on the free nodes; with multigrid from the half of A in its compact lower copy.

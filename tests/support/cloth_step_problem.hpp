@@ -54,4 +54,20 @@ inline void make_cloth_step_problem(int n, double settle_time, ClothStepProblem&
   p.guess = st.dv_prev.size() == 3 * sys.num_nodes() ? st.dv_prev : VecX::Zero(3 * sys.num_nodes());
 }
 
+/// Perturbs one off-diagonal block between free nodes that is a multiple of I3 (a hinge
+/// coupling) and its transpose, keeping A symmetric; returns false when there is none.
+inline bool break_one_scalar_block(BlockMatrix& A, const std::vector<char>& fixed) {
+  const auto& rs = A.pattern->row_start();
+  const auto& col = A.pattern->column();
+  for (int i = 0; i < A.pattern->num_nodes(); ++i)
+    for (int s = rs[i]; s < rs[i + 1] && col[s] < i; ++s) {
+      const Mat3& b = A.block[s];
+      if (fixed[i] || fixed[col[s]] || !(b - b(0, 0) * Mat3::Identity()).isZero(0.0)) continue;
+      A.block[s](0, 1) += 1e-3;
+      A.block[A.pattern->slot(col[s], i)](1, 0) += 1e-3;
+      return true;
+    }
+  return false;
+}
+
 }  // namespace weft::test
