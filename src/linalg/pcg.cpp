@@ -80,11 +80,7 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
     const double cp = omega - 1.0, cu = 2.0 - omega;
     while (it < settings.max_iterations) {
       S.step_and_solve_upper(zp, beta, pp, tp, wp, cp, cu);  // p = z^ + beta p first
-      S.solve_lower(wp, qp);
-      const double pq = reduce(size, [&](long k) {
-        qp[k] += tp[k];
-        return pp[k] * qp[k];
-      });
+      const double pq = S.solve_lower_dot(wp, qp, pp, tp);  // p . (q + t), the curvature along p
       if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown
       double rz_new;
       const double rr = S.update(rz / pq, tp, qp, xp, rp, 1.0 / omega, zp, rz_new);

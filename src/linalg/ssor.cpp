@@ -36,9 +36,9 @@ void SsorOperator::Rows::build(const BlockPattern& pattern, const std::vector<in
   const auto& col = pattern.column();
   d_start.assign(n + 1, 0);
   s_start.assign(n + 1, 0);
-  d_col.clear();
+  d_off.clear();
   d_slot.clear();
-  s_col.clear();
+  s_off.clear();
   s_slot.clear();
   std::vector<std::pair<int, int>> row;  // (position, slot)
   for (int p = 0; p < n; ++p) {
@@ -55,19 +55,19 @@ void SsorOperator::Rows::build(const BlockPattern& pattern, const std::vector<in
       if (upper) std::reverse(row.begin(), row.end());
       for (auto [q, s] : row) {
         if (is_multiple_of_identity(sample + 9L * s)) {
-          s_col.push_back(q);
+          s_off.push_back(4 * q);
           s_slot.push_back(s);
         } else {
-          d_col.push_back(q);
+          d_off.push_back(4 * q);
           d_slot.push_back(s);
         }
       }
     }
-    d_start[p + 1] = static_cast<int>(d_col.size());
-    s_start[p + 1] = static_cast<int>(s_col.size());
+    d_start[p + 1] = static_cast<int>(d_off.size());
+    s_start[p + 1] = static_cast<int>(s_off.size());
   }
-  d_val.assign(9 * d_col.size() + 1, 0.0);
-  s_val.assign(s_col.size(), 0.0);
+  d_val.assign(9 * d_off.size() + 1, 0.0);
+  s_val.assign(s_off.size(), 0.0);
 }
 
 inline bool SsorOperator::Rows::fill_row(int p, const double* a) {
@@ -80,12 +80,23 @@ inline bool SsorOperator::Rows::fill_row(int p, const double* a) {
   return true;
 }
 
-inline void SsorOperator::Rows::gather(int i, const double* x, double* sum) const {
-  V4 acc = {0, 0, 0, 0};
-  for (int k = s_start[i]; k < s_start[i + 1]; ++k) acc += s_val[k] * load(x + 4 * s_col[k]);
-  for (int k = d_start[i]; k < d_start[i + 1]; ++k) acc += block_times(d_val.data() + 9L * k, x + 4 * d_col[k]);
-  store(sum, acc);
+namespace {
+// Sum over row i of A_ij x_j, accumulated by multiply-adds (the scalar and the whole blocks
+// in two sums, so the chains are short).
+template <class View>
+inline V4 row_sum(const View& r, int i, const double* x) {
+  V4 acc = {0, 0, 0, 0}, acc_s = {0, 0, 0, 0};
+  for (int k = r.s_start[i], end = r.s_start[i + 1]; k < end; ++k) acc_s += r.s_val[k] * load(x + r.s_off[k]);
+  for (int k = r.d_start[i], end = r.d_start[i + 1]; k < end; ++k) {
+    const double* m = r.d_val + 9L * k;
+    const double* xj = x + r.d_off[k];
+    acc += load(m) * xj[0];
+    acc += load(m + 3) * xj[1];
+    acc += load(m + 6) * xj[2];
+  }
+  return acc + acc_s;
 }
+}  // namespace
 
 void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed, const std::vector<int>* base) {
   pattern_ = A.pattern;
@@ -153,15 +164,30 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
 }
 
 void SsorOperator::solve_lower(const double* v, double* y) const {
-  alignas(32) double sum[4];
+  lower_solve<false>(v, y, nullptr, nullptr);
+}
+
+double SsorOperator::solve_lower_dot(const double* v, double* y, const double* p, const double* t) const {
+  return lower_solve<true>(v, y, p, t);
+}
+
+template <bool kDot>
+double SsorOperator::lower_solve(const double* v, double* y, const double* p, const double* t) const {
+  const Rows::View rows = lower_.view();
+  const char* fixed = fixed_at_.data();
+  const double* binv = binv_.data();
+  V4 dot = {0, 0, 0, 0};
   for (int i = 0; i < n_; ++i) {
-    if (fixed_at_[i]) {
+    if (fixed[i]) {
       store(y + 4 * i, V4{0, 0, 0, 0});
       continue;
     }
-    lower_.gather(i, y, sum);
-    store(y + 4 * i, padded_times(binv_.data() + 12L * i, load(v + 4 * i) - load(sum)));
+    const V4 sum = row_sum(rows, i, y);
+    const V4 yi = padded_times(binv + 12L * i, load(v + 4 * i) - sum);
+    store(y + 4 * i, yi);
+    if constexpr (kDot) dot += load(p + 4 * i) * (yi + load(t + 4 * i));
   }
+  return (dot[0] + dot[1]) + (dot[2] + dot[3]);
 }
 
 void SsorOperator::solve_upper(const double* v, double* y, double* u, double cp, double cu) const {
@@ -176,9 +202,11 @@ void SsorOperator::step_and_solve_upper(const double* z, double beta, double* p,
 template <bool kStep>
 void SsorOperator::upper_solve(const double* z, double beta, double* v, double* y, double* u, double cp,
                                double cu) const {
-  alignas(32) double sum[4];
+  const Rows::View rows = upper_.view();
+  const char* fixed = fixed_at_.data();
+  const double* binv = binv_.data();
   for (int i = n_ - 1; i >= 0; --i) {
-    if (fixed_at_[i]) {
+    if (fixed[i]) {
       store(y + 4 * i, V4{0, 0, 0, 0});
       if (u) store(u + 4 * i, V4{0, 0, 0, 0});
       continue;
@@ -188,9 +216,8 @@ void SsorOperator::upper_solve(const double* z, double beta, double* v, double* 
       vi = load(z + 4 * i) + beta * vi;
       store(v + 4 * i, vi);
     }
-    upper_.gather(i, y, sum);
-    const V4 s = load(sum);
-    store(y + 4 * i, padded_times(binv_.data() + 12L * i, vi - s));
+    const V4 s = row_sum(rows, i, y);
+    store(y + 4 * i, padded_times(binv + 12L * i, vi - s));
     if (u) {
       V4 ui = cp * vi + cu * s;
       ui[3] = 0.0;
@@ -202,12 +229,14 @@ void SsorOperator::upper_solve(const double* z, double beta, double* v, double* 
 double SsorOperator::update(double a, const double* t, const double* q, double* x, double* r, double s, double* z,
                             double& rz) const {
   V4 rr4 = {0, 0, 0, 0}, rz4 = {0, 0, 0, 0};
+  const double* diag = diag_.data();
   for (int i = 0; i < n_; ++i) {
     const long k = 4L * i;
-    store(x + k, load(x + k) + a * load(t + k));
-    const V4 ri = load(r + k) - a * load(q + k);
+    const V4 ti = load(t + k);
+    store(x + k, load(x + k) + a * ti);
+    const V4 ri = load(r + k) - a * (load(q + k) + ti);
     store(r + k, ri);
-    const V4 zi = s * padded_times(diag_.data() + 12L * i, ri);
+    const V4 zi = s * padded_times(diag + 12L * i, ri);
     store(z + k, zi);
     rr4 += ri * ri;
     rz4 += ri * zi;
@@ -217,22 +246,23 @@ double SsorOperator::update(double a, const double* t, const double* q, double* 
 }
 
 void SsorOperator::multiply(const double* x, double* y) const {
-  alignas(32) double lo[4], up[4];
+  const Rows::View lower = lower_.view(), upper = upper_.view();
+  const char* fixed = fixed_at_.data();
+  const double* diag = diag_.data();
   for (int i = 0; i < n_; ++i) {
-    if (fixed_at_[i]) {
+    if (fixed[i]) {
       store(y + 4 * i, V4{0, 0, 0, 0});
       continue;
     }
-    lower_.gather(i, x, lo);
-    upper_.gather(i, x, up);
-    V4 yi = padded_times(diag_.data() + 12L * i, load(x + 4 * i)) + load(lo) + load(up);
+    V4 yi = padded_times(diag + 12L * i, load(x + 4 * i)) + row_sum(lower, i, x) + row_sum(upper, i, x);
     yi[3] = 0.0;
     store(y + 4 * i, yi);
   }
 }
 
 void SsorOperator::diagonal_times(double s, const double* x, double* y) const {
-  for (int i = 0; i < n_; ++i) store(y + 4 * i, s * padded_times(diag_.data() + 12L * i, load(x + 4 * i)));
+  const double* diag = diag_.data();
+  for (int i = 0; i < n_; ++i) store(y + 4 * i, s * padded_times(diag + 12L * i, load(x + 4 * i)));
 }
 
 void SsorOperator::pad(const VecX& v, VecX& v4) const {

@@ -37,17 +37,20 @@ class SsorOperator {
   /// The node at each position of the solves' order; vectors are by position.
   const std::vector<int>& order() const { return order_; }
   double omega() const { return omega_; }
-  long num_whole() const { return static_cast<long>(lower_.d_col.size() + upper_.d_col.size()); }
-  long num_scalar() const { return static_cast<long>(lower_.s_col.size() + upper_.s_col.size()); }
+  long num_whole() const { return static_cast<long>(lower_.d_off.size() + upper_.d_off.size()); }
+  long num_scalar() const { return static_cast<long>(lower_.s_off.size() + upper_.s_off.size()); }
 
   /// (B + L) y = v. Vectors are 4 doubles per node; y is zero on fixed nodes.
   void solve_lower(const double* v, double* y) const;
+  /// The same solve, returning p . (y + t) (a CG step's curvature, in the same pass).
+  double solve_lower_dot(const double* v, double* y, const double* p, const double* t) const;
   /// (B + L^T) y = v; also writes u = cp v + cu (L^T y) when u is not null.
   void solve_upper(const double* v, double* y, double* u = nullptr, double cp = 0, double cu = 0) const;
   /// p = z + beta p, then the upper solve with v = p (one pass: a CG step's new direction).
   void step_and_solve_upper(const double* z, double beta, double* p, double* y, double* u, double cp,
                             double cu) const;
-  /// A CG update in one pass: x += a t, r -= a q, z = s D r; returns r.r and sets rz = r.z.
+  /// A CG update in one pass: x += a t, r -= a (q + t), z = s D r; returns r.r and sets
+  /// rz = r.z.
   double update(double a, const double* t, const double* q, double* x, double* r, double s, double* z,
                 double& rz) const;
   /// y = A x on the free nodes, zero on fixed nodes.
@@ -61,21 +64,29 @@ class SsorOperator {
 
  private:
   // One triangle of A by rows: whole blocks (9 column-major doubles each, one spare double
-  // at the end for the last four-wide load) and scalar blocks.
+  // at the end for the last four-wide load) and scalar blocks. Columns are kept as offsets
+  // into the padded vectors (4 times the position).
   struct Rows {
-    std::vector<int> d_start, d_col, d_slot;
+    std::vector<int> d_start, d_off, d_slot;
     std::vector<double> d_val;
-    std::vector<int> s_start, s_col, s_slot;
+    std::vector<int> s_start, s_off, s_slot;
     std::vector<double> s_val;
     void build(const BlockPattern& pattern, const std::vector<int>& order, const std::vector<int>& position,
                const std::vector<char>& fixed, const double* sample, bool upper);
     /// Copies row (position) p's values from A's blocks; false when a block stored as a
     /// scalar is not a multiple of the identity.
     inline bool fill_row(int p, const double* a);
-    /// Sum over row i of A_ij x_j.
-    inline void gather(int i, const double* x, double* sum) const;
+    /// The rows as raw pointers, taken once per pass (the solves' stores may alias anything,
+    /// which would otherwise make the compiler reload the vectors' pointers per node).
+    struct View {
+      const int *s_start, *s_off, *d_start, *d_off;
+      const double *s_val, *d_val;
+    };
+    View view() const { return {s_start.data(), s_off.data(), d_start.data(), d_off.data(), s_val.data(), d_val.data()}; }
   };
   void build(const BlockMatrix& A, const std::vector<char>& fixed, const std::vector<int>* base);
+  template <bool kDot>
+  double lower_solve(const double* v, double* y, const double* p, const double* t) const;
   template <bool kStep>
   void upper_solve(const double* z, double beta, double* v, double* y, double* u, double cp, double cu) const;
 
