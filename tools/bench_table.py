@@ -31,8 +31,8 @@ def main(path):
     print(f"Machine: {cpu}, {ctx.get('num_cpus')} CPUs, {platform.system()} {platform.release()}; "
           f"run {ctx.get('date')}; one thread; medians of {rows[0].get('repetitions', '?') if rows else '?'} repetitions.\n")
     print("| method | vertices | preconditioner | CG tolerance | ms/step | CG iterations/step | assembly ms "
-          "| solve ms | step matrices MB | peak RSS MB |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "| solve ms | step matrix MB | heap MB | peak RSS MB |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
 
     names = {0: "block-Jacobi", 1: "multigrid", 2: "SSOR"}
 
@@ -44,9 +44,11 @@ def main(path):
     for b in rows:
         method, vertices, mg, tol = key(b)
         unit = {"ms": 1.0, "us": 1e-3, "ns": 1e-6, "s": 1e3}[b.get("time_unit", "ns")]
+        heap = f"{b['heap_MB']:.1f}" if "heap_MB" in b else "-"
         print(f"| {method} | {vertices} | {names[mg]} | {tol:.0e} | "
               f"{b['real_time'] * unit:.3f} | {b['cg_iterations']:.1f} | "
-              f"{b['assembly_ms']:.3f} | {b['solve_ms']:.3f} | {b['matrix_MB']:.1f} | {b['peak_rss_MB']:.0f} |")
+              f"{b['assembly_ms']:.3f} | {b['solve_ms']:.3f} | {b['matrix_MB']:.1f} | {heap} | "
+              f"{b['peak_rss_MB']:.0f} |")
     by = {key(b): b for b in rows}
     sizes = sorted({k[1] for k in by})
     # Ratios from the same run: Implicit Midpoint / backward Euler, and each preconditioner

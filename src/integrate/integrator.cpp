@@ -43,7 +43,6 @@ std::string method_names() {
 
 Integrator::Integrator(System& system, IntegratorSettings settings)
     : system_(system), settings_(settings) {
-  system_.prepare(eval_);
   step_.matrix.reset(system_.pattern());
   const int n = system_.num_nodes();
   mass3_.resize(3 * n);

@@ -32,7 +32,6 @@ Simulation::Simulation(const Scene& scene) : scene_(scene) {
   for (int i = 0; i < model_->num_vertices(); ++i)
     if (!model_->fixed[i]) node(state_.v, i) = scene.cloth.initial_velocity;
   state_.t = 0;
-  system_->prepare(eval_);
   set_energy_reference();
 }
 

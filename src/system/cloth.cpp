@@ -604,7 +604,10 @@ double ClothSystem::viscous_power(const VecX& x, const VecX& v) {
 
 void ClothSystem::evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluation& out) {
   const int n = num_nodes();
-  if (out.force.size() != 3 * n || out.stiffness.pattern != &model_.pattern) prepare(out);
+  // The Jacobian matrices are allocated on the first evaluation that asks for them (an
+  // evaluation of forces and energies only never needs them).
+  out.force.resize(3 * n);
+  if (jacobians && (out.stiffness.pattern != &model_.pattern || out.damping.pattern != &model_.pattern)) prepare(out);
   out.force.setZero();
   if (jacobians) {
     out.stiffness.set_zero();

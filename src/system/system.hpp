@@ -43,7 +43,8 @@ class System {
   virtual const std::vector<int>* solver_order() const { return nullptr; }
   /// Called once at the start of every step with the step's size (adaptive damping).
   virtual void begin_step(const VecX& /*x*/, const VecX& /*v*/, double /*dt*/) {}
-  /// Fills `out` (force and energies always; Jacobians when `jacobians`).
+  /// Fills `out` (force and energies always; Jacobians when `jacobians`), sizing what it
+  /// fills as needed (an evaluation without Jacobians need not allocate the matrices).
   virtual void evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluation& out) = 0;
 
   /// Fills `out` for coefficients out.ck, out.cd and the vector w. The generic version

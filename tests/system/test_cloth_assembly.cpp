@@ -186,3 +186,31 @@ TEST(LogStatistics, MedianWithinHalfABinAndExactExtremes) {
   EXPECT_EQ(t.count(), 2002);
   EXPECT_EQ(t.median(), s.median());
 }
+
+// Forces and energies alone never allocate the Jacobian matrices (a simulation's energy
+// evaluations and the explicit integrators); the first evaluation that asks for them does,
+// and gets the same values as one on matrices set up beforehand.
+TEST(ClothSystem, EvaluationAllocatesJacobiansOnlyWhenAsked) {
+  const ClothModel model =
+      build_cloth_model(make_grid(0.2, 0.15, 7, 6), anisotropic_material(), Vec3(0, -9.81, 0), {0, 6});
+  ClothSystem system(model, DampingSettings{0.05});
+  VecX x = model.initial_positions(), v(x.size());
+  for (int i = 0; i < model.num_vertices(); ++i) {
+    node(x, i) += random_vec(4e-3);
+    node(v, i) = random_vec(0.3);
+  }
+  system.begin_step(x, v, 0.01);
+  Evaluation lazy, prepared;
+  system.evaluate(x, v, false, lazy);
+  EXPECT_EQ(lazy.force.size(), x.size());
+  EXPECT_TRUE(lazy.stiffness.block.empty());
+  EXPECT_TRUE(lazy.damping.block.empty());
+  system.evaluate(x, v, true, lazy);
+  system.prepare(prepared);
+  system.evaluate(x, v, true, prepared);
+  ASSERT_EQ(lazy.stiffness.block.size(), prepared.stiffness.block.size());
+  EXPECT_EQ((lazy.stiffness.to_dense() - prepared.stiffness.to_dense()).norm(), 0.0);
+  EXPECT_EQ((lazy.damping.to_dense() - prepared.damping.to_dense()).norm(), 0.0);
+  EXPECT_GT(lazy.stiffness.to_dense().norm(), 0.0);
+  EXPECT_EQ((lazy.force - prepared.force).norm(), 0.0);
+}
