@@ -443,9 +443,12 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
     // Step matrix blocks -(ck K + cd D) of the 6 vertex pairs, (j, i) the transpose of (i, j).
     const double Tu = A * (ck * tu + cd * eu), Tv = A * (ck * tv + cd * ev), Ts = A * (ck * ts + cd * es);
     const double Tc = A * ck * tc, S00 = A * ck * s00, S11 = A * ck * s11, S01 = A * ck * s01;
-    // Both blocks of a pair combine the same four outer products UU^T, VV^T, UV^T, VU^T:
-    // (i, j) = a UU^T + b VV^T + c UV^T + d VU^T + e I and (j, i) the same with c and d
-    // swapped. A column-major block is entries 0-3, 4-7 and 8, the diagonal 0, 4 and 8.
+    // Block (i, j) is bilinear in (r_u,i, r_v,i) and (r_u,j, r_v,j):
+    //   r_u,i r_u,j Muu + r_u,i r_v,j Muv + r_v,i r_u,j Mvu + r_v,i r_v,j Mvv
+    // with four matrices per triangle built from the outer products UU^T, VV^T, UV^T, VU^T:
+    //   Muu = Tu UU^T + Ts VV^T + S00 I,   Mvv = Ts UU^T + Tv VV^T + S11 I,
+    //   Muv = Tc UV^T + Ts VU^T + S01 I,   Mvu = Ts UV^T + Tc VU^T + S01 I.
+    // A column-major block is entries 0-3, 4-7 and 8, the diagonal 0, 4 and 8.
     using A4 = Eigen::Array4d;
     const A4 first_entry(1.0, 0.0, 0.0, 0.0);
     const A4 u_row_lo(U[0], U[1], U[2], U[0]), u_row_hi(U[1], U[2], U[0], U[1]);
@@ -457,6 +460,12 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
     const A4 uv_lo = u_row_lo * v_col_lo, uv_hi = u_row_hi * v_col_hi;
     const A4 vu_lo = v_row_lo * u_col_lo, vu_hi = v_row_hi * u_col_hi;
     const double uu_8 = U[2] * U[2], vv_8 = V[2] * V[2], uv_8 = U[2] * V[2];
+    const A4 muu_lo = Tu * uu_lo + Ts * vv_lo + S00 * first_entry, muu_hi = Tu * uu_hi + Ts * vv_hi + S00 * first_entry;
+    const A4 mvv_lo = Ts * uu_lo + Tv * vv_lo + S11 * first_entry, mvv_hi = Ts * uu_hi + Tv * vv_hi + S11 * first_entry;
+    const A4 muv_lo = Tc * uv_lo + Ts * vu_lo + S01 * first_entry, muv_hi = Tc * uv_hi + Ts * vu_hi + S01 * first_entry;
+    const A4 mvu_lo = Ts * uv_lo + Tc * vu_lo + S01 * first_entry, mvu_hi = Ts * uv_hi + Tc * vu_hi + S01 * first_entry;
+    const double muu_8 = Tu * uu_8 + Ts * vv_8 + S00, mvv_8 = Ts * uu_8 + Tv * vv_8 + S11;
+    const double mx_8 = (Tc + Ts) * uv_8 + S01;  // Muv and Mvu share their last entry
     // Slots with no membrane block carry the bending diagonal only; the others get it on
     // their first membrane write.
     for (int k = tr.bending_only_begin; k < tr.bending_only_end; ++k) {
@@ -469,45 +478,30 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
       out_block[8] = diagonal;
     }
     const unsigned first = tr.first_writer;
-    const auto put = [&](int bit, double a, double b, double c, double d, double e) {
+    const auto put = [&](int bit, double cuu, double cuv, double cvu, double cvv) {
       const int slot = tr.slot[bit];
       double* out_block = blocks[slot].data();
-      const double diagonal = (first & (1u << bit)) ? e + (ck * q[slot] + cd * qd[slot]) : e;
-      const A4 lo = a * uu_lo + b * vv_lo + c * uv_lo + d * vu_lo + diagonal * first_entry;
-      const A4 hi = a * uu_hi + b * vv_hi + c * uv_hi + d * vu_hi + diagonal * first_entry;
-      const double last = a * uu_8 + b * vv_8 + (c + d) * uv_8 + diagonal;
+      const A4 lo = cuu * muu_lo + cuv * muv_lo + cvu * mvu_lo + cvv * mvv_lo;
+      const A4 hi = cuu * muu_hi + cuv * muv_hi + cvu * mvu_hi + cvv * mvv_hi;
+      const double last = cuu * muu_8 + (cuv + cvu) * mx_8 + cvv * mvv_8;
       Eigen::Map<A4> out_lo(out_block), out_hi(out_block + 4);
       if (first & (1u << bit)) {
-        out_lo = lo;
-        out_hi = hi;
-        out_block[8] = last;
+        const double bending = ck * q[slot] + cd * qd[slot];
+        out_lo = lo + bending * first_entry;
+        out_hi = hi + bending * first_entry;
+        out_block[8] = last + bending;
       } else {
         out_lo += lo;
         out_hi += hi;
         out_block[8] += last;
       }
     };
-    // Per vertex j the moduli times r_u,j and r_v,j; a pair's coefficients are then
-    // r_u,i (...) + r_v,i (...).
-    double tu_u[3], ts_v[3], tv_v[3], ts_u[3], tc_v[3], tc_u[3], s_u[3], s_v[3];
-    for (int j = 0; j < 3; ++j) {
-      tu_u[j] = Tu * ru[j];
-      ts_v[j] = Ts * rv[j];
-      tv_v[j] = Tv * rv[j];
-      ts_u[j] = Ts * ru[j];
-      tc_v[j] = Tc * rv[j];
-      tc_u[j] = Tc * ru[j];
-      s_u[j] = S00 * ru[j] + S01 * rv[j];
-      s_v[j] = S11 * rv[j] + S01 * ru[j];
-    }
 #pragma GCC unroll 6
     for (int p = 0; p < 6; ++p) {
       const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
-      const double a = ru[i] * tu_u[j] + rv[i] * ts_v[j], b = rv[i] * tv_v[j] + ru[i] * ts_u[j];
-      const double c = ru[i] * tc_v[j] + rv[i] * ts_u[j], d = rv[i] * tc_u[j] + ru[i] * ts_v[j];
-      const double e = ru[i] * s_u[j] + rv[i] * s_v[j];
-      put(3 * i + j, a, b, c, d, e);
-      if (i != j) put(3 * j + i, a, b, d, c, e);
+      const double cuu = ru[i] * ru[j], cuv = ru[i] * rv[j], cvu = rv[i] * ru[j], cvv = rv[i] * rv[j];
+      put(3 * i + j, cuu, cuv, cvu, cvv);
+      if (i != j) put(3 * j + i, cuu, cvu, cuv, cvv);  // the transpose: r_u,j r_v,i goes with Muv
     }
   }
   out.elastic_energy += energy;
