@@ -5,9 +5,9 @@
 // Counters: CG iterations per step, assembly and solve milliseconds per step, and memory:
 // the heap the configuration's simulation holds after its steps (model, matrices, solver
 // workspace: the bytes allocated and not freed since just before it was built), the
-// process's peak resident set while the configuration ran (the peak is reset before each
-// configuration, where Linux allows; it includes what the allocator kept from earlier
-// configurations), and the bytes of the step's block matrix.
+// process's peak resident set while the configuration ran (freed memory is handed back to
+// the system and the peak reset before each configuration, where Linux allows; it includes
+// the process's own baseline, a few MB), and the bytes of the step's block matrix.
 #include <benchmark/benchmark.h>
 #include <malloc.h>
 #include <sys/resource.h>
@@ -63,6 +63,7 @@ void Step(benchmark::State& bs, const std::string& method) {
   const int n = static_cast<int>(bs.range(0));
   const int tolerance_exponent = static_cast<int>(bs.range(1));
   const int preconditioner = static_cast<int>(bs.range(2));
+  malloc_trim(0);  // hand back what earlier configurations freed, so the peak is this one's
   const bool peak_reset = reset_peak_rss();
   const double heap_before = heap_MB();
   Simulation sim(bench_scene(n, method, tolerance_exponent, preconditioner));
