@@ -355,9 +355,65 @@ inline double curve_energy(const StressCurve& c, double modulus, double e) {
 }
 }  // namespace
 
+namespace {
+// A triangle's four matrices Muu, Muv, Mvu, Mvv (below), each as column-major entries 0-3
+// (lo), 4-7 (hi) and 8; Muv and Mvu share entry 8.
+struct TriangleMatrices {
+  Eigen::Array4d uu_lo, uu_hi, uv_lo, uv_hi, vu_lo, vu_hi, vv_lo, vv_hi;
+  double uu_8, x_8, vv_8;
+};
+
+// Writes a triangle's nine step-matrix blocks: (i, j) = r_u,i r_u,j Muu + r_u,i r_v,j Muv +
+// r_v,i r_u,j Mvu + r_v,i r_v,j Mvv. The first triangle to reach a slot assigns it (and adds
+// the slot's bending diagonal), the others add to it; the bending-only slots listed for
+// this triangle get their diagonal.
+template <class Triangle>
+inline void write_triangle_blocks(const Triangle& tr, const double* ru, const double* rv, const TriangleMatrices& M,
+                                  Mat3* blocks, const int* bending_only_slots, const double* q, const double* qd,
+                                  double ck, double cd) {
+  using A4 = Eigen::Array4d;
+  const A4 first_entry(1.0, 0.0, 0.0, 0.0);
+  for (int k = tr.bending_only_begin; k < tr.bending_only_end; ++k) {
+    const int slot = bending_only_slots[k];
+    const double diagonal = ck * q[slot] + cd * qd[slot];
+    double* out_block = blocks[slot].data();
+    Eigen::Map<A4> out_lo(out_block), out_hi(out_block + 4);
+    out_lo = diagonal * first_entry;
+    out_hi = diagonal * first_entry;
+    out_block[8] = diagonal;
+  }
+  const unsigned first = tr.first_writer;
+  const auto put = [&](int bit, double cuu, double cuv, double cvu, double cvv) {
+    const int slot = tr.slot[bit];
+    double* out_block = blocks[slot].data();
+    const A4 lo = cuu * M.uu_lo + cuv * M.uv_lo + cvu * M.vu_lo + cvv * M.vv_lo;
+    const A4 hi = cuu * M.uu_hi + cuv * M.uv_hi + cvu * M.vu_hi + cvv * M.vv_hi;
+    const double last = cuu * M.uu_8 + (cuv + cvu) * M.x_8 + cvv * M.vv_8;
+    Eigen::Map<A4> out_lo(out_block), out_hi(out_block + 4);
+    if (first & (1u << bit)) {
+      const double bending = ck * q[slot] + cd * qd[slot];
+      out_lo = lo + bending * first_entry;
+      out_hi = hi + bending * first_entry;
+      out_block[8] = last + bending;
+    } else {
+      out_lo += lo;
+      out_hi += hi;
+      out_block[8] += last;
+    }
+  };
+#pragma GCC unroll 6
+  for (int p = 0; p < 6; ++p) {
+    const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
+    const double cuu = ru[i] * ru[j], cuv = ru[i] * rv[j], cvu = rv[i] * ru[j], cvv = rv[i] * rv[j];
+    put(3 * i + j, cuu, cuv, cvu, cvv);
+    if (i != j) put(3 * j + i, cuu, cvu, cuv, cvv);  // the transpose: r_u,j r_v,i goes with Muv
+  }
+}
+}  // namespace
+
 template <bool kLinear>
-void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians,
-                                     StepAssembly& out) const {
+void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, size_t begin,
+                                     size_t end, StepAssembly& out) const {
   // evaluate_membrane and MembraneJacobian::block / stiffness_times, fused and written for
   // the step: the step matrix block (i, j) of a triangle is
   //   a UU^T + b VV^T + c UV^T + d VU^T + e I = (a U + d V) U^T + (b V + c U) V^T + e I
@@ -376,8 +432,7 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
   const double* qd = bending_slot_damping_.data();
   const Vec3* viscosity = membrane_viscosity_.data();
   double energy = 0, power = 0;
-  const size_t count = triangles_.size();
-  for (size_t t = 0; t < count; ++t) {
+  for (size_t t = begin; t < end; ++t) {
     const PackedTriangle& tr = triangles_[t];
     const double A = tr.area;
     const double* ru = tr.ru;
@@ -460,52 +515,169 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
     const A4 uv_lo = u_row_lo * v_col_lo, uv_hi = u_row_hi * v_col_hi;
     const A4 vu_lo = v_row_lo * u_col_lo, vu_hi = v_row_hi * u_col_hi;
     const double uu_8 = U[2] * U[2], vv_8 = V[2] * V[2], uv_8 = U[2] * V[2];
-    const A4 muu_lo = Tu * uu_lo + Ts * vv_lo + S00 * first_entry, muu_hi = Tu * uu_hi + Ts * vv_hi + S00 * first_entry;
-    const A4 mvv_lo = Ts * uu_lo + Tv * vv_lo + S11 * first_entry, mvv_hi = Ts * uu_hi + Tv * vv_hi + S11 * first_entry;
-    const A4 muv_lo = Tc * uv_lo + Ts * vu_lo + S01 * first_entry, muv_hi = Tc * uv_hi + Ts * vu_hi + S01 * first_entry;
-    const A4 mvu_lo = Ts * uv_lo + Tc * vu_lo + S01 * first_entry, mvu_hi = Ts * uv_hi + Tc * vu_hi + S01 * first_entry;
-    const double muu_8 = Tu * uu_8 + Ts * vv_8 + S00, mvv_8 = Ts * uu_8 + Tv * vv_8 + S11;
-    const double mx_8 = (Tc + Ts) * uv_8 + S01;  // Muv and Mvu share their last entry
-    // Slots with no membrane block carry the bending diagonal only; the others get it on
-    // their first membrane write.
-    for (int k = tr.bending_only_begin; k < tr.bending_only_end; ++k) {
-      const int slot = bending_only_slots_[k];
-      const double diagonal = ck * q[slot] + cd * qd[slot];
-      double* out_block = blocks[slot].data();
-      Eigen::Map<A4> out_lo(out_block), out_hi(out_block + 4);
-      out_lo = diagonal * first_entry;
-      out_hi = diagonal * first_entry;
-      out_block[8] = diagonal;
-    }
-    const unsigned first = tr.first_writer;
-    const auto put = [&](int bit, double cuu, double cuv, double cvu, double cvv) {
-      const int slot = tr.slot[bit];
-      double* out_block = blocks[slot].data();
-      const A4 lo = cuu * muu_lo + cuv * muv_lo + cvu * mvu_lo + cvv * mvv_lo;
-      const A4 hi = cuu * muu_hi + cuv * muv_hi + cvu * mvu_hi + cvv * mvv_hi;
-      const double last = cuu * muu_8 + (cuv + cvu) * mx_8 + cvv * mvv_8;
-      Eigen::Map<A4> out_lo(out_block), out_hi(out_block + 4);
-      if (first & (1u << bit)) {
-        const double bending = ck * q[slot] + cd * qd[slot];
-        out_lo = lo + bending * first_entry;
-        out_hi = hi + bending * first_entry;
-        out_block[8] = last + bending;
-      } else {
-        out_lo += lo;
-        out_hi += hi;
-        out_block[8] += last;
-      }
-    };
-#pragma GCC unroll 6
-    for (int p = 0; p < 6; ++p) {
-      const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
-      const double cuu = ru[i] * ru[j], cuv = ru[i] * rv[j], cvu = rv[i] * ru[j], cvv = rv[i] * rv[j];
-      put(3 * i + j, cuu, cuv, cvu, cvv);
-      if (i != j) put(3 * j + i, cuu, cvu, cuv, cvv);  // the transpose: r_u,j r_v,i goes with Muv
-    }
+    TriangleMatrices M;
+    M.uu_lo = Tu * uu_lo + Ts * vv_lo + S00 * first_entry;
+    M.uu_hi = Tu * uu_hi + Ts * vv_hi + S00 * first_entry;
+    M.vv_lo = Ts * uu_lo + Tv * vv_lo + S11 * first_entry;
+    M.vv_hi = Ts * uu_hi + Tv * vv_hi + S11 * first_entry;
+    M.uv_lo = Tc * uv_lo + Ts * vu_lo + S01 * first_entry;
+    M.uv_hi = Tc * uv_hi + Ts * vu_hi + S01 * first_entry;
+    M.vu_lo = Ts * uv_lo + Tc * vu_lo + S01 * first_entry;
+    M.vu_hi = Ts * uv_hi + Tc * vu_hi + S01 * first_entry;
+    M.uu_8 = Tu * uu_8 + Ts * vv_8 + S00;
+    M.vv_8 = Ts * uu_8 + Tv * vv_8 + S11;
+    M.x_8 = (Tc + Ts) * uv_8 + S01;  // Muv and Mvu share their last entry
+    write_triangle_blocks(tr, ru, rv, M, blocks, bending_only_slots_.data(), q, qd, ck, cd);
   }
   out.elastic_energy += energy;
   out.viscous_power += power;
+}
+
+namespace {
+// Four doubles, one per triangle of a batch (GCC/Clang vector extension; arithmetic with a
+// scalar operand applies it to every lane).
+typedef double D4 __attribute__((vector_size(32)));
+
+inline D4 splat(double a) { return D4{a, a, a, a}; }
+inline D4 dot3(const D4* a, const D4* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+}  // namespace
+
+void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t end,
+                                             StepAssembly& out) const {
+  // assemble_membranes<true> with the element arithmetic of four triangles at a time, lane l
+  // of every D4 belonging to triangle t + l: the same expressions, so the same values. The
+  // results go through a small per-batch table to the scalar scatter (forces, K w) and the
+  // block writer, which take the triangles in order (the first writer of each block slot is
+  // unchanged).
+  const Material& mat = model_.material;
+  const double C = coupling_;
+  const double ck = out.ck, cd = out.cd;
+  const double mu = mat.weft.modulus(), mv = mat.warp.modulus(), ms = mat.shear.modulus();
+  // Linear curves: the tangent moduli are the moduli, the same for every triangle.
+  const double tu = std::max(mu, 0.0), tv = std::max(mv, 0.0), ts = std::max(ms, 0.0);
+  const double cmax = std::sqrt(tu * tv);
+  const double tc = std::clamp(C, -cmax, cmax);
+  const double* X = x.data();
+  const double* Vel = v.data();
+  const double* W = w.data();
+  double* F = out.force.data();
+  double* KW = out.stiffness_times_w.data();
+  Mat3* blocks = out.matrix.block.data();
+  const double* q = model_.bending_slot_q.data();
+  const double* qd = bending_slot_damping_.data();
+  const Vec3* viscosity = membrane_viscosity_.data();
+  D4 energy = splat(0), power = splat(0);
+  // Per batch: force and K w per vertex and component (9 + 9) and the four matrices' 9
+  // entries each (Muu, Muv, Mvu, Mvv), lane by lane.
+  enum { kForce = 0, kStiffness = 9, kMatrices = 18, kRows = 54 };
+  alignas(32) double table[kRows][4];
+  for (size_t t0 = 0; t0 < end; t0 += 4) {
+    const PackedTriangle* tr[4] = {&triangles_[t0], &triangles_[t0 + 1], &triangles_[t0 + 2], &triangles_[t0 + 3]};
+    const auto lanes = [&](auto field) { return D4{field(0), field(1), field(2), field(3)}; };
+    const D4 A = lanes([&](int l) { return tr[l]->area; });
+    const D4 eu = lanes([&](int l) { return viscosity[t0 + l][0]; });
+    const D4 ev = lanes([&](int l) { return viscosity[t0 + l][1]; });
+    const D4 es = lanes([&](int l) { return viscosity[t0 + l][2]; });
+    D4 ru[3], rv[3];
+    int o[3][4];
+    for (int k = 0; k < 3; ++k) {
+      ru[k] = lanes([&](int l) { return tr[l]->ru[k]; });
+      rv[k] = lanes([&](int l) { return tr[l]->rv[k]; });
+      for (int l = 0; l < 4; ++l) o[k][l] = 3 * tr[l]->vertex[k];
+    }
+    // Deformation gradient, its rate and its change along w.
+    D4 U[3], V[3], Ud[3], Vd[3], dU[3], dV[3];
+    for (int c = 0; c < 3; ++c) {
+      D4 xk[3], vk[3], wk[3];
+      for (int k = 0; k < 3; ++k) {
+        xk[k] = D4{X[o[k][0] + c], X[o[k][1] + c], X[o[k][2] + c], X[o[k][3] + c]};
+        vk[k] = D4{Vel[o[k][0] + c], Vel[o[k][1] + c], Vel[o[k][2] + c], Vel[o[k][3] + c]};
+        wk[k] = D4{W[o[k][0] + c], W[o[k][1] + c], W[o[k][2] + c], W[o[k][3] + c]};
+      }
+      U[c] = ru[0] * xk[0] + ru[1] * xk[1] + ru[2] * xk[2];
+      V[c] = rv[0] * xk[0] + rv[1] * xk[1] + rv[2] * xk[2];
+      Ud[c] = ru[0] * vk[0] + ru[1] * vk[1] + ru[2] * vk[2];
+      Vd[c] = rv[0] * vk[0] + rv[1] * vk[1] + rv[2] * vk[2];
+      dU[c] = ru[0] * wk[0] + ru[1] * wk[1] + ru[2] * wk[2];
+      dV[c] = rv[0] * wk[0] + rv[1] * wk[1] + rv[2] * wk[2];
+    }
+    const D4 euu = 0.5 * (dot3(U, U) - 1.0), evv = 0.5 * (dot3(V, V) - 1.0), euv = dot3(U, V);
+    const D4 suu = mu * euu + C * evv, svv = mv * evv + C * euu, suv = ms * euv;
+    energy += A * (0.5 * mu * euu * euu + 0.5 * mv * evv * evv + 0.5 * ms * euv * euv + C * euu * evv);
+    const D4 r0 = dot3(U, Ud), r1 = dot3(V, Vd), r2 = dot3(U, Vd) + dot3(V, Ud);
+    const D4 sv0 = eu * r0, sv1 = ev * r1, sv2 = es * r2;
+    power -= A * (sv0 * r0 + sv1 * r1 + sv2 * r2);
+    const D4 fu = A * (suu + sv0), fv = A * (svv + sv1), fs = A * (suv + sv2);
+    // The stress matrix projected to its positive semi-definite part, lane by lane where it
+    // is not already.
+    D4 s00 = suu, s11 = svv, s01 = suv;
+    for (int l = 0; l < 4; ++l)
+      if (!(s00[l] >= 0 && s11[l] >= 0 && s00[l] * s11[l] >= s01[l] * s01[l])) {
+        double a = s00[l], b = s11[l], cc = s01[l];
+        project_indefinite_2x2(a, b, cc);
+        s00[l] = a;
+        s11[l] = b;
+        s01[l] = cc;
+      }
+    const D4 da = dot3(U, dU), db = dot3(V, dV), dc = dot3(U, dV) + dot3(V, dU);
+    const D4 du = tu * da + tc * db, dv = tv * db + tc * da, ds = ts * dc;
+    for (int c = 0; c < 3; ++c) {
+      const D4 force_u = fu * U[c] + fs * V[c], force_v = fs * U[c] + fv * V[c];
+      const D4 kw_u = A * (du * U[c] + ds * V[c] + s00 * dU[c] + s01 * dV[c]);
+      const D4 kw_v = A * (ds * U[c] + dv * V[c] + s11 * dV[c] + s01 * dU[c]);
+      for (int i = 0; i < 3; ++i) {
+        *reinterpret_cast<D4*>(table[kForce + 3 * i + c]) = ru[i] * force_u + rv[i] * force_v;
+        *reinterpret_cast<D4*>(table[kStiffness + 3 * i + c]) = ru[i] * kw_u + rv[i] * kw_v;
+      }
+    }
+    // The four matrices of write_triangle_blocks, entry (r, c) at 3 c + r.
+    const D4 Tu = A * (ck * tu + cd * eu), Tv = A * (ck * tv + cd * ev), Ts = A * (ck * ts + cd * es);
+    const D4 Tc = A * (ck * tc), S00 = A * ck * s00, S11 = A * ck * s11, S01 = A * ck * s01;
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) {
+        const D4 uu = U[r] * U[c], vv = V[r] * V[c], uv = U[r] * V[c], vu = V[r] * U[c];
+        D4 muu = Tu * uu + Ts * vv, mvv = Ts * uu + Tv * vv, muv = Tc * uv + Ts * vu, mvu = Ts * uv + Tc * vu;
+        if (r == c) {
+          muu += S00;
+          mvv += S11;
+          muv += S01;
+          mvu += S01;
+        }
+        const int e = 3 * c + r;
+        *reinterpret_cast<D4*>(table[kMatrices + e]) = muu;
+        *reinterpret_cast<D4*>(table[kMatrices + 9 + e]) = muv;
+        *reinterpret_cast<D4*>(table[kMatrices + 18 + e]) = mvu;
+        *reinterpret_cast<D4*>(table[kMatrices + 27 + e]) = mvv;
+      }
+    // In triangle order: scatter the vertex terms, write the blocks.
+    for (int l = 0; l < 4; ++l) {
+      const PackedTriangle& t = *tr[l];
+      for (int i = 0; i < 3; ++i)
+        for (int c = 0; c < 3; ++c) {
+          F[o[i][l] + c] -= table[kForce + 3 * i + c][l];
+          KW[o[i][l] + c] -= table[kStiffness + 3 * i + c][l];
+        }
+      const auto entries = [&](int m, int e0) {
+        const double* base = table[kMatrices + 9 * m + e0];
+        return Eigen::Array4d(base[l], base[4 + l], base[8 + l], base[12 + l]);
+      };
+      TriangleMatrices M;
+      M.uu_lo = entries(0, 0);
+      M.uu_hi = entries(0, 4);
+      M.uv_lo = entries(1, 0);
+      M.uv_hi = entries(1, 4);
+      M.vu_lo = entries(2, 0);
+      M.vu_hi = entries(2, 4);
+      M.vv_lo = entries(3, 0);
+      M.vv_hi = entries(3, 4);
+      M.uu_8 = table[kMatrices + 8][l];
+      M.x_8 = table[kMatrices + 9 + 8][l];
+      M.vv_8 = table[kMatrices + 27 + 8][l];
+      write_triangle_blocks(t, t.ru, t.rv, M, blocks, bending_only_slots_.data(), q, qd, ck, cd);
+    }
+  }
+  out.elastic_energy += (energy[0] + energy[1]) + (energy[2] + energy[3]);
+  out.viscous_power += (power[0] + power[1]) + (power[2] + power[3]);
 }
 
 void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) {
@@ -556,10 +728,16 @@ void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, Ste
   out.elastic_energy = 0;
   out.viscous_power = 0;
   if (!jacobians) out.matrix.set_zero();
-  if (linear_moduli_)
-    assemble_membranes<true>(x, v, w, jacobians, out);
-  else
-    assemble_membranes<false>(x, v, w, jacobians, out);
+  const size_t count = triangles_.size();
+  if (linear_moduli_ && jacobians) {
+    const size_t batched = count - count % 4;
+    assemble_membranes_batched(x, v, w, batched, out);
+    assemble_membranes<true>(x, v, w, jacobians, batched, count, out);
+  } else if (linear_moduli_) {
+    assemble_membranes<true>(x, v, w, jacobians, 0, count, out);
+  } else {
+    assemble_membranes<false>(x, v, w, jacobians, 0, count, out);
+  }
   out.elastic_energy += bending_energy;
   out.viscous_power += bending_power;
 }

@@ -127,7 +127,11 @@ class ClothSystem : public System {
   /// The membranes' part of assemble_step: energies, forces, K w and the step matrix blocks
   /// (with the bending diagonal on each slot's first write); kLinear: all curves linear.
   template <bool kLinear>
-  void assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, StepAssembly& out) const;
+  void assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, size_t begin, size_t end,
+                          StepAssembly& out) const;
+  /// The same for triangles [0, end) (a multiple of 4), linear curves, with Jacobians: the
+  /// element arithmetic of four triangles at a time in four-wide vectors.
+  void assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t end, StepAssembly& out) const;
   /// Adaptive viscosity and the per-step statistics of a material whose curves are all
   /// linear: the tangent moduli do not depend on the strain, so neither do they.
   void prepare_linear_damping(double dt);
