@@ -411,6 +411,12 @@ inline void write_triangle_blocks(const Triangle& tr, const double* ru, const do
 }
 }  // namespace
 
+ClothSystem::MembraneArrays ClothSystem::membrane_arrays(const VecX& x, const VecX& v, const VecX& w,
+                                                       StepAssembly& out) const {
+  return {x.data(), v.data(), w.data(), out.force.data(), out.stiffness_times_w.data(), out.matrix.block.data(),
+          model_.bending_slot_q.data(), bending_slot_damping_.data(), membrane_viscosity_.data()};
+}
+
 template <bool kLinear>
 void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, size_t begin,
                                      size_t end, StepAssembly& out) const {
@@ -422,15 +428,7 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
   const double C = coupling_;
   const double ck = out.ck, cd = out.cd;
   const double mu = mat.weft.modulus(), mv = mat.warp.modulus(), ms = mat.shear.modulus();
-  const double* X = x.data();
-  const double* Vel = v.data();
-  const double* W = w.data();
-  double* F = out.force.data();
-  double* KW = out.stiffness_times_w.data();
-  Mat3* blocks = out.matrix.block.data();
-  const double* q = model_.bending_slot_q.data();
-  const double* qd = bending_slot_damping_.data();
-  const Vec3* viscosity = membrane_viscosity_.data();
+  const auto [X, Vel, W, F, KW, blocks, q, qd, viscosity] = membrane_arrays(x, v, w, out);
   double energy = 0, power = 0;
   for (size_t t = begin; t < end; ++t) {
     const PackedTriangle& tr = triangles_[t];
@@ -557,15 +555,7 @@ void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const
   const double tu = std::max(mu, 0.0), tv = std::max(mv, 0.0), ts = std::max(ms, 0.0);
   const double cmax = std::sqrt(tu * tv);
   const double tc = std::clamp(C, -cmax, cmax);
-  const double* X = x.data();
-  const double* Vel = v.data();
-  const double* W = w.data();
-  double* F = out.force.data();
-  double* KW = out.stiffness_times_w.data();
-  Mat3* blocks = out.matrix.block.data();
-  const double* q = model_.bending_slot_q.data();
-  const double* qd = bending_slot_damping_.data();
-  const Vec3* viscosity = membrane_viscosity_.data();
+  const auto [X, Vel, W, F, KW, blocks, q, qd, viscosity] = membrane_arrays(x, v, w, out);
   D4 energy = splat(0), power = splat(0);
   // Per batch: force and K w per vertex and component (9 + 9) and the four matrices' 9
   // entries each (Muu, Muv, Mvu, Mvv), lane by lane.

@@ -126,6 +126,16 @@ class ClothSystem : public System {
   };
   /// The membranes' part of assemble_step: energies, forces, K w and the step matrix blocks
   /// (with the bending diagonal on each slot's first write); kLinear: all curves linear.
+  /// The arrays the membrane assembly reads and writes: positions, velocities, w; force,
+  /// K w, matrix blocks; the bending Q and gamma Q per slot; the viscosity per triangle.
+  struct MembraneArrays {
+    const double *X, *Vel, *W;
+    double *F, *KW;
+    Mat3* blocks;
+    const double *q, *qd;
+    const Vec3* viscosity;
+  };
+  MembraneArrays membrane_arrays(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) const;
   template <bool kLinear>
   void assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, size_t begin, size_t end,
                           StepAssembly& out) const;
