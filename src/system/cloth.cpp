@@ -538,6 +538,36 @@ typedef double D4 __attribute__((vector_size(32)));
 
 inline D4 splat(double a) { return D4{a, a, a, a}; }
 inline D4 dot3(const D4* a, const D4* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+// A batch of four triangles: lane l of each D4 is triangle tr[l]'s area and shape-function
+// gradients r_u, r_v; o[k][l] the offset of its vertex k.
+struct TriangleBatch {
+  D4 A, ru[3], rv[3];
+  int o[3][4];
+  template <class Triangle>
+  explicit TriangleBatch(const Triangle* const* tr) {
+    A = D4{tr[0]->area, tr[1]->area, tr[2]->area, tr[3]->area};
+    for (int k = 0; k < 3; ++k) {
+      ru[k] = D4{tr[0]->ru[k], tr[1]->ru[k], tr[2]->ru[k], tr[3]->ru[k]};
+      rv[k] = D4{tr[0]->rv[k], tr[1]->rv[k], tr[2]->rv[k], tr[3]->rv[k]};
+      for (int l = 0; l < 4; ++l) o[k][l] = 3 * tr[l]->vertex[k];
+    }
+  }
+  /// U = sum_k r_u,k y_k and V = sum_k r_v,k y_k of a vertex field y (positions give the
+  /// deformation gradient, velocities its rate).
+  void gradient(const double* y, D4* U, D4* V) const {
+    for (int c = 0; c < 3; ++c) {
+      D4 yk[3];
+      for (int k = 0; k < 3; ++k) yk[k] = D4{y[o[k][0] + c], y[o[k][1] + c], y[o[k][2] + c], y[o[k][3] + c]};
+      U[c] = ru[0] * yk[0] + ru[1] * yk[1] + ru[2] * yk[2];
+      V[c] = rv[0] * yk[0] + rv[1] * yk[1] + rv[2] * yk[2];
+    }
+  }
+  /// The viscosities of the four triangles, mode m (weft, warp, shear).
+  static D4 viscosity(const Vec3* eta, size_t t0, int m) {
+    return D4{eta[t0][m], eta[t0 + 1][m], eta[t0 + 2][m], eta[t0 + 3][m]};
+  }
+};
 }  // namespace
 
 void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t end,
@@ -563,34 +593,18 @@ void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const
   alignas(32) double table[kRows][4];
   for (size_t t0 = 0; t0 < end; t0 += 4) {
     const PackedTriangle* tr[4] = {&triangles_[t0], &triangles_[t0 + 1], &triangles_[t0 + 2], &triangles_[t0 + 3]};
-    const auto lanes = [&](auto field) { return D4{field(0), field(1), field(2), field(3)}; };
-    const D4 A = lanes([&](int l) { return tr[l]->area; });
-    const D4 eu = lanes([&](int l) { return viscosity[t0 + l][0]; });
-    const D4 ev = lanes([&](int l) { return viscosity[t0 + l][1]; });
-    const D4 es = lanes([&](int l) { return viscosity[t0 + l][2]; });
-    D4 ru[3], rv[3];
-    int o[3][4];
-    for (int k = 0; k < 3; ++k) {
-      ru[k] = lanes([&](int l) { return tr[l]->ru[k]; });
-      rv[k] = lanes([&](int l) { return tr[l]->rv[k]; });
-      for (int l = 0; l < 4; ++l) o[k][l] = 3 * tr[l]->vertex[k];
-    }
+    const TriangleBatch batch(tr);
+    const D4& A = batch.A;
+    const D4* ru = batch.ru;
+    const D4* rv = batch.rv;
+    const auto& o = batch.o;
+    const D4 eu = TriangleBatch::viscosity(viscosity, t0, 0), ev = TriangleBatch::viscosity(viscosity, t0, 1),
+             es = TriangleBatch::viscosity(viscosity, t0, 2);
     // Deformation gradient, its rate and its change along w.
     D4 U[3], V[3], Ud[3], Vd[3], dU[3], dV[3];
-    for (int c = 0; c < 3; ++c) {
-      D4 xk[3], vk[3], wk[3];
-      for (int k = 0; k < 3; ++k) {
-        xk[k] = D4{X[o[k][0] + c], X[o[k][1] + c], X[o[k][2] + c], X[o[k][3] + c]};
-        vk[k] = D4{Vel[o[k][0] + c], Vel[o[k][1] + c], Vel[o[k][2] + c], Vel[o[k][3] + c]};
-        wk[k] = D4{W[o[k][0] + c], W[o[k][1] + c], W[o[k][2] + c], W[o[k][3] + c]};
-      }
-      U[c] = ru[0] * xk[0] + ru[1] * xk[1] + ru[2] * xk[2];
-      V[c] = rv[0] * xk[0] + rv[1] * xk[1] + rv[2] * xk[2];
-      Ud[c] = ru[0] * vk[0] + ru[1] * vk[1] + ru[2] * vk[2];
-      Vd[c] = rv[0] * vk[0] + rv[1] * vk[1] + rv[2] * vk[2];
-      dU[c] = ru[0] * wk[0] + ru[1] * wk[1] + ru[2] * wk[2];
-      dV[c] = rv[0] * wk[0] + rv[1] * wk[1] + rv[2] * wk[2];
-    }
+    batch.gradient(X, U, V);
+    batch.gradient(Vel, Ud, Vd);
+    batch.gradient(W, dU, dV);
     const D4 euu = 0.5 * (dot3(U, U) - 1.0), evv = 0.5 * (dot3(V, V) - 1.0), euv = dot3(U, V);
     const D4 suu = mu * euu + C * evv, svv = mv * evv + C * euu, suv = ms * euv;
     energy += A * (0.5 * mu * euu * euu + 0.5 * mv * evv * evv + 0.5 * ms * euv * euv + C * euu * evv);
@@ -735,8 +749,22 @@ void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, Ste
 double ClothSystem::viscous_power(const VecX& x, const VecX& v) {
   const double* X = x.data();
   const double* Vel = v.data();
-  double power = 0;
-  for (size_t t = 0; t < triangles_.size(); ++t) {
+  // Four triangles at a time (TriangleBatch), the rest one at a time.
+  const size_t count = triangles_.size(), batched = count - count % 4;
+  D4 power4 = splat(0);
+  for (size_t t0 = 0; t0 < batched; t0 += 4) {
+    const PackedTriangle* tr[4] = {&triangles_[t0], &triangles_[t0 + 1], &triangles_[t0 + 2], &triangles_[t0 + 3]};
+    const TriangleBatch batch(tr);
+    D4 U[3], V[3], Ud[3], Vd[3];
+    batch.gradient(X, U, V);
+    batch.gradient(Vel, Ud, Vd);
+    const D4 r0 = dot3(U, Ud), r1 = dot3(V, Vd), r2 = dot3(U, Vd) + dot3(V, Ud);
+    const Vec3* eta = membrane_viscosity_.data();
+    power4 -= batch.A * (TriangleBatch::viscosity(eta, t0, 0) * r0 * r0 + TriangleBatch::viscosity(eta, t0, 1) * r1 * r1 +
+                         TriangleBatch::viscosity(eta, t0, 2) * r2 * r2);
+  }
+  double power = (power4[0] + power4[1]) + (power4[2] + power4[3]);
+  for (size_t t = batched; t < count; ++t) {
     const PackedTriangle& tr = triangles_[t];
     const double* ru = tr.ru;
     const double* rv = tr.rv;
