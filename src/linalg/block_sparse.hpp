@@ -73,8 +73,8 @@ inline bool is_multiple_of_identity(const double* m) {
          (m[0] == m[8]);
 }
 
-/// Inverse of a diagonal block of an SPD matrix (itself SPD); the inverse of its diagonal when
-/// it is numerically singular.
+/// Inverse of a diagonal block of an SPD matrix (itself SPD, read from its lower triangle); the
+/// inverse of its diagonal when it is numerically singular.
 Mat3 invert_spd_block(const Mat3& d);
 
 }  // namespace weft

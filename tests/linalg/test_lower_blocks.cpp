@@ -116,3 +116,34 @@ TEST(LowerBlocks, SweepsAreBlockGaussSeidel) {
 
 }  // namespace
 }  // namespace weft
+
+namespace weft {
+namespace {
+
+// The diagonal-block inverse the preconditioners share: the inverse of a symmetric positive
+// definite block (ill-conditioned ones included), and the inverse of the diagonal's magnitudes
+// for a singular or indefinite block.
+TEST(BlockInverse, InvertsSymmetricPositiveDefiniteBlocks) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 50; ++trial) {
+    Mat3 g;
+    for (int k = 0; k < 9; ++k) g.data()[k] = u(rng);
+    const double shift = trial < 25 ? 0.1 : 1e-6;  // the second half nearly singular
+    const Mat3 d = g * g.transpose() + shift * Mat3::Identity();
+    const Mat3 inv = invert_spd_block(d);
+    const double cond = d.norm() * d.inverse().norm();
+    EXPECT_LT((inv * d - Mat3::Identity()).norm(), 1e-13 * cond) << "trial " << trial;
+    EXPECT_LT((inv - inv.transpose()).norm(), 1e-14 * inv.norm());
+  }
+  Mat3 singular = Mat3::Zero();
+  singular.diagonal() << 2.0, -4.0, 0.0;
+  const Mat3 fallback = invert_spd_block(singular);
+  EXPECT_EQ(fallback(0, 0), 0.5);
+  EXPECT_EQ(fallback(1, 1), 0.25);
+  EXPECT_EQ(fallback(2, 2), 1.0 / 1e-300);  // a zero pivot: the floor
+  EXPECT_EQ((fallback - Mat3(fallback.diagonal().asDiagonal())).norm(), 0.0);
+}
+
+}  // namespace
+}  // namespace weft
