@@ -78,16 +78,24 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
     double rz = reduce(size, [&](long k) { return rp[k] * zp[k]; });
     double beta = 0.0;
     const double cp = omega - 1.0, cu = 2.0 - omega;
+    // x lags behind by pending t: the next upper solve applies it as t streams by, or axpy
+    // before a residual check and at the end.
+    double pending = 0.0;
     while (it < settings.max_iterations) {
-      S.step_and_solve_upper(zp, beta, pp, tp, wp, cp, cu);  // p = z^ + beta p first
+      S.step_and_solve_upper(zp, beta, pp, tp, wp, cp, cu, xp, pending);  // p = z^ + beta p first
+      pending = 0.0;
       const double pq = S.solve_lower_dot(wp, qp, pp, tp);  // p . (q + t), the curvature along p
       if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown
       double rz_new;
-      const double rr = S.update(rz / pq, tp, qp, xp, rp, 1.0 / omega, zp, rz_new);
+      const double a = rz / pq;
+      const double rr = S.update(a, tp, qp, rp, 1.0 / omega, zp, rz_new);
+      pending = a;
       ++it;
       rnorm_current = false;
       const double rh_norm = std::sqrt(rr);
       if (rh_norm * scale <= target) {
+        S.axpy(pending, tp, xp);
+        pending = 0.0;
         rnorm = true_residual();
         rnorm_current = true;
         if (rnorm <= target) break;
@@ -96,6 +104,7 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
       beta = rz_new / rz;
       rz = rz_new;
     }
+    if (pending != 0.0) S.axpy(pending, tp, xp);
   }
   if (!rnorm_current) rnorm = true_residual();  // stopped by the iteration cap or a breakdown
   S.unpad(x4, x);

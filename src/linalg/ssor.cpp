@@ -191,17 +191,17 @@ double SsorOperator::lower_solve(const double* v, double* y, const double* p, co
 }
 
 void SsorOperator::solve_upper(const double* v, double* y, double* u, double cp, double cu) const {
-  upper_solve<false>(nullptr, 0.0, const_cast<double*>(v), y, u, cp, cu);
+  upper_solve<false>(nullptr, 0.0, const_cast<double*>(v), y, u, cp, cu, nullptr, 0.0);
 }
 
 void SsorOperator::step_and_solve_upper(const double* z, double beta, double* p, double* y, double* u, double cp,
-                                        double cu) const {
-  upper_solve<true>(z, beta, p, y, u, cp, cu);
+                                        double cu, double* x, double a) const {
+  upper_solve<true>(z, beta, p, y, u, cp, cu, x, a);
 }
 
 template <bool kStep>
-void SsorOperator::upper_solve(const double* z, double beta, double* v, double* y, double* u, double cp,
-                               double cu) const {
+void SsorOperator::upper_solve(const double* z, double beta, double* v, double* y, double* u, double cp, double cu,
+                               double* x, double a) const {
   const Rows::View rows = upper_.view();
   const char* fixed = fixed_at_.data();
   const double* binv = binv_.data();
@@ -215,6 +215,7 @@ void SsorOperator::upper_solve(const double* z, double beta, double* v, double* 
     if constexpr (kStep) {
       vi = load(z + 4 * i) + beta * vi;
       store(v + 4 * i, vi);
+      if (a != 0.0) store(x + 4 * i, load(x + 4 * i) + a * load(y + 4 * i));  // y_i still the old value
     }
     const V4 s = row_sum(rows, i, y);
     store(y + 4 * i, padded_times(binv + 12L * i, vi - s));
@@ -226,15 +227,13 @@ void SsorOperator::upper_solve(const double* z, double beta, double* v, double* 
   }
 }
 
-double SsorOperator::update(double a, const double* t, const double* q, double* x, double* r, double s, double* z,
+double SsorOperator::update(double a, const double* t, const double* q, double* r, double s, double* z,
                             double& rz) const {
   V4 rr4 = {0, 0, 0, 0}, rz4 = {0, 0, 0, 0};
   const double* diag = diag_.data();
   for (int i = 0; i < n_; ++i) {
     const long k = 4L * i;
-    const V4 ti = load(t + k);
-    store(x + k, load(x + k) + a * ti);
-    const V4 ri = load(r + k) - a * (load(q + k) + ti);
+    const V4 ri = load(r + k) - a * (load(q + k) + load(t + k));
     store(r + k, ri);
     const V4 zi = s * padded_times(diag + 12L * i, ri);
     store(z + k, zi);
@@ -243,6 +242,10 @@ double SsorOperator::update(double a, const double* t, const double* q, double* 
   }
   rz = (rz4[0] + rz4[1]) + (rz4[2] + rz4[3]);
   return (rr4[0] + rr4[1]) + (rr4[2] + rr4[3]);
+}
+
+void SsorOperator::axpy(double a, const double* t, double* x) const {
+  for (long k = 0; k < 4L * n_; k += 4) store(x + k, load(x + k) + a * load(t + k));
 }
 
 void SsorOperator::multiply(const double* x, double* y) const {

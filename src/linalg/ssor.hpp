@@ -46,13 +46,16 @@ class SsorOperator {
   double solve_lower_dot(const double* v, double* y, const double* p, const double* t) const;
   /// (B + L^T) y = v; also writes u = cp v + cu (L^T y) when u is not null.
   void solve_upper(const double* v, double* y, double* u = nullptr, double cp = 0, double cu = 0) const;
-  /// p = z + beta p, then the upper solve with v = p (one pass: a CG step's new direction).
-  void step_and_solve_upper(const double* z, double beta, double* p, double* y, double* u, double cp,
-                            double cu) const;
-  /// A CG update in one pass: x += a t, r -= a (q + t), z = s D r; returns r.r and sets
-  /// rz = r.z.
-  double update(double a, const double* t, const double* q, double* x, double* r, double s, double* z,
-                double& rz) const;
+  /// p = z + beta p, then the upper solve with v = p (one pass: a CG step's new direction);
+  /// first, at each node, x += a y with y's old value (the previous step's update of x,
+  /// applied while y streams by).
+  void step_and_solve_upper(const double* z, double beta, double* p, double* y, double* u, double cp, double cu,
+                            double* x, double a) const;
+  /// A CG update in one pass: r -= a (q + t), z = s D r; returns r.r and sets rz = r.z.
+  /// (x += a t is left to the next step_and_solve_upper or axpy.)
+  double update(double a, const double* t, const double* q, double* r, double s, double* z, double& rz) const;
+  /// x += a t.
+  void axpy(double a, const double* t, double* x) const;
   /// y = A x on the free nodes, zero on fixed nodes.
   void multiply(const double* x, double* y) const;
   /// y = s D x.
@@ -88,7 +91,8 @@ class SsorOperator {
   template <bool kDot>
   double lower_solve(const double* v, double* y, const double* p, const double* t) const;
   template <bool kStep>
-  void upper_solve(const double* z, double beta, double* v, double* y, double* u, double cp, double cu) const;
+  void upper_solve(const double* z, double beta, double* v, double* y, double* u, double cp, double cu, double* x,
+                   double a) const;
 
   const BlockPattern* pattern_ = nullptr;
   int blocks_ = 0;
