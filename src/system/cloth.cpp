@@ -1,6 +1,7 @@
 #include "system/cloth.hpp"
 
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 #include <string>
 
@@ -537,6 +538,12 @@ namespace {
 typedef double D4 __attribute__((vector_size(32)));
 
 inline D4 splat(double a) { return D4{a, a, a, a}; }
+// Four consecutive doubles from any address.
+inline D4 load_unaligned(const double* p) {
+  D4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
 inline D4 dot3(const D4* a, const D4* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
 // A batch of four triangles: lane l of each D4 is triangle tr[l]'s area and shape-function
@@ -711,13 +718,25 @@ void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, Ste
     const double* xi = X + 3 * i;
     double qx[3] = {0, 0, 0}, qv[3] = {0, 0, 0}, qw[3] = {0, 0, 0};
     if (bending) {
+      // Four-wide: a node's three values and the next node's first, whose lane is not used
+      // (the last node, with no next one, is read lane by lane).
+      D4 sx = splat(0), sv = splat(0), sw = splat(0);
       for (int s = rs[i]; s < rs[i + 1]; ++s) {
-        const int j3 = 3 * col[s];
-        for (int c = 0; c < 3; ++c) {
-          qx[c] += q[s] * X[j3 + c];
-          qv[c] += qd[s] * Vel[j3 + c];
-          qw[c] += q[s] * W[j3 + c];
+        const int j = col[s];
+        if (j + 1 < n) {
+          sx += q[s] * load_unaligned(X + 3 * j);
+          sv += qd[s] * load_unaligned(Vel + 3 * j);
+          sw += q[s] * load_unaligned(W + 3 * j);
+        } else {
+          sx += q[s] * D4{X[3 * j], X[3 * j + 1], X[3 * j + 2], 0.0};
+          sv += qd[s] * D4{Vel[3 * j], Vel[3 * j + 1], Vel[3 * j + 2], 0.0};
+          sw += q[s] * D4{W[3 * j], W[3 * j + 1], W[3 * j + 2], 0.0};
         }
+      }
+      for (int c = 0; c < 3; ++c) {
+        qx[c] = sx[c];
+        qv[c] = sv[c];
+        qw[c] = sw[c];
       }
       bending_energy += 0.5 * (xi[0] * qx[0] + xi[1] * qx[1] + xi[2] * qx[2]);
       bending_power -= Vel[3 * i] * qv[0] + Vel[3 * i + 1] * qv[1] + Vel[3 * i + 2] * qv[2];
