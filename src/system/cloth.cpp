@@ -538,10 +538,13 @@ namespace {
 typedef double D4 __attribute__((vector_size(32)));
 
 inline D4 splat(double a) { return D4{a, a, a, a}; }
-// Four consecutive doubles from any address.
-inline D4 load_unaligned(const double* p) {
+// Node j's three values of a vertex field y in lanes 0-2 of a D4. Lane 3 is the next
+// node's first value (not to be used) when node j has a next one, else 0.
+template <bool kHasNext>
+inline D4 node_values(const double* y, int j) {
+  if constexpr (!kHasNext) return D4{y[3 * j], y[3 * j + 1], y[3 * j + 2], 0.0};
   D4 v;
-  std::memcpy(&v, p, sizeof v);
+  std::memcpy(&v, y + 3 * j, sizeof v);
   return v;
 }
 inline D4 dot3(const D4* a, const D4* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
@@ -718,19 +721,17 @@ void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, Ste
     const double* xi = X + 3 * i;
     double qx[3] = {0, 0, 0}, qv[3] = {0, 0, 0}, qw[3] = {0, 0, 0};
     if (bending) {
-      // Four-wide: a node's three values and the next node's first, whose lane is not used
-      // (the last node, with no next one, is read lane by lane).
-      D4 sx = splat(0), sv = splat(0), sw = splat(0);
+      D4 sx = splat(0), sv = splat(0), sw = splat(0);  // four-wide, lane 3 unused
       for (int s = rs[i]; s < rs[i + 1]; ++s) {
         const int j = col[s];
         if (j + 1 < n) {
-          sx += q[s] * load_unaligned(X + 3 * j);
-          sv += qd[s] * load_unaligned(Vel + 3 * j);
-          sw += q[s] * load_unaligned(W + 3 * j);
-        } else {
-          sx += q[s] * D4{X[3 * j], X[3 * j + 1], X[3 * j + 2], 0.0};
-          sv += qd[s] * D4{Vel[3 * j], Vel[3 * j + 1], Vel[3 * j + 2], 0.0};
-          sw += q[s] * D4{W[3 * j], W[3 * j + 1], W[3 * j + 2], 0.0};
+          sx += q[s] * node_values<true>(X, j);
+          sv += qd[s] * node_values<true>(Vel, j);
+          sw += q[s] * node_values<true>(W, j);
+        } else {  // the last node
+          sx += q[s] * node_values<false>(X, j);
+          sv += qd[s] * node_values<false>(Vel, j);
+          sw += q[s] * node_values<false>(W, j);
         }
       }
       for (int c = 0; c < 3; ++c) {
@@ -800,12 +801,11 @@ double ClothSystem::viscous_power(const VecX& x, const VecX& v) {
   const auto& rs = model_.pattern.row_start();
   const auto& col = model_.pattern.column();
   const double* qd = bending_slot_damping_.data();
-  for (int i = 0; i < num_nodes(); ++i) {
-    double qv[3] = {0, 0, 0};
-    for (int s = rs[i]; s < rs[i + 1]; ++s) {
-      const int j3 = 3 * col[s];
-      for (int c = 0; c < 3; ++c) qv[c] += qd[s] * Vel[j3 + c];
-    }
+  const int n = num_nodes();
+  for (int i = 0; i < n; ++i) {
+    D4 qv = splat(0);  // lane 3 unused
+    for (int s = rs[i]; s < rs[i + 1]; ++s)
+      qv += qd[s] * (col[s] + 1 < n ? node_values<true>(Vel, col[s]) : node_values<false>(Vel, col[s]));
     power -= Vel[3 * i] * qv[0] + Vel[3 * i + 1] * qv[1] + Vel[3 * i + 2] * qv[2];
   }
   return power;
