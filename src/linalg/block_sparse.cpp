@@ -69,19 +69,7 @@ MatX BlockMatrix::to_dense() const {
   return d;
 }
 
-Mat3 invert_spd_block(const Mat3& d) {
-  // Symmetric: the cofactors of the lower triangle (the upper one equals it to rounding), one
-  // determinant and one division.
-  const double a = d(0, 0), b = d(1, 0), c = d(2, 0), e = d(1, 1), f = d(2, 1), g = d(2, 2);
-  const double c00 = e * g - f * f, c10 = c * f - b * g, c20 = b * f - c * e;
-  const double det = a * c00 + b * c10 + c * c20;
-  if (det > 0 && std::isfinite(det)) {
-    const double s = 1.0 / det;
-    const double c11 = a * g - c * c, c21 = b * c - a * f, c22 = a * e - b * b;
-    Mat3 inv;
-    inv << s * c00, s * c10, s * c20, s * c10, s * c11, s * c21, s * c20, s * c21, s * c22;
-    return inv;
-  }
+Mat3 inverse_of_diagonal(const Mat3& d) {
   return d.diagonal().cwiseAbs().cwiseMax(1e-300).cwiseInverse().asDiagonal();
 }
 

@@ -2,6 +2,7 @@
 // Block-sparse matrix with 3x3 blocks (one block per pair of coupled nodes), stored as
 // compressed rows of blocks. The pattern is built once from the topology; assembly writes
 // into precomputed slots, so a step never allocates.
+#include <cmath>
 #include <cstring>
 #include <utility>
 #include <vector>
@@ -73,8 +74,23 @@ inline bool is_multiple_of_identity(const double* m) {
          (m[0] == m[8]);
 }
 
+/// The inverse of a block's diagonal magnitudes (each at least 1e-300): invert_spd_block's
+/// fallback for a numerically singular block.
+Mat3 inverse_of_diagonal(const Mat3& d);
+
 /// Inverse of a diagonal block of an SPD matrix (itself SPD, read from its lower triangle); the
-/// inverse of its diagonal when it is numerically singular.
-Mat3 invert_spd_block(const Mat3& d);
+/// inverse of its diagonal when it is numerically singular. Symmetric: the cofactors of the
+/// lower triangle, one determinant and one division.
+inline Mat3 invert_spd_block(const Mat3& d) {
+  const double a = d(0, 0), b = d(1, 0), c = d(2, 0), e = d(1, 1), f = d(2, 1), g = d(2, 2);
+  const double c00 = e * g - f * f, c10 = c * f - b * g, c20 = b * f - c * e;
+  const double det = a * c00 + b * c10 + c * c20;
+  if (!(det > 0 && std::isfinite(det))) return inverse_of_diagonal(d);
+  const double s = 1.0 / det;
+  const double c11 = a * g - c * c, c21 = b * c - a * f, c22 = a * e - b * b;
+  Mat3 inv;
+  inv << s * c00, s * c10, s * c20, s * c10, s * c11, s * c21, s * c20, s * c21, s * c22;
+  return inv;
+}
 
 }  // namespace weft

@@ -152,11 +152,10 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
       fits = lower_.fill_row(p, a) && upper_.fill_row(p, a);
       const Mat3& d = A.block[pattern_->diagonal_slot(order_[p])];
       const Mat3 inv = invert_spd_block(d);
-      for (int c = 0; c < 3; ++c)
-        for (int r = 0; r < 3; ++r) {
-          diag_[12L * p + 4 * c + r] = d(r, c);
-          binv_[12L * p + 4 * c + r] = omega * inv(r, c);
-        }
+      for (int c = 0; c < 3; ++c) {
+        store(diag_.data() + 12L * p + 4 * c, V4{d(0, c), d(1, c), d(2, c), 0.0});
+        store(binv_.data() + 12L * p + 4 * c, omega * V4{inv(0, c), inv(1, c), inv(2, c), 0.0});
+      }
     }
     if (fits) return;
     build(A, fixed, base);  // a block stored as a scalar stopped being one: lay out again
