@@ -422,9 +422,9 @@ template <bool kLinear>
 void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, size_t begin,
                                      size_t end, StepAssembly& out) const {
   // evaluate_membrane and MembraneJacobian::block / stiffness_times, fused and written for
-  // the step: the step matrix block (i, j) of a triangle is
-  //   a UU^T + b VV^T + c UV^T + d VU^T + e I = (a U + d V) U^T + (b V + c U) V^T + e I
-  // with the per-triangle moduli T = A (ck t + cd eta) combined with r_u,i r_u,j etc.
+  // the step, triangles [begin, end): the step matrix blocks come from four matrices per
+  // triangle (Muu, Muv, Mvu, Mvv, below; write_triangle_blocks) built from the moduli
+  // T = A (ck t + cd eta) and the outer products of U and V.
   const Material& mat = model_.material;
   const double C = coupling_;
   const double ck = out.ck, cd = out.cd;
