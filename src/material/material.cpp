@@ -67,7 +67,8 @@ struct Ctx {
 
 void check_keys(const Ctx& c, const std::string& field, const json& j,
                 std::initializer_list<const char*> allowed) {
-  for (const auto& [key, value] : j.items()) {
+  for (const auto& item : j.items()) {
+    const std::string& key = item.key();
     if (std::none_of(allowed.begin(), allowed.end(), [&](const char* a) { return key == a; })) {
       std::string names;
       for (const char* a : allowed) names += (names.empty() ? "" : ", ") + std::string(a);
