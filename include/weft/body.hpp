@@ -26,8 +26,10 @@ struct ObjMesh {
   std::vector<std::vector<int>> group_vertices;  ///< sorted, unique, per group
 };
 
-/// Reads `v`, `f` and `g` lines (negative indices allowed, texture/normal indices ignored).
-/// Throws InputError "FILE:LINE: message" for malformed lines or indices out of range.
+/// Reads vertices, faces (polygons split into triangles) and groups with tinyobjloader; texture
+/// and normal indices are ignored, faces before the first `g` line belong to no group. Throws
+/// InputError naming the file for an unreadable or malformed file, a non-finite coordinate or a
+/// face index out of range.
 ObjMesh read_obj(const std::string& path);
 
 /// Writes positions and triangles as OBJ, atomically (temporary file, then rename).

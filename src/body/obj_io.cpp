@@ -1,79 +1,52 @@
-// OBJ reading (vertices, faces, groups) and atomic OBJ writing for the body.
-#include <charconv>
+// OBJ reading (vertices, faces, groups; tinyobjloader) and atomic OBJ writing for the body.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <set>
-#include <sstream>
 
-#include "body/text.hpp"
+#include "io/obj_file.hpp"
 #include "weft/body.hpp"
 #include "weft/error.hpp"
 
 namespace weft {
 
-namespace {
-
-// Resolves a 1-based (or negative, relative) OBJ vertex reference "i[/t[/n]]".
-int parse_vertex_ref(const std::string& token, int vertex_count, const std::string& where) {
-  const std::string head = token.substr(0, token.find('/'));
-  int index = 0;
-  auto [ptr, ec] = std::from_chars(head.data(), head.data() + head.size(), index);
-  if (ec != std::errc() || ptr != head.data() + head.size() || index == 0)
-    throw InputError(where + ": bad vertex reference '" + token + "'");
-  const int resolved = index > 0 ? index - 1 : vertex_count + index;
-  if (resolved < 0 || resolved >= vertex_count)
-    throw InputError(where + ": vertex reference " + head + " out of range (" +
-                     std::to_string(vertex_count) + " vertices so far)");
-  return resolved;
-}
-
-}  // namespace
-
 ObjMesh read_obj(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path + ": cannot open OBJ file");
-  std::vector<Vec3> vertices;
-  std::vector<Eigen::Vector3i> triangles;
-  std::vector<std::set<int>> groups;
+  const tinyobj::ObjReader reader = parse_obj_file(path, "file");
+  const auto& coordinates = reader.GetAttrib().vertices;
+  const Eigen::Index nv = static_cast<Eigen::Index>(coordinates.size() / 3);
   ObjMesh mesh;
-  std::string line;
-  int line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    const std::string where = path + ":" + std::to_string(line_number);
-    std::istringstream tokens(line);
-    std::string kind;
-    if (!(tokens >> kind) || kind[0] == '#') continue;
-    if (kind == "v") {
-      Vec3 p;
-      std::string value;
+  mesh.positions.resize(nv, 3);
+  for (Eigen::Index i = 0; i < nv; ++i)
+    for (int k = 0; k < 3; ++k) {
+      mesh.positions(i, k) = coordinates[3 * i + k];
+      if (!std::isfinite(mesh.positions(i, k)))
+        throw InputError(path + ": vertex " + std::to_string(i + 1) + " has a non-finite coordinate");
+    }
+  std::vector<Eigen::Vector3i> triangles;
+  for (const auto& shape : reader.GetShapes()) {
+    // Faces before the first `g` line belong to no group.
+    std::set<int>* group = nullptr;
+    std::set<int> vertices;
+    if (!shape.name.empty()) group = &vertices;
+    const auto& idx = shape.mesh.indices;
+    for (size_t f = 0; f + 2 < idx.size(); f += 3) {
+      Eigen::Vector3i t;
       for (int k = 0; k < 3; ++k) {
-        if (!(tokens >> value)) throw InputError(where + ": vertex needs 3 coordinates");
-        p[k] = text::parse_double(value, where);
+        t[k] = idx[f + k].vertex_index;
+        if (t[k] < 0 || t[k] >= nv)
+          throw InputError(path + ": face " + std::to_string(triangles.size() + 1) + " refers to vertex " +
+                           std::to_string(t[k] + 1) + ", out of range (" + std::to_string(nv) + " vertices)");
+        if (group) group->insert(t[k]);
       }
-      vertices.push_back(p);
-    } else if (kind == "f") {
-      std::vector<int> face;
-      std::string token;
-      while (tokens >> token)
-        face.push_back(parse_vertex_ref(token, static_cast<int>(vertices.size()), where));
-      if (face.size() < 3) throw InputError(where + ": face needs at least 3 vertices");
-      for (size_t k = 1; k + 1 < face.size(); ++k)
-        triangles.emplace_back(face[0], face[k], face[k + 1]);
-      if (!groups.empty()) groups.back().insert(face.begin(), face.end());
-    } else if (kind == "g") {
-      std::string name;
-      tokens >> name;
-      mesh.group_names.push_back(name);
-      groups.emplace_back();
+      triangles.push_back(t);
+    }
+    if (group) {
+      mesh.group_names.push_back(shape.name);
+      mesh.group_vertices.emplace_back(vertices.begin(), vertices.end());
     }
   }
-  mesh.positions.resize(static_cast<Eigen::Index>(vertices.size()), 3);
-  for (size_t i = 0; i < vertices.size(); ++i) mesh.positions.row(i) = vertices[i].transpose();
   mesh.triangles.resize(static_cast<Eigen::Index>(triangles.size()), 3);
-  for (size_t i = 0; i < triangles.size(); ++i) mesh.triangles.row(i) = triangles[i].transpose();
-  for (const auto& g : groups) mesh.group_vertices.emplace_back(g.begin(), g.end());
+  for (size_t i = 0; i < triangles.size(); ++i) mesh.triangles.row(static_cast<Eigen::Index>(i)) = triangles[i].transpose();
   return mesh;
 }
 

@@ -1,13 +1,12 @@
 #include "mesh/mesh.hpp"
 
-#include <tiny_obj_loader.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
 #include <numeric>
 
+#include "io/obj_file.hpp"
 #include "weft/atomic_file.hpp"
 #include "weft/error.hpp"
 
@@ -48,15 +47,7 @@ TriMesh make_grid(double size_u, double size_v, int nu, int nv, GridPattern patt
 }
 
 TriMesh load_obj(const std::string& path, double uv_scale) {
-  tinyobj::ObjReaderConfig config;
-  config.triangulate = true;
-  config.vertex_color = false;
-  tinyobj::ObjReader reader;
-  if (!reader.ParseFromFile(path, config)) {
-    std::string msg = reader.Error();
-    while (!msg.empty() && (msg.back() == '\n' || msg.back() == '\r')) msg.pop_back();
-    throw InputError(path + ": cannot read OBJ mesh" + (msg.empty() ? "" : ": " + msg));
-  }
+  const tinyobj::ObjReader reader = parse_obj_file(path, "mesh");
   const auto& attrib = reader.GetAttrib();
   const int nv = static_cast<int>(attrib.vertices.size() / 3);
   if (nv < 3) throw InputError(path + ": OBJ mesh has " + std::to_string(nv) + " vertices, needs at least 3");
