@@ -24,10 +24,9 @@ ObjMesh read_obj(const std::string& path) {
     }
   std::vector<Eigen::Vector3i> triangles;
   for (const auto& shape : reader.GetShapes()) {
-    // Faces before the first `g` line belong to no group.
-    std::set<int>* group = nullptr;
+    // Faces before the first `g` line (an unnamed shape) belong to no group.
+    const bool grouped = !shape.name.empty();
     std::set<int> vertices;
-    if (!shape.name.empty()) group = &vertices;
     const auto& idx = shape.mesh.indices;
     for (size_t f = 0; f + 2 < idx.size(); f += 3) {
       Eigen::Vector3i t;
@@ -36,11 +35,11 @@ ObjMesh read_obj(const std::string& path) {
         if (t[k] < 0 || t[k] >= nv)
           throw InputError(path + ": face " + std::to_string(triangles.size() + 1) + " refers to vertex " +
                            std::to_string(t[k] + 1) + ", out of range (" + std::to_string(nv) + " vertices)");
-        if (group) group->insert(t[k]);
+        if (grouped) vertices.insert(t[k]);
       }
       triangles.push_back(t);
     }
-    if (group) {
+    if (grouped) {
       mesh.group_names.push_back(shape.name);
       mesh.group_vertices.emplace_back(vertices.begin(), vertices.end());
     }
