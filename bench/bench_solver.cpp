@@ -93,7 +93,7 @@ void SsorLowerSolve(benchmark::State& bs) {
   const test::ClothStepProblem& p = problem(static_cast<int>(bs.range(0)));
   SsorOperator S;
   S.assign(p.step.matrix, p.sim->system().fixed(), 1.4);
-  VecX v4, y4(4 * S.num_nodes());
+  VecX v4, y4(S.vector_size());
   S.pad(p.rhs, v4);
   for (auto _ : bs) {
     S.solve_lower(v4.data(), y4.data());

@@ -37,7 +37,8 @@ inline double reduce(long size, Term term) {
 // second (w - 1) p + (2 - w) L^T t, written by the first. x itself is updated with the t's.
 // The transformed residual r^ = (B + L)^-1 r is not the true one, so the true residual is
 // computed (one product) whenever |r^| scaled by the last known |r| / |r^| reaches the
-// target, and CG stops only when the true |r| does. Vectors have 4 doubles per node.
+// target, and CG stops only when the true |r| does. Vectors are in the operator's layout
+// (12 doubles per group of four nodes).
 PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const PcgSettings& settings,
                      double bnorm, VecX& x, PcgWorkspace& ws) {
   const double target = settings.relative_tolerance * bnorm;
@@ -45,7 +46,7 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
   const double omega = settings.ssor_omega > 0 ? settings.ssor_omega : ssor_relaxation_for(free_nodes);
   SsorOperator& S = ws.ssor;
   S.assign(A, fixed, omega, settings.node_order);
-  const long size = 4L * S.num_nodes();
+  const long size = S.vector_size();
   VecX& x4 = ws.x4;
   VecX& b4 = ws.b4;
   S.pad(x, x4);

@@ -1,6 +1,8 @@
 #include "linalg/ssor.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -8,95 +10,235 @@ namespace weft {
 
 namespace {
 
+constexpr int kLanes = SsorOperator::kLanes;
+static_assert(kLanes == 4, "the kernels are written for four lanes");
+
 // Four doubles, loaded and stored without alignment requirements (GCC/Clang vector
 // extension: one AVX register where available, two SSE ones otherwise).
 typedef double V4 __attribute__((vector_size(32), aligned(8), may_alias));
 
 inline V4 load(const double* p) { return *reinterpret_cast<const V4*>(p); }
 inline void store(double* p, V4 v) { *reinterpret_cast<V4*>(p) = v; }
+inline double sum(V4 v) { return (v[0] + v[1]) + (v[2] + v[3]); }
 
-// A column-major 3x3 block times a node's vector: three four-wide loads of the columns at
-// offsets 0, 3 and 6 (the fourth lane reads the next entry: its result is not used).
-inline V4 block_times(const double* m, const double* x) {
-  return load(m) * x[0] + load(m + 3) * x[1] + load(m + 6) * x[2];
+// Lane k of the result is lane k - shift of x.
+inline V4 rotate(V4 x, int shift) {
+  switch (shift) {
+    case 1: return V4{x[3], x[0], x[1], x[2]};
+    case 2: return V4{x[2], x[3], x[0], x[1]};
+    case 3: return V4{x[1], x[2], x[3], x[0]};
+    default: return x;
+  }
 }
 
-// The same for a padded block (12 doubles, fourth lane zero): the result's fourth lane is 0.
-inline V4 padded_times(const double* m, V4 r) {
-  return load(m) * r[0] + load(m + 4) * r[1] + load(m + 8) * r[2];
+// Four lanes' 3x3 blocks m (36 doubles, (3 c + r) * 4 + lane) times the lanes' vectors
+// (x0, x1, x2), added to (a0, a1, a2).
+inline void add_block_times(const double* m, V4 x0, V4 x1, V4 x2, V4& a0, V4& a1, V4& a2) {
+  a0 += load(m) * x0 + load(m + 12) * x1 + load(m + 24) * x2;
+  a1 += load(m + 4) * x0 + load(m + 16) * x1 + load(m + 28) * x2;
+  a2 += load(m + 8) * x0 + load(m + 20) * x1 + load(m + 32) * x2;
 }
 
-}  // namespace
+// The raw pointers of one triangle's rows, taken once per pass (the solves' stores may
+// alias anything, which would otherwise make the compiler reload the vectors' pointers).
+struct View {
+  const int *w_start, *w_src, *s_start, *s_src, *x_start, *x_src, *x_shift, *i_start;
+  const double *w_val, *s_val, *x_val;
+};
 
-void SsorOperator::Rows::build(const BlockPattern& pattern, const std::vector<int>& order,
-                               const std::vector<int>& position, const std::vector<char>& fixed,
-                               const double* sample, bool upper) {
+template <class Rows>
+View view_of(const Rows& r) {
+  return {r.w_start.data(), r.w_src.data(), r.s_start.data(), r.s_src.data(), r.x_start.data(), r.x_src.data(),
+          r.x_shift.data(), r.i_start.data(), r.w_val.data(), r.s_val.data(), r.x_val.data()};
+}
+
+// (a0, a1, a2) += the group's row of one triangle times x, except the couplings inside the
+// group. The scalar blocks are summed apart, and the whole blocks of the same lanes come
+// last, the group solved just before last of all, so little of the sum waits for it.
+inline void add_row_times(const View& r, int g, const double* x, V4& a0, V4& a1, V4& a2) {
+  V4 b0 = {0, 0, 0, 0}, b1 = b0, b2 = b0;
+  for (int e = r.s_start[g], end = r.s_start[g + 1]; e < end; ++e) {
+    const V4 s = load(r.s_val + 4L * e);
+    const double* xj = x + r.s_src[e];
+    b0 += s * load(xj);
+    b1 += s * load(xj + 4);
+    b2 += s * load(xj + 8);
+  }
+  for (int e = r.x_start[g], end = r.x_start[g + 1]; e < end; ++e) {
+    const double* xj = x + r.x_src[e];
+    const int shift = r.x_shift[e];
+    add_block_times(r.x_val + 36L * e, rotate(load(xj), shift), rotate(load(xj + 4), shift),
+                    rotate(load(xj + 8), shift), b0, b1, b2);
+  }
+  for (int e = r.w_start[g], end = r.w_start[g + 1]; e < end; ++e) {
+    const double* xj = x + r.w_src[e];
+    add_block_times(r.w_val + 36L * e, load(xj), load(xj + 4), load(xj + 8), a0, a1, a2);
+  }
+  a0 += b0;
+  a1 += b1;
+  a2 += b2;
+}
+
+// The cost of a layout with `stretch` nodes per lane, roughly in multiply-adds per
+// triangular solve: per group the diagonal solve and, per entry of the lower triangle (the
+// upper one mirrors it), 21 for four whole blocks, 7 for four scalars, more for shifted lanes
+// and much more for a group solved lane by lane. Only every `every`-th group is counted.
+double layout_cost(const BlockPattern& pattern, const std::vector<char>& whole_slot, const std::vector<char>& fixed,
+                   const std::vector<int>& base, const std::vector<int>& where, int stretch, int every,
+                   std::vector<long>& keys) {
   const int n = pattern.num_nodes();
   const auto& rs = pattern.row_start();
   const auto& col = pattern.column();
-  d_start.assign(n + 1, 0);
-  s_start.assign(n + 1, 0);
-  d_off.clear();
-  d_slot.clear();
-  s_off.clear();
-  s_slot.clear();
-  std::vector<std::pair<int, int>> row;  // (position, slot)
-  for (int p = 0; p < n; ++p) {
-    const int i = order[p];
-    if (!fixed[i]) {
-      row.clear();
+  double cost = 0;
+  for (int g = 0; g < stretch; g += every) {
+    keys.clear();
+    int inside = 0;
+    for (int k = 0; k < kLanes; ++k) {
+      const long m = static_cast<long>(k) * stretch + g;
+      if (m >= n) break;
+      const int i = base[m];
+      if (fixed[i]) continue;
       for (int s = rs[i]; s < rs[i + 1]; ++s) {
-        const int q = position[col[s]];
-        if ((upper ? q > p : q < p) && !fixed[col[s]]) row.emplace_back(q, s);
-      }
-      // By distance from the diagonal, farthest first: the lower row ascending, the upper
-      // row descending.
-      std::sort(row.begin(), row.end());
-      if (upper) std::reverse(row.begin(), row.end());
-      for (auto [q, s] : row) {
-        if (is_multiple_of_identity(sample + 9L * s)) {
-          s_off.push_back(4 * q);
-          s_slot.push_back(s);
-        } else {
-          d_off.push_back(4 * q);
-          d_slot.push_back(s);
+        const int j = col[s];
+        if (j == i || fixed[j]) continue;
+        const int gj = where[j] % stretch, kj = where[j] / stretch;
+        if (gj > g || (gj == g && kj > k)) continue;
+        if (gj == g) {
+          ++inside;
+          continue;
         }
+        const int shift = (k - kj) & (kLanes - 1);
+        keys.push_back((static_cast<long>(gj) * kLanes + shift) * 2 + (shift != 0 || whole_slot[s]));
       }
     }
-    d_start[p + 1] = static_cast<int>(d_off.size());
-    s_start[p + 1] = static_cast<int>(s_off.size());
+    std::sort(keys.begin(), keys.end());
+    double c = 24;
+    for (size_t e = 0; e < keys.size(); ++e) {
+      if (e + 1 < keys.size() && keys[e + 1] / 2 == keys[e] / 2) continue;  // an entry's last key: whole if any lane is
+      const bool shifted = (keys[e] / 2) % kLanes != 0;
+      c += shifted ? 30 : (keys[e] % 2 ? 21 : 7);
+    }
+    if (inside > 0) c += 60 + 20 * inside;
+    cost += c;
   }
-  d_val.assign(9 * d_off.size() + 1, 0.0);
-  s_val.assign(s_off.size(), 0.0);
+  return cost;
 }
 
-inline bool SsorOperator::Rows::fill_row(int p, const double* a) {
-  for (int k = d_start[p]; k < d_start[p + 1]; ++k) copy_block(a + 9L * d_slot[k], d_val.data() + 9L * k);
-  for (int k = s_start[p]; k < s_start[p + 1]; ++k) {
-    const double* m = a + 9L * s_slot[k];
-    if (!is_multiple_of_identity(m)) return false;
-    s_val[k] = m[0];
+}  // namespace
+
+long SsorOperator::num_whole() const {
+  long count = 0;
+  for (const Rows* r : {&lower_, &upper_}) {
+    for (int s : r->w_slot) count += s >= 0;
+    for (int s : r->x_slot) count += s >= 0;
+    count += static_cast<long>(r->i_slot.size());
   }
+  return count;
+}
+
+long SsorOperator::num_scalar() const {
+  long count = 0;
+  for (const Rows* r : {&lower_, &upper_})
+    for (int s : r->s_slot) count += s >= 0;
+  return count;
+}
+
+int SsorOperator::num_sequential_groups() const {
+  int count = 0;
+  for (int g = 0; g < groups_; ++g) count += lower_.i_start[g] != lower_.i_start[g + 1];
+  return count;
+}
+
+bool SsorOperator::Rows::fill(const double* a) {
+  auto copy_lanes = [a](const std::vector<int>& slot, std::vector<double>& val) {
+    const long entries = static_cast<long>(slot.size()) / kLanes;
+    for (long e = 0; e < entries; ++e)
+      for (int k = 0; k < kLanes; ++k) {
+        const int s = slot[kLanes * e + k];
+        if (s < 0) continue;
+        const double* m = a + 9L * s;
+        double* d = val.data() + 36 * e + k;
+        for (int q = 0; q < 9; ++q) d[4 * q] = m[q];
+      }
+  };
+  copy_lanes(w_slot, w_val);
+  copy_lanes(x_slot, x_val);
+  for (size_t e = 0; e < s_slot.size(); ++e) {
+    if (s_slot[e] < 0) continue;
+    const double* m = a + 9L * s_slot[e];
+    if (!is_multiple_of_identity(m)) return false;
+    s_val[e] = m[0];
+  }
+  for (size_t e = 0; e < i_slot.size(); ++e) copy_block(a + 9L * i_slot[e], i_val.data() + 9 * e);
   return true;
 }
 
-namespace {
-// Sum over row i of A_ij x_j, accumulated by multiply-adds (the scalar and the whole blocks
-// in two sums, so the chains are short).
-template <class View>
-inline V4 row_sum(const View& r, int i, const double* x) {
-  V4 acc = {0, 0, 0, 0}, acc_s = {0, 0, 0, 0};
-  for (int k = r.s_start[i], end = r.s_start[i + 1]; k < end; ++k) acc_s += r.s_val[k] * load(x + r.s_off[k]);
-  for (int k = r.d_start[i], end = r.d_start[i + 1]; k < end; ++k) {
-    const double* m = r.d_val + 9L * k;
-    const double* xj = x + r.d_off[k];
-    acc += load(m) * xj[0];
-    acc += load(m + 3) * xj[1];
-    acc += load(m + 6) * xj[2];
+void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot, bool upper) const {
+  const auto& rs = pattern_->row_start();
+  const auto& col = pattern_->column();
+  std::vector<int> slot_node(static_cast<size_t>(kLanes) * groups_, -1);
+  for (int i = 0; i < n_; ++i) slot_node[node_slot_[i]] = i;
+  for (auto* v : {&rows.w_src, &rows.w_slot, &rows.s_src, &rows.s_slot, &rows.x_src, &rows.x_shift, &rows.x_slot,
+                  &rows.i_lane, &rows.i_from, &rows.i_slot})
+    v->clear();
+  for (auto* v : {&rows.w_start, &rows.s_start, &rows.x_start, &rows.i_start}) v->assign(groups_ + 1, 0);
+  struct Link {
+    long key;  // source group * kLanes + lane shift
+    int lane, slot;
+  };
+  std::vector<Link> links;
+  for (int g = 0; g < groups_; ++g) {
+    links.clear();
+    for (int k = 0; k < kLanes; ++k) {
+      const int here = kLanes * g + k;
+      const int i = slot_node[here];
+      if (i < 0 || fixed_[i]) continue;
+      for (int s = rs[i]; s < rs[i + 1]; ++s) {
+        const int j = col[s];
+        if (j == i || fixed_[j]) continue;
+        const int sj = node_slot_[j];
+        if ((sj > here) != upper) continue;
+        const int gj = sj / kLanes, kj = sj % kLanes;
+        if (gj == g) {
+          rows.i_lane.push_back(k);
+          rows.i_from.push_back(kj);
+          rows.i_slot.push_back(s);
+          continue;
+        }
+        links.push_back({static_cast<long>(gj) * kLanes + ((k - kj) & (kLanes - 1)), k, s});
+      }
+    }
+    // By source group, the farthest from the diagonal first.
+    std::sort(links.begin(), links.end(), [upper](const Link& a, const Link& b) {
+      return upper ? a.key > b.key : a.key < b.key;
+    });
+    for (size_t e = 0; e < links.size();) {
+      size_t end = e;
+      bool whole = links[e].key % kLanes != 0;
+      for (; end < links.size() && links[end].key == links[e].key; ++end)
+        if (whole_slot[links[end].slot]) whole = true;
+      const int src = static_cast<int>(12 * (links[e].key / kLanes)), shift = static_cast<int>(links[e].key % kLanes);
+      std::vector<int>& slots = shift ? rows.x_slot : (whole ? rows.w_slot : rows.s_slot);
+      if (shift) {
+        rows.x_src.push_back(src);
+        rows.x_shift.push_back(shift);
+      } else {
+        (whole ? rows.w_src : rows.s_src).push_back(src);
+      }
+      const size_t first = slots.size();
+      slots.resize(first + kLanes, -1);
+      for (; e < end; ++e) slots[first + links[e].lane] = links[e].slot;
+    }
+    rows.w_start[g + 1] = static_cast<int>(rows.w_src.size());
+    rows.s_start[g + 1] = static_cast<int>(rows.s_src.size());
+    rows.x_start[g + 1] = static_cast<int>(rows.x_src.size());
+    rows.i_start[g + 1] = static_cast<int>(rows.i_slot.size());
   }
-  return acc + acc_s;
+  rows.w_val.assign(36 * rows.w_src.size(), 0.0);
+  rows.x_val.assign(36 * rows.x_src.size(), 0.0);
+  rows.s_val.assign(kLanes * rows.s_src.size(), 0.0);
+  rows.i_val.assign(9 * rows.i_slot.size(), 0.0);
 }
-}  // namespace
 
 void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed, const std::vector<int>* base) {
   pattern_ = A.pattern;
@@ -115,24 +257,51 @@ void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed, c
     if (!permutation)
       throw std::invalid_argument("SSOR node order is not a permutation of the " + std::to_string(n_) + " nodes");
   }
-  // Interleave kChains stretches of the base order (on a mesh, bands of rows): consecutive
-  // positions then belong to different stretches and are rarely coupled, so the triangular
-  // solves run kChains independent chains of dependent nodes side by side.
-  order_.clear();
-  const int stretch = (n_ + kChains - 1) / kChains;
-  for (int k = 0; k < stretch; ++k)
-    for (int c = 0; c < kChains; ++c)
-      if (c * stretch + k < n_) order_.push_back(base_.empty() ? c * stretch + k : base_[c * stretch + k]);
-  position_.assign(n_, 0);
-  for (int p = 0; p < n_; ++p) position_[order_[p]] = p;
-  fixed_at_.assign(n_, 0);
-  for (int p = 0; p < n_; ++p) fixed_at_[p] = fixed[order_[p]];
+  std::vector<int> b = base_;
+  if (b.empty()) {
+    b.resize(n_);
+    std::iota(b.begin(), b.end(), 0);
+  }
+  std::vector<int> where(n_);
+  for (int m = 0; m < n_; ++m) where[b[m]] = m;
   const double* a = A.block.front().data();
-  lower_.build(*pattern_, order_, position_, fixed, a, false);
-  upper_.build(*pattern_, order_, position_, fixed, a, true);
-  // Padding lanes and fixed nodes stay zero; assign writes the rest.
-  diag_.assign(12L * n_, 0.0);
-  binv_.assign(12L * n_, 0.0);
+  std::vector<char> whole_slot(blocks_);
+  for (int s = 0; s < blocks_; ++s) whole_slot[s] = !is_multiple_of_identity(a + 9L * s);
+  // The stretch: at least n / kLanes; a little more when that lines the lanes' patterns up
+  // (on a grid, within two rows).
+  const int shortest = std::max(1, (n_ + kLanes - 1) / kLanes);
+  const int window = std::min(shortest, 2 * static_cast<int>(std::ceil(std::sqrt(n_))) + 8);
+  std::vector<long> keys;
+  double best_cost = 0;
+  groups_ = shortest;
+  // Sampling a few hundred groups (prime spacing, so that on a grid they fall at every
+  // column) ranks the candidates as well as counting them all.
+  int every = 1;
+  for (int p : {3, 7, 13, 29, 61, 127})
+    if (shortest / p >= 150) every = p;
+  for (int s = shortest; s <= shortest + window; ++s) {
+    const double cost = layout_cost(*pattern_, whole_slot, fixed, b, where, s, every, keys);
+    if (s == shortest || cost < best_cost) {
+      best_cost = cost;
+      groups_ = s;
+    }
+  }
+  order_.clear();
+  slot_.clear();
+  node_slot_.assign(n_, -1);
+  for (int g = 0; g < groups_; ++g)
+    for (int k = 0; k < kLanes; ++k) {
+      const long m = static_cast<long>(k) * groups_ + g;
+      if (m >= n_) continue;
+      order_.push_back(b[m]);
+      slot_.push_back(kLanes * g + k);
+      node_slot_[b[m]] = kLanes * g + k;
+    }
+  build_rows(lower_, whole_slot, false);
+  build_rows(upper_, whole_slot, true);
+  // Fixed and absent nodes keep zero diagonal blocks; assign writes the rest.
+  diag_.assign(36L * groups_, 0.0);
+  binv_.assign(36L * groups_, 0.0);
 }
 
 void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega,
@@ -142,23 +311,48 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
                     (base ? *base == base_ : base_.empty());
   if (!same) build(A, fixed, base);
   omega_ = omega;
-  // One pass by position: a node's lower and upper blocks and its diagonal block all lie in
-  // its row of A, read once.
   const double* a = A.block.front().data();
   for (int pass = 0; pass < 2; ++pass) {
-    bool fits = true;
-    for (int p = 0; p < n_ && fits; ++p) {
-      if (fixed_at_[p]) continue;
-      fits = lower_.fill_row(p, a) && upper_.fill_row(p, a);
-      const Mat3& d = A.block[pattern_->diagonal_slot(order_[p])];
-      const Mat3 inv = invert_spd_block(d);
-      for (int c = 0; c < 3; ++c) {
-        store(diag_.data() + 12L * p + 4 * c, V4{d(0, c), d(1, c), d(2, c), 0.0});
-        store(binv_.data() + 12L * p + 4 * c, omega * V4{inv(0, c), inv(1, c), inv(2, c), 0.0});
-      }
-    }
-    if (fits) return;
+    if (lower_.fill(a) && upper_.fill(a)) break;
     build(A, fixed, base);  // a block stored as a scalar stopped being one: lay out again
+  }
+  for (int p = 0; p < n_; ++p) {
+    const int i = order_[p];
+    if (fixed_[i]) continue;
+    const Mat3& d = A.block[pattern_->diagonal_slot(i)];
+    const Mat3 inv = invert_spd_block(d);
+    const long o = 36L * (slot_[p] / kLanes) + slot_[p] % kLanes;
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) {
+        diag_[o + 4 * (3 * c + r)] = d(r, c);
+        binv_[o + 4 * (3 * c + r)] = omega * inv(r, c);
+      }
+  }
+}
+
+// Solves group g lane by lane when its nodes are coupled: acc holds the row sums from the
+// other groups; each lane adds its couplings to the lanes solved before it in this solve's
+// direction, then solves. v is the group's right-hand side (12 doubles).
+template <bool kUpper>
+void SsorOperator::lane_by_lane(const Rows& rows, int g, const double* v, double* y,
+                                double (&acc)[3][kLanes]) const {
+  const double* bi = binv_.data() + 36L * g;
+  double* yg = y + 12L * g;
+  for (int kk = 0; kk < kLanes; ++kk) {
+    const int k = kUpper ? kLanes - 1 - kk : kk;
+    for (int e = rows.i_start[g]; e < rows.i_start[g + 1]; ++e) {
+      if (rows.i_lane[e] != k) continue;
+      const double* m = rows.i_val.data() + 9L * e;
+      for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r) acc[r][k] += m[3 * c + r] * yg[4 * c + rows.i_from[e]];
+    }
+    double w[3];
+    for (int r = 0; r < 3; ++r) w[r] = v[4 * r + k] - acc[r][k];
+    for (int r = 0; r < 3; ++r) {
+      double s = 0;
+      for (int c = 0; c < 3; ++c) s += bi[4 * (3 * c + r) + k] * w[c];
+      yg[4 * r + k] = s;
+    }
   }
 }
 
@@ -172,21 +366,32 @@ double SsorOperator::solve_lower_dot(const double* v, double* y, const double* p
 
 template <bool kDot>
 double SsorOperator::lower_solve(const double* v, double* y, const double* p, const double* t) const {
-  const Rows::View rows = lower_.view();
-  const char* fixed = fixed_at_.data();
+  const View rows = view_of(lower_);
   const double* binv = binv_.data();
   V4 dot = {0, 0, 0, 0};
-  for (int i = 0; i < n_; ++i) {
-    if (fixed[i]) {
-      store(y + 4 * i, V4{0, 0, 0, 0});
-      continue;
+  for (int g = 0; g < groups_; ++g) {
+    const long o = 12L * g;
+    V4 a0 = {0, 0, 0, 0}, a1 = a0, a2 = a0;
+    add_row_times(rows, g, y, a0, a1, a2);
+    V4 y0 = {0, 0, 0, 0}, y1 = y0, y2 = y0;
+    if (rows.i_start[g] == rows.i_start[g + 1]) {
+      const double* bi = binv + 36L * g;
+      const V4 w0 = load(v + o) - a0, w1 = load(v + o + 4) - a1, w2 = load(v + o + 8) - a2;
+      add_block_times(bi, w0, w1, w2, y0, y1, y2);
+      store(y + o, y0);
+      store(y + o + 4, y1);
+      store(y + o + 8, y2);
+    } else {
+      double acc[3][kLanes];
+      for (int k = 0; k < kLanes; ++k) acc[0][k] = a0[k], acc[1][k] = a1[k], acc[2][k] = a2[k];
+      lane_by_lane<false>(lower_, g, v + o, y, acc);
+      y0 = load(y + o), y1 = load(y + o + 4), y2 = load(y + o + 8);
     }
-    const V4 sum = row_sum(rows, i, y);
-    const V4 yi = padded_times(binv + 12L * i, load(v + 4 * i) - sum);
-    store(y + 4 * i, yi);
-    if constexpr (kDot) dot += load(p + 4 * i) * (yi + load(t + 4 * i));
+    if constexpr (kDot)
+      dot += load(p + o) * (y0 + load(t + o)) + load(p + o + 4) * (y1 + load(t + o + 4)) +
+             load(p + o + 8) * (y2 + load(t + o + 8));
   }
-  return (dot[0] + dot[1]) + (dot[2] + dot[3]);
+  return sum(dot);
 }
 
 void SsorOperator::solve_upper(const double* v, double* y, double* u, double cp, double cu) const {
@@ -201,27 +406,39 @@ void SsorOperator::step_and_solve_upper(const double* z, double beta, double* p,
 template <bool kStep>
 void SsorOperator::upper_solve(const double* z, double beta, double* v, double* y, double* u, double cp, double cu,
                                double* x, double a) const {
-  const Rows::View rows = upper_.view();
-  const char* fixed = fixed_at_.data();
+  const View rows = view_of(upper_);
   const double* binv = binv_.data();
-  for (int i = n_ - 1; i >= 0; --i) {
-    if (fixed[i]) {
-      store(y + 4 * i, V4{0, 0, 0, 0});
-      if (u) store(u + 4 * i, V4{0, 0, 0, 0});
-      continue;
-    }
-    V4 vi = load(v + 4 * i);
+  for (int g = groups_ - 1; g >= 0; --g) {
+    const long o = 12L * g;
+    V4 v0 = load(v + o), v1 = load(v + o + 4), v2 = load(v + o + 8);
     if constexpr (kStep) {
-      vi = load(z + 4 * i) + beta * vi;
-      store(v + 4 * i, vi);
-      if (a != 0.0) store(x + 4 * i, load(x + 4 * i) + a * load(y + 4 * i));  // y_i still the old value
+      v0 = load(z + o) + beta * v0;
+      v1 = load(z + o + 4) + beta * v1;
+      v2 = load(z + o + 8) + beta * v2;
+      store(v + o, v0);
+      store(v + o + 4, v1);
+      store(v + o + 8, v2);
+      if (a != 0.0)  // y still holds the previous step's values here
+        for (int c = 0; c < 12; c += 4) store(x + o + c, load(x + o + c) + a * load(y + o + c));
     }
-    const V4 s = row_sum(rows, i, y);
-    store(y + 4 * i, padded_times(binv + 12L * i, vi - s));
+    V4 a0 = {0, 0, 0, 0}, a1 = a0, a2 = a0;
+    add_row_times(rows, g, y, a0, a1, a2);
+    if (rows.i_start[g] == rows.i_start[g + 1]) {
+      V4 y0 = {0, 0, 0, 0}, y1 = y0, y2 = y0;
+      add_block_times(binv + 36L * g, v0 - a0, v1 - a1, v2 - a2, y0, y1, y2);
+      store(y + o, y0);
+      store(y + o + 4, y1);
+      store(y + o + 8, y2);
+    } else {
+      double acc[3][kLanes];
+      for (int k = 0; k < kLanes; ++k) acc[0][k] = a0[k], acc[1][k] = a1[k], acc[2][k] = a2[k];
+      lane_by_lane<true>(upper_, g, v + o, y, acc);
+      for (int k = 0; k < kLanes; ++k) a0[k] = acc[0][k], a1[k] = acc[1][k], a2[k] = acc[2][k];
+    }
     if (u) {
-      V4 ui = cp * vi + cu * s;
-      ui[3] = 0.0;
-      store(u + 4 * i, ui);
+      store(u + o, cp * v0 + cu * a0);
+      store(u + o + 4, cp * v1 + cu * a1);
+      store(u + o + 8, cp * v2 + cu * a2);
     }
   }
 }
@@ -230,52 +447,78 @@ double SsorOperator::update(double a, const double* t, const double* q, double* 
                             double& rz) const {
   V4 rr4 = {0, 0, 0, 0}, rz4 = {0, 0, 0, 0};
   const double* diag = diag_.data();
-  for (int i = 0; i < n_; ++i) {
-    const long k = 4L * i;
-    const V4 ri = load(r + k) - a * (load(q + k) + load(t + k));
-    store(r + k, ri);
-    const V4 zi = s * padded_times(diag + 12L * i, ri);
-    store(z + k, zi);
-    rr4 += ri * ri;
-    rz4 += ri * zi;
+  for (int g = 0; g < groups_; ++g) {
+    const long o = 12L * g;
+    const V4 r0 = load(r + o) - a * (load(q + o) + load(t + o));
+    const V4 r1 = load(r + o + 4) - a * (load(q + o + 4) + load(t + o + 4));
+    const V4 r2 = load(r + o + 8) - a * (load(q + o + 8) + load(t + o + 8));
+    store(r + o, r0);
+    store(r + o + 4, r1);
+    store(r + o + 8, r2);
+    V4 z0 = {0, 0, 0, 0}, z1 = z0, z2 = z0;
+    add_block_times(diag + 36L * g, r0, r1, r2, z0, z1, z2);
+    z0 *= s;
+    z1 *= s;
+    z2 *= s;
+    store(z + o, z0);
+    store(z + o + 4, z1);
+    store(z + o + 8, z2);
+    rr4 += r0 * r0 + r1 * r1 + r2 * r2;
+    rz4 += r0 * z0 + r1 * z1 + r2 * z2;
   }
-  rz = (rz4[0] + rz4[1]) + (rz4[2] + rz4[3]);
-  return (rr4[0] + rr4[1]) + (rr4[2] + rr4[3]);
+  rz = sum(rz4);
+  return sum(rr4);
 }
 
 void SsorOperator::axpy(double a, const double* t, double* x) const {
-  for (long k = 0; k < 4L * n_; k += 4) store(x + k, load(x + k) + a * load(t + k));
+  for (long k = 0; k < vector_size(); k += 4) store(x + k, load(x + k) + a * load(t + k));
 }
 
 void SsorOperator::multiply(const double* x, double* y) const {
-  const Rows::View lower = lower_.view(), upper = upper_.view();
-  const char* fixed = fixed_at_.data();
+  const View lower = view_of(lower_), upper = view_of(upper_);
   const double* diag = diag_.data();
-  for (int i = 0; i < n_; ++i) {
-    if (fixed[i]) {
-      store(y + 4 * i, V4{0, 0, 0, 0});
-      continue;
-    }
-    V4 yi = padded_times(diag + 12L * i, load(x + 4 * i)) + row_sum(lower, i, x) + row_sum(upper, i, x);
-    yi[3] = 0.0;
-    store(y + 4 * i, yi);
+  for (int g = 0; g < groups_; ++g) {
+    const long o = 12L * g;
+    V4 y0 = {0, 0, 0, 0}, y1 = y0, y2 = y0;
+    add_block_times(diag + 36L * g, load(x + o), load(x + o + 4), load(x + o + 8), y0, y1, y2);
+    add_row_times(lower, g, x, y0, y1, y2);
+    add_row_times(upper, g, x, y0, y1, y2);
+    store(y + o, y0);
+    store(y + o + 4, y1);
+    store(y + o + 8, y2);
+    for (const Rows* rows : {&lower_, &upper_})
+      for (int e = rows->i_start[g]; e < rows->i_start[g + 1]; ++e) {
+        const double* m = rows->i_val.data() + 9L * e;
+        const int k = rows->i_lane[e], from = rows->i_from[e];
+        for (int c = 0; c < 3; ++c)
+          for (int r = 0; r < 3; ++r) y[o + 4 * r + k] += m[3 * c + r] * x[o + 4 * c + from];
+      }
   }
 }
 
 void SsorOperator::diagonal_times(double s, const double* x, double* y) const {
   const double* diag = diag_.data();
-  for (int i = 0; i < n_; ++i) store(y + 4 * i, s * padded_times(diag + 12L * i, load(x + 4 * i)));
+  for (int g = 0; g < groups_; ++g) {
+    const long o = 12L * g;
+    V4 y0 = {0, 0, 0, 0}, y1 = y0, y2 = y0;
+    add_block_times(diag + 36L * g, load(x + o), load(x + o + 4), load(x + o + 8), y0, y1, y2);
+    store(y + o, s * y0);
+    store(y + o + 4, s * y1);
+    store(y + o + 8, s * y2);
+  }
 }
 
-void SsorOperator::pad(const VecX& v, VecX& v4) const {
-  v4.setZero(4L * n_);
+void SsorOperator::pad(const VecX& v, VecX& g) const {
+  g.setZero(vector_size());
   for (int p = 0; p < n_; ++p)
-    if (!fixed_at_[p]) v4.segment<3>(4 * p) = v.segment<3>(3 * order_[p]);
+    if (!fixed_[order_[p]])
+      for (int c = 0; c < 3; ++c) g(index(p, c)) = v(3 * order_[p] + c);
 }
 
-void SsorOperator::unpad(const VecX& v4, VecX& v) const {
+void SsorOperator::unpad(const VecX& g, VecX& v) const {
   v.resize(3L * n_);
-  for (int p = 0; p < n_; ++p) v.segment<3>(3 * order_[p]) = v4.segment<3>(4 * p);
+  for (int p = 0; p < n_; ++p)
+    for (int c = 0; c < 3; ++c) v(3 * order_[p] + c) = g(index(p, c));
 }
 
 }  // namespace weft

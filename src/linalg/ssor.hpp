@@ -1,21 +1,31 @@
 #pragma once
 // The symmetric block SOR operators of the SSOR-preconditioned conjugate gradient
 // (linalg/pcg.hpp, Preconditioner::kSsor), on a copy of the symmetric step matrix laid out for
-// SIMD.
+// four-wide SIMD.
 //
-// The nodes are taken in an order that interleaves kChains stretches of a base order (the
-// cloth's rows across its pattern, mesh/mesh.hpp banded_order; else the node numbering), so
-// consecutive nodes of a solve are rarely coupled and the processor works on kChains
-// independent chains at once. (Gauss-Seidel-type solves need neighbours close together in
-// the order: on a scrambled numbering SSOR needs about twice the iterations.) With A = L + D + L^T on the free
-// nodes in that order (L strictly lower, D block diagonal) and B = D/omega, it provides the two block-triangular solves (B + L) y = v and (B + L^T) y = v, y = A x and
-// y = s D x. Both triangles are kept by rows, so each solve gathers its row's known values and
-// writes its own node once. Vectors have four doubles per node (the fourth is zero), so a
-// 3x3 block times a node's vector is three four-wide multiply-adds, and a block that is a
-// multiple of the identity (the hinge couplings of the bending elements, about half of the
-// off-diagonal blocks of a cloth) is stored as one number and applied with one. Each row lists
-// its scalar blocks first and its whole blocks by distance, the neighbour solved just before
-// last, so little of the row sum waits for it. Fixed nodes are left out and come out zero.
+// The nodes are split into kLanes stretches of a base order (the cloth's rows across its
+// pattern, mesh/mesh.hpp banded_order; else the node numbering), each of `stretch` nodes
+// (the last ones shorter), and a group holds the g-th node of every stretch, one per lane.
+// The solves' order takes the groups in turn and a group's lanes in turn. Nodes of one group
+// lie a stretch apart in the base order, so on all but tiny meshes they are never coupled and
+// a triangular solve works on a whole group at once: each lane runs the same sequence of
+// operations as the solve in that order would, so the result is the same. (Gauss-Seidel-type
+// solves need neighbours close together in the order: on a scrambled numbering SSOR needs
+// about twice the iterations.) With A = L + D + L^T on the free nodes in that order
+// (L strictly lower, D block diagonal) and B = D/omega, the operator provides the two
+// block-triangular solves (B + L) y = v and (B + L^T) y = v, y = A x and y = s D x.
+//
+// Vectors are by group: 12 doubles, the three components of the group's four nodes
+// (x0 of lanes 0-3, x1 of lanes 0-3, x2 of lanes 0-3). Both triangles are kept by rows of
+// groups: an entry is a source group, a lane shift (lane k couples to lane k - shift of the
+// source, almost always the same lane) and the four lanes' 3x3 blocks (zero where a lane has
+// no such coupling), applied with nine four-wide multiply-adds. Entries whose four blocks are
+// multiples of the identity (the hinge couplings of the bending elements, about half the
+// off-diagonal blocks of a cloth) are stored as four numbers. The stretch length is chosen
+// near n / kLanes so that the lanes' coupling patterns coincide (on a grid, lanes start in
+// the same column and row parity), which keeps the union of their entries small. Groups
+// whose nodes are coupled (tiny meshes) are solved lane by lane. Fixed nodes and the lanes
+// past the last node hold zero blocks and come out zero.
 #include <vector>
 
 #include "linalg/block_sparse.hpp"
@@ -24,30 +34,41 @@ namespace weft {
 
 class SsorOperator {
  public:
-  /// Stretches of the node numbering interleaved in the solves' order.
-  static constexpr int kChains = 2;
+  /// Nodes per group: stretches of the base order solved side by side.
+  static constexpr int kLanes = 4;
   /// Copies A's free-node values with relaxation omega in (0, 2), laying the copy out again
   /// when the pattern, fixed set or base order changed or a block stored as a scalar stopped
   /// being one. `base` (a permutation of the nodes, neighbours close together, e.g. rows of a
-  /// mesh) is the order whose stretches are interleaved; the nodes' numbering when null.
+  /// mesh) is the order whose stretches are solved side by side; the nodes' numbering when
+  /// null.
   void assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega,
               const std::vector<int>* base = nullptr);
 
   int num_nodes() const { return n_; }
+  int num_groups() const { return groups_; }
+  /// Nodes per stretch (= groups).
+  int stretch() const { return groups_; }
+  /// Doubles in one of the operator's vectors (12 per group).
+  long vector_size() const { return 12L * groups_; }
   /// The node at each position of the solves' order; vectors are by position.
   const std::vector<int>& order() const { return order_; }
+  /// Where component c of the node at position p lies in a vector.
+  long index(int p, int c) const { return 12L * (slot_[p] / kLanes) + kLanes * c + slot_[p] % kLanes; }
   double omega() const { return omega_; }
-  long num_whole() const { return static_cast<long>(lower_.d_off.size() + upper_.d_off.size()); }
-  long num_scalar() const { return static_cast<long>(lower_.s_off.size() + upper_.s_off.size()); }
+  /// Entries of both triangles: four lanes' whole blocks, four lanes' scalars.
+  long num_whole() const;
+  long num_scalar() const;
+  /// Groups solved lane by lane because their nodes are coupled.
+  int num_sequential_groups() const;
 
-  /// (B + L) y = v. Vectors are 4 doubles per node; y is zero on fixed nodes.
+  /// (B + L) y = v. y is zero on fixed nodes.
   void solve_lower(const double* v, double* y) const;
   /// The same solve, returning p . (y + t) (a CG step's curvature, in the same pass).
   double solve_lower_dot(const double* v, double* y, const double* p, const double* t) const;
   /// (B + L^T) y = v; also writes u = cp v + cu (L^T y) when u is not null.
   void solve_upper(const double* v, double* y, double* u = nullptr, double cp = 0, double cu = 0) const;
   /// p = z + beta p, then the upper solve with v = p (one pass: a CG step's new direction);
-  /// first, at each node, x += a y with y's old value (the previous step's update of x,
+  /// first, at each group, x += a y with y's old value (the previous step's update of x,
   /// applied while y streams by).
   void step_and_solve_upper(const double* z, double beta, double* p, double* y, double* u, double cp, double cu,
                             double* x, double a) const;
@@ -61,33 +82,35 @@ class SsorOperator {
   /// y = s D x.
   void diagonal_times(double s, const double* x, double* y) const;
 
-  /// 3 doubles per node to 4 (the fourth zero; fixed nodes zero), and back.
-  void pad(const VecX& v, VecX& v4) const;
-  void unpad(const VecX& v4, VecX& v) const;
+  /// A node-ordered vector (3 doubles per node) to the operator's layout (zero on fixed nodes
+  /// and past the last node), and back.
+  void pad(const VecX& v, VecX& g) const;
+  void unpad(const VecX& g, VecX& v) const;
 
  private:
-  // One triangle of A by rows: whole blocks (9 column-major doubles each, one spare double
-  // at the end for the last four-wide load) and scalar blocks. Columns are kept as offsets
-  // into the padded vectors (4 times the position).
+  // One triangle of A by rows of groups. Entries of a row: whole blocks of the same lanes
+  // (w_), scalar blocks of the same lanes (s_), blocks of shifted lanes (x_, whole) and,
+  // in groups whose nodes are coupled, single blocks between lanes of the group (i_).
+  // Whole values are 36 doubles per entry, (3 c + r) * 4 + lane for block entry (r, c);
+  // sources are offsets into the vectors (12 times the group). Slots are A's block slots per
+  // entry and lane (-1: none).
   struct Rows {
-    std::vector<int> d_start, d_off, d_slot;
-    std::vector<double> d_val;
-    std::vector<int> s_start, s_off, s_slot;
+    std::vector<int> w_start, w_src, w_slot;
+    std::vector<double> w_val;
+    std::vector<int> s_start, s_src, s_slot;
     std::vector<double> s_val;
-    void build(const BlockPattern& pattern, const std::vector<int>& order, const std::vector<int>& position,
-               const std::vector<char>& fixed, const double* sample, bool upper);
-    /// Copies row (position) p's values from A's blocks; false when a block stored as a
-    /// scalar is not a multiple of the identity.
-    inline bool fill_row(int p, const double* a);
-    /// The rows as raw pointers, taken once per pass (the solves' stores may alias anything,
-    /// which would otherwise make the compiler reload the vectors' pointers per node).
-    struct View {
-      const int *s_start, *s_off, *d_start, *d_off;
-      const double *s_val, *d_val;
-    };
-    View view() const { return {s_start.data(), s_off.data(), d_start.data(), d_off.data(), s_val.data(), d_val.data()}; }
+    std::vector<int> x_start, x_src, x_shift, x_slot;
+    std::vector<double> x_val;
+    std::vector<int> i_start, i_lane, i_from, i_slot;
+    std::vector<double> i_val;  ///< 9 doubles per entry, column-major
+    /// Copies the values from A's blocks; false when a block stored as a scalar is not a
+    /// multiple of the identity.
+    bool fill(const double* a);
   };
   void build(const BlockMatrix& A, const std::vector<char>& fixed, const std::vector<int>* base);
+  void build_rows(Rows& rows, const std::vector<char>& whole_slot, bool upper) const;
+  template <bool kUpper>
+  void lane_by_lane(const Rows& rows, int g, const double* v, double* y, double (&acc)[3][kLanes]) const;
   template <bool kDot>
   double lower_solve(const double* v, double* y, const double* p, const double* t) const;
   template <bool kStep>
@@ -97,16 +120,16 @@ class SsorOperator {
   const BlockPattern* pattern_ = nullptr;
   int blocks_ = 0;
   int n_ = 0;
+  int groups_ = 0;
   double omega_ = 1.0;
   std::vector<char> fixed_;
   std::vector<int> base_;  ///< the base order of the last layout (empty: the numbering)
-  /// Nodes in the order of the solves (order_[p] is the node at position p), position_ its
-  /// inverse, fixed_at_ the fixed flags by position. Vectors and rows are by position.
-  std::vector<int> order_, position_;
-  std::vector<char> fixed_at_;
+  /// order_[p]: the node at position p; slot_[p] = kLanes * group + lane; node_slot_[i] the
+  /// slot of node i.
+  std::vector<int> order_, slot_, node_slot_;
   Rows lower_, upper_;
-  std::vector<double> diag_;  ///< D_i, 12 doubles per node: three padded columns
-  std::vector<double> binv_;  ///< B_i^-1 = omega D_i^-1, likewise (zero on fixed nodes)
+  std::vector<double> diag_;  ///< D per group, 36 doubles laid out as a whole entry
+  std::vector<double> binv_;  ///< B^-1 = omega D^-1 likewise (zero on fixed and absent nodes)
 };
 
 }  // namespace weft
