@@ -24,68 +24,97 @@ inline double sum(V4 v) { return (v[0] + v[1]) + (v[2] + v[3]); }
 // Lane k of the result is lane k - shift of x.
 inline V4 rotate(V4 x, int shift) {
   switch (shift) {
-    case 1: return V4{x[3], x[0], x[1], x[2]};
-    case 2: return V4{x[2], x[3], x[0], x[1]};
-    case 3: return V4{x[1], x[2], x[3], x[0]};
-    default: return x;
+    case 1:
+      return V4{x[3], x[0], x[1], x[2]};
+    case 2:
+      return V4{x[2], x[3], x[0], x[1]};
+    case 3:
+      return V4{x[1], x[2], x[3], x[0]};
+    default:
+      return x;
   }
 }
 
-// Four lanes' 3x3 blocks m (36 doubles, (3 c + r) * 4 + lane) times the lanes' vectors
-// (x0, x1, x2), added to (a0, a1, a2).
-inline void add_block_times(const double* m, V4 x0, V4 x1, V4 x2, V4& a0, V4& a1, V4& a2) {
-  a0 += load(m) * x0 + load(m + 12) * x1 + load(m + 24) * x2;
-  a1 += load(m + 4) * x0 + load(m + 16) * x1 + load(m + 28) * x2;
-  a2 += load(m + 8) * x0 + load(m + 20) * x1 + load(m + 32) * x2;
+// Three four-wide vectors: a component each, a node per lane.
+struct V3 {
+  V4 c0, c1, c2;
+  V3& operator+=(const V3& o) {
+    c0 += o.c0;
+    c1 += o.c1;
+    c2 += o.c2;
+    return *this;
+  }
+};
+inline V3 operator-(const V3& a, const V3& b) { return {a.c0 - b.c0, a.c1 - b.c1, a.c2 - b.c2}; }
+inline V3 operator*(double s, const V3& a) { return {s * a.c0, s * a.c1, s * a.c2}; }
+inline V3 zero3() {
+  const V4 z = {0, 0, 0, 0};
+  return {z, z, z};
+}
+inline V3 load3(const double* p) { return {load(p), load(p + 4), load(p + 8)}; }
+inline void store3(double* p, const V3& v) {
+  store(p, v.c0);
+  store(p + 4, v.c1);
+  store(p + 8, v.c2);
+}
+inline V4 dot3(const V3& a, const V3& b) { return a.c0 * b.c0 + a.c1 * b.c1 + a.c2 * b.c2; }
+
+// Four lanes' 3x3 blocks m (36 doubles, (3 c + r) * 4 + lane) times the lanes' vectors.
+inline V3 block_times(const double* m, const V3& x) {
+  return {load(m) * x.c0 + load(m + 12) * x.c1 + load(m + 24) * x.c2,
+          load(m + 4) * x.c0 + load(m + 16) * x.c1 + load(m + 28) * x.c2,
+          load(m + 8) * x.c0 + load(m + 20) * x.c1 + load(m + 32) * x.c2};
 }
 
 // The raw pointers of one triangle's rows, taken once per pass (the solves' stores may
 // alias anything, which would otherwise make the compiler reload the vectors' pointers).
 struct View {
   const int *w_start, *w_src, *s_start, *s_src, *x_start, *x_src, *x_shift, *i_start;
+  const char* near;
   const double *w_val, *s_val, *x_val;
 };
 
 template <class Rows>
 View view_of(const Rows& r) {
-  return {r.w_start.data(), r.w_src.data(), r.s_start.data(), r.s_src.data(), r.x_start.data(), r.x_src.data(),
-          r.x_shift.data(), r.i_start.data(), r.w_val.data(), r.s_val.data(), r.x_val.data()};
+  return {r.w_start.data(), r.w_src.data(), r.s_start.data(), r.s_src.data(),
+          r.x_start.data(), r.x_src.data(), r.x_shift.data(), r.i_start.data(),
+          r.near.data(),    r.w_val.data(), r.s_val.data(),   r.x_val.data()};
 }
 
-// (a0, a1, a2) += the group's row of one triangle times x, except the couplings inside the
-// group. The scalar blocks are summed apart, and the whole blocks of the same lanes come
-// last, the group solved just before last of all, so little of the sum waits for it.
-inline void add_row_times(const View& r, int g, const double* x, V4& a0, V4& a1, V4& a2) {
-  V4 b0 = {0, 0, 0, 0}, b1 = b0, b2 = b0;
+// The group's row of one triangle times x, except the couplings inside the group and the
+// nearest group's entry where it is kept apart (near). The scalar blocks are summed apart
+// from the whole ones, so the sums' chains are short.
+inline V3 row_times(const View& r, int g, const double* x) {
+  V3 a = zero3(), b = zero3();
   for (int e = r.s_start[g], end = r.s_start[g + 1]; e < end; ++e) {
     const V4 s = load(r.s_val + 4L * e);
-    const double* xj = x + r.s_src[e];
-    b0 += s * load(xj);
-    b1 += s * load(xj + 4);
-    b2 += s * load(xj + 8);
+    const V3 xj = load3(x + r.s_src[e]);
+    b += V3{s * xj.c0, s * xj.c1, s * xj.c2};
   }
   for (int e = r.x_start[g], end = r.x_start[g + 1]; e < end; ++e) {
     const double* xj = x + r.x_src[e];
     const int shift = r.x_shift[e];
-    add_block_times(r.x_val + 36L * e, rotate(load(xj), shift), rotate(load(xj + 4), shift),
-                    rotate(load(xj + 8), shift), b0, b1, b2);
+    b += block_times(r.x_val + 36L * e, {rotate(load(xj), shift), rotate(load(xj + 4), shift),
+                                         rotate(load(xj + 8), shift)});
   }
-  for (int e = r.w_start[g], end = r.w_start[g + 1]; e < end; ++e) {
-    const double* xj = x + r.w_src[e];
-    add_block_times(r.w_val + 36L * e, load(xj), load(xj + 4), load(xj + 8), a0, a1, a2);
-  }
-  a0 += b0;
-  a1 += b1;
-  a2 += b2;
+  for (int e = r.w_start[g], end = r.w_start[g + 1] - r.near[g]; e < end; ++e)
+    a += block_times(r.w_val + 36L * e, load3(x + r.w_src[e]));
+  a += b;
+  return a;
+}
+
+// The nearest group's entry of a near row: B^-1 times the blocks, the last whole entry.
+inline const double* near_entry(const View& r, int g) {
+  return r.w_val + 36L * (r.w_start[g + 1] - 1);
 }
 
 // The cost of a layout with `stretch` nodes per lane, roughly in multiply-adds per
 // triangular solve: per group the diagonal solve and, per entry of the lower triangle (the
 // upper one mirrors it), 21 for four whole blocks, 7 for four scalars, more for shifted lanes
 // and much more for a group solved lane by lane. Only every `every`-th group is counted.
-double layout_cost(const BlockPattern& pattern, const std::vector<char>& whole_slot, const std::vector<char>& fixed,
-                   const std::vector<int>& base, const std::vector<int>& where, int stretch, int every,
-                   std::vector<long>& keys) {
+double layout_cost(const BlockPattern& pattern, const std::vector<char>& whole_slot,
+                   const std::vector<char>& fixed, const std::vector<int>& base,
+                   const std::vector<int>& where, int stretch, int every, std::vector<long>& keys) {
   const int n = pattern.num_nodes();
   const auto& rs = pattern.row_start();
   const auto& col = pattern.column();
@@ -108,13 +137,15 @@ double layout_cost(const BlockPattern& pattern, const std::vector<char>& whole_s
           continue;
         }
         const int shift = (k - kj) & (kLanes - 1);
-        keys.push_back((static_cast<long>(gj) * kLanes + shift) * 2 + (shift != 0 || whole_slot[s]));
+        keys.push_back((static_cast<long>(gj) * kLanes + shift) * 2 +
+                       (shift != 0 || whole_slot[s]));
       }
     }
     std::sort(keys.begin(), keys.end());
     double c = 24;
     for (size_t e = 0; e < keys.size(); ++e) {
-      if (e + 1 < keys.size() && keys[e + 1] / 2 == keys[e] / 2) continue;  // an entry's last key: whole if any lane is
+      if (e + 1 < keys.size() && keys[e + 1] / 2 == keys[e] / 2)
+        continue;  // an entry's last key: whole if any lane is
       const bool shifted = (keys[e] / 2) % kLanes != 0;
       c += shifted ? 30 : (keys[e] % 2 ? 21 : 7);
     }
@@ -150,16 +181,29 @@ int SsorOperator::num_sequential_groups() const {
 }
 
 bool SsorOperator::Rows::fill(const double* a) {
+  // Four lanes' blocks (9 doubles each, zeros where a lane has none) to an entry's 36: two
+  // 4x4 transposes and the last entries.
+  static const double kZero[9] = {};
   auto copy_lanes = [a](const std::vector<int>& slot, std::vector<double>& val) {
     const long entries = static_cast<long>(slot.size()) / kLanes;
-    for (long e = 0; e < entries; ++e)
-      for (int k = 0; k < kLanes; ++k) {
-        const int s = slot[kLanes * e + k];
-        if (s < 0) continue;
-        const double* m = a + 9L * s;
-        double* d = val.data() + 36 * e + k;
-        for (int q = 0; q < 9; ++q) d[4 * q] = m[q];
+    for (long e = 0; e < entries; ++e) {
+      const double* m[kLanes];
+      for (int k = 0; k < kLanes; ++k)
+        m[k] = slot[kLanes * e + k] < 0 ? kZero : a + 9L * slot[kLanes * e + k];
+      double* d = val.data() + 36 * e;
+      for (int h = 0; h < 8; h += 4) {
+        const V4 r0 = load(m[0] + h), r1 = load(m[1] + h), r2 = load(m[2] + h), r3 = load(m[3] + h);
+        const V4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6),
+                 t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
+        const V4 t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6),
+                 t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
+        store(d + 4 * h, __builtin_shufflevector(t0, t2, 0, 1, 4, 5));
+        store(d + 4 * h + 4, __builtin_shufflevector(t1, t3, 0, 1, 4, 5));
+        store(d + 4 * h + 8, __builtin_shufflevector(t0, t2, 2, 3, 6, 7));
+        store(d + 4 * h + 12, __builtin_shufflevector(t1, t3, 2, 3, 6, 7));
       }
+      store(d + 32, V4{m[0][8], m[1][8], m[2][8], m[3][8]});
+    }
   };
   copy_lanes(w_slot, w_val);
   copy_lanes(x_slot, x_val);
@@ -178,10 +222,12 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot, b
   const auto& col = pattern_->column();
   std::vector<int> slot_node(static_cast<size_t>(kLanes) * groups_, -1);
   for (int i = 0; i < n_; ++i) slot_node[node_slot_[i]] = i;
-  for (auto* v : {&rows.w_src, &rows.w_slot, &rows.s_src, &rows.s_slot, &rows.x_src, &rows.x_shift, &rows.x_slot,
-                  &rows.i_lane, &rows.i_from, &rows.i_slot})
+  for (auto* v : {&rows.w_src, &rows.w_slot, &rows.s_src, &rows.s_slot, &rows.x_src, &rows.x_shift,
+                  &rows.x_slot, &rows.i_lane, &rows.i_from, &rows.i_slot})
     v->clear();
-  for (auto* v : {&rows.w_start, &rows.s_start, &rows.x_start, &rows.i_start}) v->assign(groups_ + 1, 0);
+  for (auto* v : {&rows.w_start, &rows.s_start, &rows.x_start, &rows.i_start})
+    v->assign(groups_ + 1, 0);
+  rows.near.assign(groups_, 0);
   struct Link {
     long key;  // source group * kLanes + lane shift
     int lane, slot;
@@ -217,7 +263,8 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot, b
       bool whole = links[e].key % kLanes != 0;
       for (; end < links.size() && links[end].key == links[e].key; ++end)
         if (whole_slot[links[end].slot]) whole = true;
-      const int src = static_cast<int>(12 * (links[e].key / kLanes)), shift = static_cast<int>(links[e].key % kLanes);
+      const int src = static_cast<int>(12 * (links[e].key / kLanes)),
+                shift = static_cast<int>(links[e].key % kLanes);
       std::vector<int>& slots = shift ? rows.x_slot : (whole ? rows.w_slot : rows.s_slot);
       if (shift) {
         rows.x_src.push_back(src);
@@ -233,6 +280,9 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot, b
     rows.s_start[g + 1] = static_cast<int>(rows.s_src.size());
     rows.x_start[g + 1] = static_cast<int>(rows.x_src.size());
     rows.i_start[g + 1] = static_cast<int>(rows.i_slot.size());
+    const int last = rows.w_start[g + 1] - 1;
+    rows.near[g] = !upper && rows.i_start[g + 1] == rows.i_start[g] && last >= rows.w_start[g] &&
+                   rows.w_src[last] == 12 * (g - 1);
   }
   rows.w_val.assign(36 * rows.w_src.size(), 0.0);
   rows.x_val.assign(36 * rows.x_src.size(), 0.0);
@@ -240,7 +290,8 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot, b
   rows.i_val.assign(9 * rows.i_slot.size(), 0.0);
 }
 
-void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed, const std::vector<int>* base) {
+void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed,
+                         const std::vector<int>* base) {
   pattern_ = A.pattern;
   blocks_ = A.pattern->num_blocks();
   n_ = A.pattern->num_nodes();
@@ -255,7 +306,8 @@ void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed, c
       if (permutation) seen[i] = 1;
     }
     if (!permutation)
-      throw std::invalid_argument("SSOR node order is not a permutation of the " + std::to_string(n_) + " nodes");
+      throw std::invalid_argument("SSOR node order is not a permutation of the " +
+                                  std::to_string(n_) + " nodes");
   }
   std::vector<int> b = base_;
   if (b.empty()) {
@@ -328,14 +380,28 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
         binv_[o + 4 * (3 * c + r)] = omega * inv(r, c);
       }
   }
+  // The nearest group's blocks of a near row times B_g^-1: P(r, c) = sum_q B^-1(r, q) M(q, c).
+  for (int g = 0; g < groups_; ++g) {
+    if (!lower_.near[g]) continue;
+    double* m = lower_.w_val.data() + 36L * (lower_.w_start[g + 1] - 1);
+    const double* bi = binv_.data() + 36L * g;
+    V4 prod[9];
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r)
+        prod[3 * c + r] = load(bi + 4 * r) * load(m + 4 * (3 * c)) +
+                          load(bi + 4 * (3 + r)) * load(m + 4 * (3 * c + 1)) +
+                          load(bi + 4 * (6 + r)) * load(m + 4 * (3 * c + 2));
+    for (int q = 0; q < 9; ++q) store(m + 4 * q, prod[q]);
+  }
 }
 
-// Solves group g lane by lane when its nodes are coupled: acc holds the row sums from the
-// other groups; each lane adds its couplings to the lanes solved before it in this solve's
-// direction, then solves. v is the group's right-hand side (12 doubles).
+// Solves group g lane by lane when its nodes are coupled: acc (12 doubles, laid out as a
+// group's vector) holds the row sums from the other groups; each lane adds its couplings to
+// the lanes solved before it in this solve's direction, then solves. v is the group's
+// right-hand side.
 template <bool kUpper>
 void SsorOperator::lane_by_lane(const Rows& rows, int g, const double* v, double* y,
-                                double (&acc)[3][kLanes]) const {
+                                double* acc) const {
   const double* bi = binv_.data() + 36L * g;
   double* yg = y + 12L * g;
   for (int kk = 0; kk < kLanes; ++kk) {
@@ -344,10 +410,10 @@ void SsorOperator::lane_by_lane(const Rows& rows, int g, const double* v, double
       if (rows.i_lane[e] != k) continue;
       const double* m = rows.i_val.data() + 9L * e;
       for (int c = 0; c < 3; ++c)
-        for (int r = 0; r < 3; ++r) acc[r][k] += m[3 * c + r] * yg[4 * c + rows.i_from[e]];
+        for (int r = 0; r < 3; ++r) acc[4 * r + k] += m[3 * c + r] * yg[4 * c + rows.i_from[e]];
     }
     double w[3];
-    for (int r = 0; r < 3; ++r) w[r] = v[4 * r + k] - acc[r][k];
+    for (int r = 0; r < 3; ++r) w[r] = v[4 * r + k] - acc[4 * r + k];
     for (int r = 0; r < 3; ++r) {
       double s = 0;
       for (int c = 0; c < 3; ++c) s += bi[4 * (3 * c + r) + k] * w[c];
@@ -360,36 +426,41 @@ void SsorOperator::solve_lower(const double* v, double* y) const {
   lower_solve<false>(v, y, nullptr, nullptr);
 }
 
-double SsorOperator::solve_lower_dot(const double* v, double* y, const double* p, const double* t) const {
+double SsorOperator::solve_lower_dot(const double* v, double* y, const double* p,
+                                     const double* t) const {
   return lower_solve<true>(v, y, p, t);
 }
 
+// Group by group: y_g = B_g^-1 (v_g - sum of the row's blocks times the y's solved before).
+// The nearest group's blocks (g - 1) are kept premultiplied by B_g^-1, so that the chain of
+// dependent groups runs through one block product: y_g = B_g^-1 (v_g - rest) - P y_(g-1),
+// with y_(g-1) still in registers.
 template <bool kDot>
-double SsorOperator::lower_solve(const double* v, double* y, const double* p, const double* t) const {
+double SsorOperator::lower_solve(const double* v, double* y, const double* p,
+                                 const double* t) const {
   const View rows = view_of(lower_);
   const double* binv = binv_.data();
   V4 dot = {0, 0, 0, 0};
+  V3 last = zero3();  // y of the group solved just before
   for (int g = 0; g < groups_; ++g) {
     const long o = 12L * g;
-    V4 a0 = {0, 0, 0, 0}, a1 = a0, a2 = a0;
-    add_row_times(rows, g, y, a0, a1, a2);
-    V4 y0 = {0, 0, 0, 0}, y1 = y0, y2 = y0;
+    const V3 rest = row_times(rows, g, y);
+    V3 yg;
     if (rows.i_start[g] == rows.i_start[g + 1]) {
-      const double* bi = binv + 36L * g;
-      const V4 w0 = load(v + o) - a0, w1 = load(v + o + 4) - a1, w2 = load(v + o + 8) - a2;
-      add_block_times(bi, w0, w1, w2, y0, y1, y2);
-      store(y + o, y0);
-      store(y + o + 4, y1);
-      store(y + o + 8, y2);
+      yg = block_times(binv + 36L * g, load3(v + o) - rest);
+      if (rows.near[g]) yg = yg - block_times(near_entry(rows, g), last);
+      store3(y + o, yg);
     } else {
-      double acc[3][kLanes];
-      for (int k = 0; k < kLanes; ++k) acc[0][k] = a0[k], acc[1][k] = a1[k], acc[2][k] = a2[k];
+      double acc[12];
+      store3(acc, rest);
       lane_by_lane<false>(lower_, g, v + o, y, acc);
-      y0 = load(y + o), y1 = load(y + o + 4), y2 = load(y + o + 8);
+      yg = load3(y + o);
     }
-    if constexpr (kDot)
-      dot += load(p + o) * (y0 + load(t + o)) + load(p + o + 4) * (y1 + load(t + o + 4)) +
-             load(p + o + 8) * (y2 + load(t + o + 8));
+    last = yg;
+    if constexpr (kDot) {
+      const V3 tg = load3(t + o);
+      dot += dot3(load3(p + o), V3{yg.c0 + tg.c0, yg.c1 + tg.c1, yg.c2 + tg.c2});
+    }
   }
   return sum(dot);
 }
@@ -398,73 +469,57 @@ void SsorOperator::solve_upper(const double* v, double* y, double* u, double cp,
   upper_solve<false>(nullptr, 0.0, const_cast<double*>(v), y, u, cp, cu, nullptr, 0.0);
 }
 
-void SsorOperator::step_and_solve_upper(const double* z, double beta, double* p, double* y, double* u, double cp,
-                                        double cu, double* x, double a) const {
+void SsorOperator::step_and_solve_upper(const double* z, double beta, double* p, double* y,
+                                        double* u, double cp, double cu, double* x,
+                                        double a) const {
   upper_solve<true>(z, beta, p, y, u, cp, cu, x, a);
 }
 
+// y_g = B_g^-1 (v_g - sum of the row's blocks times the y's solved before), from the last
+// group down (the upper rows keep no premultiplied entry: the row sum is u's L^T y).
 template <bool kStep>
-void SsorOperator::upper_solve(const double* z, double beta, double* v, double* y, double* u, double cp, double cu,
-                               double* x, double a) const {
+void SsorOperator::upper_solve(const double* z, double beta, double* v, double* y, double* u,
+                               double cp, double cu, double* x, double a) const {
   const View rows = view_of(upper_);
   const double* binv = binv_.data();
   for (int g = groups_ - 1; g >= 0; --g) {
     const long o = 12L * g;
-    V4 v0 = load(v + o), v1 = load(v + o + 4), v2 = load(v + o + 8);
+    V3 vg = load3(v + o);
     if constexpr (kStep) {
-      v0 = load(z + o) + beta * v0;
-      v1 = load(z + o + 4) + beta * v1;
-      v2 = load(z + o + 8) + beta * v2;
-      store(v + o, v0);
-      store(v + o + 4, v1);
-      store(v + o + 8, v2);
+      const V3 zg = load3(z + o);
+      vg = V3{zg.c0 + beta * vg.c0, zg.c1 + beta * vg.c1, zg.c2 + beta * vg.c2};
+      store3(v + o, vg);
       if (a != 0.0)  // y still holds the previous step's values here
         for (int c = 0; c < 12; c += 4) store(x + o + c, load(x + o + c) + a * load(y + o + c));
     }
-    V4 a0 = {0, 0, 0, 0}, a1 = a0, a2 = a0;
-    add_row_times(rows, g, y, a0, a1, a2);
+    V3 sum = row_times(rows, g, y);
     if (rows.i_start[g] == rows.i_start[g + 1]) {
-      V4 y0 = {0, 0, 0, 0}, y1 = y0, y2 = y0;
-      add_block_times(binv + 36L * g, v0 - a0, v1 - a1, v2 - a2, y0, y1, y2);
-      store(y + o, y0);
-      store(y + o + 4, y1);
-      store(y + o + 8, y2);
+      store3(y + o, block_times(binv + 36L * g, vg - sum));
     } else {
-      double acc[3][kLanes];
-      for (int k = 0; k < kLanes; ++k) acc[0][k] = a0[k], acc[1][k] = a1[k], acc[2][k] = a2[k];
+      double acc[12];
+      store3(acc, sum);
       lane_by_lane<true>(upper_, g, v + o, y, acc);
-      for (int k = 0; k < kLanes; ++k) a0[k] = acc[0][k], a1[k] = acc[1][k], a2[k] = acc[2][k];
+      sum = load3(acc);
     }
-    if (u) {
-      store(u + o, cp * v0 + cu * a0);
-      store(u + o + 4, cp * v1 + cu * a1);
-      store(u + o + 8, cp * v2 + cu * a2);
-    }
+    if (u)
+      store3(u + o,
+             V3{cp * vg.c0 + cu * sum.c0, cp * vg.c1 + cu * sum.c1, cp * vg.c2 + cu * sum.c2});
   }
 }
 
-double SsorOperator::update(double a, const double* t, const double* q, double* r, double s, double* z,
-                            double& rz) const {
+double SsorOperator::update(double a, const double* t, const double* q, double* r, double s,
+                            double* z, double& rz) const {
   V4 rr4 = {0, 0, 0, 0}, rz4 = {0, 0, 0, 0};
   const double* diag = diag_.data();
   for (int g = 0; g < groups_; ++g) {
     const long o = 12L * g;
-    const V4 r0 = load(r + o) - a * (load(q + o) + load(t + o));
-    const V4 r1 = load(r + o + 4) - a * (load(q + o + 4) + load(t + o + 4));
-    const V4 r2 = load(r + o + 8) - a * (load(q + o + 8) + load(t + o + 8));
-    store(r + o, r0);
-    store(r + o + 4, r1);
-    store(r + o + 8, r2);
-    V4 z0 = {0, 0, 0, 0}, z1 = z0, z2 = z0;
-    add_block_times(diag + 36L * g, r0, r1, r2, z0, z1, z2);
-    z0 *= s;
-    z1 *= s;
-    z2 *= s;
-    store(z + o, z0);
-    store(z + o + 4, z1);
-    store(z + o + 8, z2);
-    rr4 += r0 * r0 + r1 * r1 + r2 * r2;
-    rz4 += r0 * z0 + r1 * z1 + r2 * z2;
+    const V3 qg = load3(q + o), tg = load3(t + o);
+    const V3 rg = load3(r + o) - a * V3{qg.c0 + tg.c0, qg.c1 + tg.c1, qg.c2 + tg.c2};
+    store3(r + o, rg);
+    const V3 zg = s * block_times(diag + 36L * g, rg);
+    store3(z + o, zg);
+    rr4 += dot3(rg, rg);
+    rz4 += dot3(rg, zg);
   }
   rz = sum(rz4);
   return sum(rr4);
@@ -474,18 +529,20 @@ void SsorOperator::axpy(double a, const double* t, double* x) const {
   for (long k = 0; k < vector_size(); k += 4) store(x + k, load(x + k) + a * load(t + k));
 }
 
+// A x = D x + L x + L^T x; a near lower row's nearest entry holds P = B^-1 times the
+// blocks, so its part is B (P x) = D (P x) / omega.
 void SsorOperator::multiply(const double* x, double* y) const {
   const View lower = view_of(lower_), upper = view_of(upper_);
   const double* diag = diag_.data();
   for (int g = 0; g < groups_; ++g) {
     const long o = 12L * g;
-    V4 y0 = {0, 0, 0, 0}, y1 = y0, y2 = y0;
-    add_block_times(diag + 36L * g, load(x + o), load(x + o + 4), load(x + o + 8), y0, y1, y2);
-    add_row_times(lower, g, x, y0, y1, y2);
-    add_row_times(upper, g, x, y0, y1, y2);
-    store(y + o, y0);
-    store(y + o + 4, y1);
-    store(y + o + 8, y2);
+    const double* dg = diag + 36L * g;
+    V3 yg = block_times(dg, load3(x + o));
+    yg += row_times(lower, g, x);
+    yg += row_times(upper, g, x);
+    if (lower.near[g])
+      yg += (1.0 / omega_) * block_times(dg, block_times(near_entry(lower, g), load3(x + o - 12)));
+    store3(y + o, yg);
     for (const Rows* rows : {&lower_, &upper_})
       for (int e = rows->i_start[g]; e < rows->i_start[g + 1]; ++e) {
         const double* m = rows->i_val.data() + 9L * e;
@@ -498,14 +555,8 @@ void SsorOperator::multiply(const double* x, double* y) const {
 
 void SsorOperator::diagonal_times(double s, const double* x, double* y) const {
   const double* diag = diag_.data();
-  for (int g = 0; g < groups_; ++g) {
-    const long o = 12L * g;
-    V4 y0 = {0, 0, 0, 0}, y1 = y0, y2 = y0;
-    add_block_times(diag + 36L * g, load(x + o), load(x + o + 4), load(x + o + 8), y0, y1, y2);
-    store(y + o, s * y0);
-    store(y + o + 4, s * y1);
-    store(y + o + 8, s * y2);
-  }
+  for (int g = 0; g < groups_; ++g)
+    store3(y + 12L * g, s * block_times(diag + 36L * g, load3(x + 12L * g)));
 }
 
 void SsorOperator::pad(const VecX& v, VecX& g) const {

@@ -53,7 +53,9 @@ class SsorOperator {
   /// The node at each position of the solves' order; vectors are by position.
   const std::vector<int>& order() const { return order_; }
   /// Where component c of the node at position p lies in a vector.
-  long index(int p, int c) const { return 12L * (slot_[p] / kLanes) + kLanes * c + slot_[p] % kLanes; }
+  long index(int p, int c) const {
+    return 12L * (slot_[p] / kLanes) + kLanes * c + slot_[p] % kLanes;
+  }
   double omega() const { return omega_; }
   /// Entries of both triangles: four lanes' whole blocks, four lanes' scalars.
   long num_whole() const;
@@ -66,15 +68,17 @@ class SsorOperator {
   /// The same solve, returning p . (y + t) (a CG step's curvature, in the same pass).
   double solve_lower_dot(const double* v, double* y, const double* p, const double* t) const;
   /// (B + L^T) y = v; also writes u = cp v + cu (L^T y) when u is not null.
-  void solve_upper(const double* v, double* y, double* u = nullptr, double cp = 0, double cu = 0) const;
+  void solve_upper(const double* v, double* y, double* u = nullptr, double cp = 0,
+                   double cu = 0) const;
   /// p = z + beta p, then the upper solve with v = p (one pass: a CG step's new direction);
   /// first, at each group, x += a y with y's old value (the previous step's update of x,
   /// applied while y streams by).
-  void step_and_solve_upper(const double* z, double beta, double* p, double* y, double* u, double cp, double cu,
-                            double* x, double a) const;
+  void step_and_solve_upper(const double* z, double beta, double* p, double* y, double* u,
+                            double cp, double cu, double* x, double a) const;
   /// A CG update in one pass: r -= a (q + t), z = s D r; returns r.r and sets rz = r.z.
   /// (x += a t is left to the next step_and_solve_upper or axpy.)
-  double update(double a, const double* t, const double* q, double* r, double s, double* z, double& rz) const;
+  double update(double a, const double* t, const double* q, double* r, double s, double* z,
+                double& rz) const;
   /// x += a t.
   void axpy(double a, const double* t, double* x) const;
   /// y = A x on the free nodes, zero on fixed nodes.
@@ -103,6 +107,9 @@ class SsorOperator {
     std::vector<double> x_val;
     std::vector<int> i_start, i_lane, i_from, i_slot;
     std::vector<double> i_val;  ///< 9 doubles per entry, column-major
+    /// Per group of the lower triangle: 1 when its last whole entry is the group solved just
+    /// before (g - 1) and holds B_g^-1 times the blocks (always 0 in the upper triangle).
+    std::vector<char> near;
     /// Copies the values from A's blocks; false when a block stored as a scalar is not a
     /// multiple of the identity.
     bool fill(const double* a);
@@ -110,12 +117,12 @@ class SsorOperator {
   void build(const BlockMatrix& A, const std::vector<char>& fixed, const std::vector<int>* base);
   void build_rows(Rows& rows, const std::vector<char>& whole_slot, bool upper) const;
   template <bool kUpper>
-  void lane_by_lane(const Rows& rows, int g, const double* v, double* y, double (&acc)[3][kLanes]) const;
+  void lane_by_lane(const Rows& rows, int g, const double* v, double* y, double* acc) const;
   template <bool kDot>
   double lower_solve(const double* v, double* y, const double* p, const double* t) const;
   template <bool kStep>
-  void upper_solve(const double* z, double beta, double* v, double* y, double* u, double cp, double cu, double* x,
-                   double a) const;
+  void upper_solve(const double* z, double beta, double* v, double* y, double* u, double cp,
+                   double cu, double* x, double a) const;
 
   const BlockPattern* pattern_ = nullptr;
   int blocks_ = 0;

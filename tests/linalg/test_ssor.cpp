@@ -23,7 +23,8 @@ struct DenseSplit {
   MatX A, diag, lower, upper;
 };
 
-DenseSplit split(const BlockMatrix& M, const std::vector<char>& fixed, const std::vector<int>& order) {
+DenseSplit split(const BlockMatrix& M, const std::vector<char>& fixed,
+                 const std::vector<int>& order) {
   const int n = M.pattern->num_nodes();
   const MatX full = M.to_dense();
   DenseSplit s;
@@ -139,7 +140,8 @@ void expect_operators_match_dense(int n, int pinned, bool sequential) {
   SsorOperator S;
   S.assign(p.matrix(), fixed, omega, sequential ? &base : nullptr);
   EXPECT_EQ(S.num_sequential_groups() > 0, sequential);
-  if (!sequential) EXPECT_GT(S.num_scalar(), 0) << "the hinge couplings are multiples of the identity";
+  if (!sequential)
+    EXPECT_GT(S.num_scalar(), 0) << "the hinge couplings are multiples of the identity";
   EXPECT_GT(S.num_whole(), 0);
   const DenseSplit d = split(p.matrix(), fixed, S.order());
   const MatX B = d.diag / omega;
@@ -193,7 +195,8 @@ TEST(Ssor, LayoutFollowsTheMatrix) {
   BlockMatrix A = p.matrix();
   ASSERT_TRUE(test::break_one_scalar_block(A, fixed));
   S.assign(A, fixed, 1.2);
-  EXPECT_LT(S.num_scalar(), scalars) << "the block, its transpose and the other lanes of their entries";
+  EXPECT_LT(S.num_scalar(), scalars)
+      << "the block, its transpose and the other lanes of their entries";
   const DenseSplit d = split(A, fixed, S.order());
   std::mt19937 rng(6);
   VecX v = random_vector(3 * 81, rng), v4, y4(S.vector_size());
@@ -307,8 +310,9 @@ TEST(Ssor, RejectsRelaxationOutsideTheOpenInterval) {
       solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x, ws);
       ADD_FAILURE() << "omega " << omega << " accepted";
     } catch (const std::invalid_argument& e) {
-      EXPECT_EQ(std::string(e.what()),
-                "SSOR relaxation must be in (0, 2) (or 0 for automatic), got " + std::to_string(omega));
+      EXPECT_EQ(
+          std::string(e.what()),
+          "SSOR relaxation must be in (0, 2) (or 0 for automatic), got " + std::to_string(omega));
     }
   }
   double previous = 0.0;
