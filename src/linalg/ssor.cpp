@@ -46,6 +46,7 @@ struct V3 {
   }
 };
 inline V3 operator-(const V3& a, const V3& b) { return {a.c0 - b.c0, a.c1 - b.c1, a.c2 - b.c2}; }
+inline V3 operator+(const V3& a, const V3& b) { return {a.c0 + b.c0, a.c1 + b.c1, a.c2 + b.c2}; }
 inline V3 operator*(double s, const V3& a) { return {s * a.c0, s * a.c1, s * a.c2}; }
 inline V3 zero3() {
   const V4 z = {0, 0, 0, 0};
@@ -66,25 +67,32 @@ inline V3 block_times(const double* m, const V3& x) {
           load(m + 8) * x.c0 + load(m + 20) * x.c1 + load(m + 32) * x.c2};
 }
 
+// The lanes' transposed blocks times their vectors: sum_r m(r, c) x_r.
+inline V3 block_transpose_times(const double* m, const V3& x) {
+  return {load(m) * x.c0 + load(m + 4) * x.c1 + load(m + 8) * x.c2,
+          load(m + 12) * x.c0 + load(m + 16) * x.c1 + load(m + 20) * x.c2,
+          load(m + 24) * x.c0 + load(m + 28) * x.c1 + load(m + 32) * x.c2};
+}
+
 // The raw pointers of one triangle's rows, taken once per pass (the solves' stores may
 // alias anything, which would otherwise make the compiler reload the vectors' pointers).
 struct View {
   const int *w_start, *w_src, *s_start, *s_src, *x_start, *x_src, *x_shift, *i_start;
   const char* near;
-  const double *w_val, *s_val, *x_val;
+  const double *w_val, *s_val, *x_val, *n_val;
 };
 
 template <class Rows>
 View view_of(const Rows& r) {
-  return {r.w_start.data(), r.w_src.data(), r.s_start.data(), r.s_src.data(),
-          r.x_start.data(), r.x_src.data(), r.x_shift.data(), r.i_start.data(),
-          r.near.data(),    r.w_val.data(), r.s_val.data(),   r.x_val.data()};
+  return {r.w_start.data(), r.w_src.data(),   r.s_start.data(), r.s_src.data(), r.x_start.data(),
+          r.x_src.data(),   r.x_shift.data(), r.i_start.data(), r.near.data(),  r.w_val.data(),
+          r.s_val.data(),   r.x_val.data(),   r.n_val.data()};
 }
 
-// The group's row of one triangle times x, except the couplings inside the group and the
-// nearest group's entry where it is kept apart (near). The scalar blocks are summed apart
-// from the whole ones, so the sums' chains are short.
-inline V3 row_times(const View& r, int g, const double* x) {
+// The group's row of the lower triangle times x, except the couplings inside the group and,
+// when skip_near, the nearest group's entry of a near row. The scalar blocks are summed
+// apart from the whole ones, so the sums' chains are short.
+inline V3 row_times(const View& r, int g, const double* x, bool skip_near) {
   V3 a = zero3(), b = zero3();
   for (int e = r.s_start[g], end = r.s_start[g + 1]; e < end; ++e) {
     const V4 s = load(r.s_val + 4L * e);
@@ -97,20 +105,38 @@ inline V3 row_times(const View& r, int g, const double* x) {
     b += block_times(r.x_val + 36L * e, {rotate(load(xj), shift), rotate(load(xj + 4), shift),
                                          rotate(load(xj + 8), shift)});
   }
-  for (int e = r.w_start[g], end = r.w_start[g + 1] - r.near[g]; e < end; ++e)
+  for (int e = r.w_start[g], end = r.w_start[g + 1] - (skip_near ? r.near[g] : 0); e < end; ++e)
     a += block_times(r.w_val + 36L * e, load3(x + r.w_src[e]));
   a += b;
   return a;
 }
 
-// The nearest group's entry of a near row: B^-1 times the blocks, the last whole entry.
-inline const double* near_entry(const View& r, int g) {
-  return r.w_val + 36L * (r.w_start[g + 1] - 1);
+// The transpose of the group's row of the lower triangle times the group's y, added to the
+// source groups' sums: acc_src += M^T y (rotated back to the source's lanes).
+inline void add_column_times(const View& r, int g, const V3& y, double* acc) {
+  for (int e = r.s_start[g], end = r.s_start[g + 1]; e < end; ++e) {
+    const V4 s = load(r.s_val + 4L * e);
+    double* a = acc + r.s_src[e];
+    store3(a, load3(a) + V3{s * y.c0, s * y.c1, s * y.c2});
+  }
+  for (int e = r.x_start[g], end = r.x_start[g + 1]; e < end; ++e) {
+    const V3 t = block_transpose_times(r.x_val + 36L * e, y);
+    const int back = (kLanes - r.x_shift[e]) & (kLanes - 1);
+    double* a = acc + r.x_src[e];
+    store3(a, load3(a) + V3{rotate(t.c0, back), rotate(t.c1, back), rotate(t.c2, back)});
+  }
+  for (int e = r.w_start[g], end = r.w_start[g + 1]; e < end; ++e) {
+    double* a = acc + r.w_src[e];
+    store3(a, load3(a) + block_transpose_times(r.w_val + 36L * e, y));
+  }
 }
 
+// A near row's nearest entry premultiplied: B_g^-1 times the blocks of its last whole entry.
+inline const double* near_entry(const View& r, int g) { return r.n_val + 36L * g; }
+
 // The cost of a layout with `stretch` nodes per lane, roughly in multiply-adds per
-// triangular solve: per group the diagonal solve and, per entry of the lower triangle (the
-// upper one mirrors it), 21 for four whole blocks, 7 for four scalars, more for shifted lanes
+// triangular solve: per group the diagonal solve and, per entry of the lower triangle (both
+// solves use it), 21 for four whole blocks, 7 for four scalars, more for shifted lanes
 // and much more for a group solved lane by lane. Only every `every`-th group is counted.
 double layout_cost(const BlockPattern& pattern, const std::vector<char>& whole_slot,
                    const std::vector<char>& fixed, const std::vector<int>& base,
@@ -251,7 +277,8 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot, b
           rows.i_slot.push_back(s);
           continue;
         }
-        links.push_back({static_cast<long>(gj) * kLanes + ((k - kj) & (kLanes - 1)), k, s});
+        if (!upper)
+          links.push_back({static_cast<long>(gj) * kLanes + ((k - kj) & (kLanes - 1)), k, s});
       }
     }
     // By source group, the farthest from the diagonal first.
@@ -288,6 +315,7 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot, b
   rows.x_val.assign(36 * rows.x_src.size(), 0.0);
   rows.s_val.assign(kLanes * rows.s_src.size(), 0.0);
   rows.i_val.assign(9 * rows.i_slot.size(), 0.0);
+  rows.n_val.assign(upper ? 0 : 36L * groups_, 0.0);
 }
 
 void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed,
@@ -354,6 +382,7 @@ void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed,
   // Fixed and absent nodes keep zero diagonal blocks; assign writes the rest.
   diag_.assign(36L * groups_, 0.0);
   binv_.assign(36L * groups_, 0.0);
+  acc_.assign(12L * groups_, 0.0);
 }
 
 void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega,
@@ -383,7 +412,8 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
   // The nearest group's blocks of a near row times B_g^-1: P(r, c) = sum_q B^-1(r, q) M(q, c).
   for (int g = 0; g < groups_; ++g) {
     if (!lower_.near[g]) continue;
-    double* m = lower_.w_val.data() + 36L * (lower_.w_start[g + 1] - 1);
+    const double* m = lower_.w_val.data() + 36L * (lower_.w_start[g + 1] - 1);
+    double* pm = lower_.n_val.data() + 36L * g;
     const double* bi = binv_.data() + 36L * g;
     V4 prod[9];
     for (int c = 0; c < 3; ++c)
@@ -391,7 +421,7 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
         prod[3 * c + r] = load(bi + 4 * r) * load(m + 4 * (3 * c)) +
                           load(bi + 4 * (3 + r)) * load(m + 4 * (3 * c + 1)) +
                           load(bi + 4 * (6 + r)) * load(m + 4 * (3 * c + 2));
-    for (int q = 0; q < 9; ++q) store(m + 4 * q, prod[q]);
+    for (int q = 0; q < 9; ++q) store(pm + 4 * q, prod[q]);
   }
 }
 
@@ -444,7 +474,7 @@ double SsorOperator::lower_solve(const double* v, double* y, const double* p,
   V3 last = zero3();  // y of the group solved just before
   for (int g = 0; g < groups_; ++g) {
     const long o = 12L * g;
-    const V3 rest = row_times(rows, g, y);
+    const V3 rest = row_times(rows, g, y, true);
     V3 yg;
     if (rows.i_start[g] == rows.i_start[g + 1]) {
       yg = block_times(binv + 36L * g, load3(v + o) - rest);
@@ -475,13 +505,17 @@ void SsorOperator::step_and_solve_upper(const double* z, double beta, double* p,
   upper_solve<true>(z, beta, p, y, u, cp, cu, x, a);
 }
 
-// y_g = B_g^-1 (v_g - sum of the row's blocks times the y's solved before), from the last
-// group down (the upper rows keep no premultiplied entry: the row sum is u's L^T y).
+// From the last group down: y_g = B_g^-1 (v_g - s_g), where s_g, the sum of L^T's row
+// times the y's solved before, has been gathered in acc_ by columns: once y_g is known, the
+// transposes of its lower row's blocks times y_g go to the groups they couple to (all
+// solved later). Only the lower triangle is kept. s_g is also u's L^T y; acc_ is left zero.
 template <bool kStep>
 void SsorOperator::upper_solve(const double* z, double beta, double* v, double* y, double* u,
                                double cp, double cu, double* x, double a) const {
-  const View rows = view_of(upper_);
+  const View rows = view_of(lower_);
   const double* binv = binv_.data();
+  double* acc = acc_.data();
+  const V3 zero = zero3();
   for (int g = groups_ - 1; g >= 0; --g) {
     const long o = 12L * g;
     V3 vg = load3(v + o);
@@ -492,18 +526,23 @@ void SsorOperator::upper_solve(const double* z, double beta, double* v, double* 
       if (a != 0.0)  // y still holds the previous step's values here
         for (int c = 0; c < 12; c += 4) store(x + o + c, load(x + o + c) + a * load(y + o + c));
     }
-    V3 sum = row_times(rows, g, y);
-    if (rows.i_start[g] == rows.i_start[g + 1]) {
-      store3(y + o, block_times(binv + 36L * g, vg - sum));
+    V3 sum = load3(acc + o);
+    store3(acc + o, zero);
+    V3 yg;
+    if (rows.i_start[g] == rows.i_start[g + 1] && upper_.i_start[g] == upper_.i_start[g + 1]) {
+      yg = block_times(binv + 36L * g, vg - sum);
+      store3(y + o, yg);
     } else {
-      double acc[12];
-      store3(acc, sum);
-      lane_by_lane<true>(upper_, g, v + o, y, acc);
-      sum = load3(acc);
+      double s[12];
+      store3(s, sum);
+      lane_by_lane<true>(upper_, g, v + o, y, s);
+      sum = load3(s);
+      yg = load3(y + o);
     }
     if (u)
       store3(u + o,
              V3{cp * vg.c0 + cu * sum.c0, cp * vg.c1 + cu * sum.c1, cp * vg.c2 + cu * sum.c2});
+    add_column_times(rows, g, yg, acc);
   }
 }
 
@@ -529,20 +568,15 @@ void SsorOperator::axpy(double a, const double* t, double* x) const {
   for (long k = 0; k < vector_size(); k += 4) store(x + k, load(x + k) + a * load(t + k));
 }
 
-// A x = D x + L x + L^T x; a near lower row's nearest entry holds P = B^-1 times the
-// blocks, so its part is B (P x) = D (P x) / omega.
+// A x = D x + L x + L^T x: by groups, the diagonal and lower row (gathered), then the
+// transposes of the lower row's blocks times x_g added to the earlier groups they couple to.
 void SsorOperator::multiply(const double* x, double* y) const {
-  const View lower = view_of(lower_), upper = view_of(upper_);
+  const View lower = view_of(lower_);
   const double* diag = diag_.data();
   for (int g = 0; g < groups_; ++g) {
     const long o = 12L * g;
-    const double* dg = diag + 36L * g;
-    V3 yg = block_times(dg, load3(x + o));
-    yg += row_times(lower, g, x);
-    yg += row_times(upper, g, x);
-    if (lower.near[g])
-      yg += (1.0 / omega_) * block_times(dg, block_times(near_entry(lower, g), load3(x + o - 12)));
-    store3(y + o, yg);
+    const V3 xg = load3(x + o);
+    store3(y + o, block_times(diag + 36L * g, xg) + row_times(lower, g, x, false));
     for (const Rows* rows : {&lower_, &upper_})
       for (int e = rows->i_start[g]; e < rows->i_start[g + 1]; ++e) {
         const double* m = rows->i_val.data() + 9L * e;
@@ -550,6 +584,7 @@ void SsorOperator::multiply(const double* x, double* y) const {
         for (int c = 0; c < 3; ++c)
           for (int r = 0; r < 3; ++r) y[o + 4 * r + k] += m[3 * c + r] * x[o + 4 * c + from];
       }
+    add_column_times(lower, g, xg, y);
   }
 }
 

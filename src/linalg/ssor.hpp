@@ -16,16 +16,21 @@
 // block-triangular solves (B + L) y = v and (B + L^T) y = v, y = A x and y = s D x.
 //
 // Vectors are by group: 12 doubles, the three components of the group's four nodes
-// (x0 of lanes 0-3, x1 of lanes 0-3, x2 of lanes 0-3). Both triangles are kept by rows of
-// groups: an entry is a source group, a lane shift (lane k couples to lane k - shift of the
-// source, almost always the same lane) and the four lanes' 3x3 blocks (zero where a lane has
-// no such coupling), applied with nine four-wide multiply-adds. Entries whose four blocks are
-// multiples of the identity (the hinge couplings of the bending elements, about half the
-// off-diagonal blocks of a cloth) are stored as four numbers. The stretch length is chosen
-// near n / kLanes so that the lanes' coupling patterns coincide (on a grid, lanes start in
-// the same column and row parity), which keeps the union of their entries small. Groups
-// whose nodes are coupled (tiny meshes) are solved lane by lane. Fixed nodes and the lanes
-// past the last node hold zero blocks and come out zero.
+// (x0 of lanes 0-3, x1 of lanes 0-3, x2 of lanes 0-3). Only the lower triangle is kept, by
+// rows of groups: an entry is a source group, a lane shift (lane k couples to lane k - shift
+// of the source, almost always the same lane) and the four lanes' 3x3 blocks (zero where a
+// lane has no such coupling), applied with nine four-wide multiply-adds. Entries whose four
+// blocks are multiples of the identity (the hinge couplings of the bending elements, about
+// half the off-diagonal blocks of a cloth) are stored as four numbers. The lower solve
+// gathers each group's row; the upper solve uses the same rows by columns, adding the
+// transposed blocks times a solved group's values to the sums of the groups they couple to.
+// In the lower solve, the chain of dependent groups runs through the group solved just
+// before, so that entry is also kept premultiplied by the group's inverse diagonal: each
+// group then waits on one block product. The stretch length is chosen near n / kLanes so
+// that the lanes' coupling patterns coincide (on a grid, lanes start in the same column and
+// row parity), which keeps the union of their entries small. Groups whose nodes are coupled
+// (tiny meshes) are solved lane by lane. Fixed nodes and the lanes past the last node hold
+// zero blocks and come out zero.
 #include <vector>
 
 #include "linalg/block_sparse.hpp"
@@ -57,7 +62,8 @@ class SsorOperator {
     return 12L * (slot_[p] / kLanes) + kLanes * c + slot_[p] % kLanes;
   }
   double omega() const { return omega_; }
-  /// Entries of both triangles: four lanes' whole blocks, four lanes' scalars.
+  /// Blocks kept (each coupling once, in the lower triangle, plus both blocks of couplings
+  /// inside a group): stored whole, stored as a scalar.
   long num_whole() const;
   long num_scalar() const;
   /// Groups solved lane by lane because their nodes are coupled.
@@ -92,12 +98,12 @@ class SsorOperator {
   void unpad(const VecX& g, VecX& v) const;
 
  private:
-  // One triangle of A by rows of groups. Entries of a row: whole blocks of the same lanes
-  // (w_), scalar blocks of the same lanes (s_), blocks of shifted lanes (x_, whole) and,
-  // in groups whose nodes are coupled, single blocks between lanes of the group (i_).
-  // Whole values are 36 doubles per entry, (3 c + r) * 4 + lane for block entry (r, c);
-  // sources are offsets into the vectors (12 times the group). Slots are A's block slots per
-  // entry and lane (-1: none).
+  // The lower triangle of A by rows of groups (upper_ holds only the couplings inside
+  // groups solved lane by lane, those to later lanes). Entries of a row: whole blocks of the same
+  // lanes (w_), scalar blocks of the same lanes (s_), blocks of shifted lanes (x_, whole) and, in
+  // groups whose nodes are coupled, single blocks between lanes of the group (i_). Whole values are
+  // 36 doubles per entry, (3 c + r) * 4 + lane for block entry (r, c); sources are offsets into the
+  // vectors (12 times the group). Slots are A's block slots per entry and lane (-1: none).
   struct Rows {
     std::vector<int> w_start, w_src, w_slot;
     std::vector<double> w_val;
@@ -108,8 +114,10 @@ class SsorOperator {
     std::vector<int> i_start, i_lane, i_from, i_slot;
     std::vector<double> i_val;  ///< 9 doubles per entry, column-major
     /// Per group of the lower triangle: 1 when its last whole entry is the group solved just
-    /// before (g - 1) and holds B_g^-1 times the blocks (always 0 in the upper triangle).
+    /// before (g - 1), whose blocks premultiplied by B_g^-1 are kept in n_val (36 doubles
+    /// per group).
     std::vector<char> near;
+    std::vector<double> n_val;
     /// Copies the values from A's blocks; false when a block stored as a scalar is not a
     /// multiple of the identity.
     bool fill(const double* a);
@@ -137,6 +145,8 @@ class SsorOperator {
   Rows lower_, upper_;
   std::vector<double> diag_;  ///< D per group, 36 doubles laid out as a whole entry
   std::vector<double> binv_;  ///< B^-1 = omega D^-1 likewise (zero on fixed and absent nodes)
+  /// The upper solve's row sums, gathered by columns (zero between solves).
+  mutable std::vector<double> acc_;
 };
 
 }  // namespace weft
