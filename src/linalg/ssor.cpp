@@ -134,6 +134,31 @@ inline void add_column_times(const View& r, int g, const V3& y, double* acc) {
 // A near row's nearest entry premultiplied: B_g^-1 times the blocks of its last whole entry.
 inline const double* near_entry(const View& r, int g) { return r.n_val + 36L * g; }
 
+// Four lanes' blocks of a (9 doubles each at the slots, zeros where a slot is -1) to each
+// entry's 36 doubles: two 4x4 transposes and the last entries.
+void copy_lanes(const double* a, const std::vector<int>& slot, std::vector<double>& val) {
+  static const double kZero[9] = {};
+  const long entries = static_cast<long>(slot.size()) / kLanes;
+  for (long e = 0; e < entries; ++e) {
+    const double* m[kLanes];
+    for (int k = 0; k < kLanes; ++k)
+      m[k] = slot[kLanes * e + k] < 0 ? kZero : a + 9L * slot[kLanes * e + k];
+    double* d = val.data() + 36 * e;
+    for (int h = 0; h < 8; h += 4) {
+      const V4 r0 = load(m[0] + h), r1 = load(m[1] + h), r2 = load(m[2] + h), r3 = load(m[3] + h);
+      const V4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6),
+               t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
+      const V4 t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6),
+               t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
+      store(d + 4 * h, __builtin_shufflevector(t0, t2, 0, 1, 4, 5));
+      store(d + 4 * h + 4, __builtin_shufflevector(t1, t3, 0, 1, 4, 5));
+      store(d + 4 * h + 8, __builtin_shufflevector(t0, t2, 2, 3, 6, 7));
+      store(d + 4 * h + 12, __builtin_shufflevector(t1, t3, 2, 3, 6, 7));
+    }
+    store(d + 32, V4{m[0][8], m[1][8], m[2][8], m[3][8]});
+  }
+}
+
 // The cost of a layout with `stretch` nodes per lane, roughly in multiply-adds per
 // triangular solve: per group the diagonal solve and, per entry of the lower triangle (both
 // solves use it), 21 for four whole blocks, 7 for four scalars, more for shifted lanes
@@ -207,32 +232,8 @@ int SsorOperator::num_sequential_groups() const {
 }
 
 bool SsorOperator::Rows::fill(const double* a) {
-  // Four lanes' blocks (9 doubles each, zeros where a lane has none) to an entry's 36: two
-  // 4x4 transposes and the last entries.
-  static const double kZero[9] = {};
-  auto copy_lanes = [a](const std::vector<int>& slot, std::vector<double>& val) {
-    const long entries = static_cast<long>(slot.size()) / kLanes;
-    for (long e = 0; e < entries; ++e) {
-      const double* m[kLanes];
-      for (int k = 0; k < kLanes; ++k)
-        m[k] = slot[kLanes * e + k] < 0 ? kZero : a + 9L * slot[kLanes * e + k];
-      double* d = val.data() + 36 * e;
-      for (int h = 0; h < 8; h += 4) {
-        const V4 r0 = load(m[0] + h), r1 = load(m[1] + h), r2 = load(m[2] + h), r3 = load(m[3] + h);
-        const V4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6),
-                 t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
-        const V4 t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6),
-                 t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
-        store(d + 4 * h, __builtin_shufflevector(t0, t2, 0, 1, 4, 5));
-        store(d + 4 * h + 4, __builtin_shufflevector(t1, t3, 0, 1, 4, 5));
-        store(d + 4 * h + 8, __builtin_shufflevector(t0, t2, 2, 3, 6, 7));
-        store(d + 4 * h + 12, __builtin_shufflevector(t1, t3, 2, 3, 6, 7));
-      }
-      store(d + 32, V4{m[0][8], m[1][8], m[2][8], m[3][8]});
-    }
-  };
-  copy_lanes(w_slot, w_val);
-  copy_lanes(x_slot, x_val);
+  copy_lanes(a, w_slot, w_val);
+  copy_lanes(a, x_slot, x_val);
   for (size_t e = 0; e < s_slot.size(); ++e) {
     if (s_slot[e] < 0) continue;
     const double* m = a + 9L * s_slot[e];
@@ -383,6 +384,13 @@ void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed,
   diag_.assign(36L * groups_, 0.0);
   binv_.assign(36L * groups_, 0.0);
   acc_.assign(12L * groups_, 0.0);
+  diag_slot_.assign(static_cast<size_t>(kLanes) * groups_, -1);
+  present_.assign(static_cast<size_t>(kLanes) * groups_, 0.0);
+  for (int p = 0; p < n_; ++p)
+    if (!fixed_[order_[p]]) {
+      diag_slot_[slot_[p]] = pattern_->diagonal_slot(order_[p]);
+      present_[slot_[p]] = 1.0;
+    }
 }
 
 void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega,
@@ -397,17 +405,35 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
     if (lower_.fill(a) && upper_.fill(a)) break;
     build(A, fixed, base);  // a block stored as a scalar stopped being one: lay out again
   }
-  for (int p = 0; p < n_; ++p) {
-    const int i = order_[p];
-    if (fixed_[i]) continue;
-    const Mat3& d = A.block[pattern_->diagonal_slot(i)];
-    const Mat3 inv = invert_spd_block(d);
-    const long o = 36L * (slot_[p] / kLanes) + slot_[p] % kLanes;
-    for (int c = 0; c < 3; ++c)
-      for (int r = 0; r < 3; ++r) {
-        diag_[o + 4 * (3 * c + r)] = d(r, c);
-        binv_[o + 4 * (3 * c + r)] = omega * inv(r, c);
-      }
+  // D by lanes, and B^-1 = omega D^-1 four lanes at a time from the symmetric cofactors of
+  // D's lower triangle (a lane whose D is numerically singular takes invert_spd_block's
+  // fallback; fixed and absent lanes stay zero).
+  copy_lanes(a, diag_slot_, diag_);
+  for (int g = 0; g < groups_; ++g) {
+    const double* d = diag_.data() + 36L * g;
+    const V4 a00 = load(d), a10 = load(d + 4), a20 = load(d + 8), a11 = load(d + 16),
+             a21 = load(d + 20), a22 = load(d + 32);
+    const V4 c00 = a11 * a22 - a21 * a21, c10 = a20 * a21 - a10 * a22, c20 = a10 * a21 - a20 * a11;
+    const V4 c11 = a00 * a22 - a20 * a20, c21 = a10 * a20 - a00 * a21, c22 = a00 * a11 - a10 * a10;
+    const V4 det = a00 * c00 + a10 * c10 + a20 * c20;
+    const V4 present = load(present_.data() + 4L * g);
+    const V4 s = present * (omega / (det + (1.0 - present)));  // 0 on fixed and absent lanes
+    double* bi = binv_.data() + 36L * g;
+    store(bi, s * c00);
+    store(bi + 4, s * c10);
+    store(bi + 8, s * c20);
+    store(bi + 12, s * c10);
+    store(bi + 16, s * c11);
+    store(bi + 20, s * c21);
+    store(bi + 24, s * c20);
+    store(bi + 28, s * c21);
+    store(bi + 32, s * c22);
+    for (int k = 0; k < kLanes; ++k) {
+      if (present[k] == 0.0 || (det[k] > 0 && std::isfinite(det[k]))) continue;
+      const Mat3 inv = omega * invert_spd_block(A.block[diag_slot_[kLanes * g + k]]);
+      for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r) bi[4 * (3 * c + r) + k] = inv(r, c);
+    }
   }
   // The nearest group's blocks of a near row times B_g^-1: P(r, c) = sum_q B^-1(r, q) M(q, c).
   for (int g = 0; g < groups_; ++g) {

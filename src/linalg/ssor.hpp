@@ -145,6 +145,10 @@ class SsorOperator {
   Rows lower_, upper_;
   std::vector<double> diag_;  ///< D per group, 36 doubles laid out as a whole entry
   std::vector<double> binv_;  ///< B^-1 = omega D^-1 likewise (zero on fixed and absent nodes)
+  /// Per slot: A's diagonal block slot and 1.0 for a free node (-1 and 0.0 for fixed and
+  /// absent nodes).
+  std::vector<int> diag_slot_;
+  std::vector<double> present_;
   /// The upper solve's row sums, gathered by columns (zero between solves).
   mutable std::vector<double> acc_;
 };

@@ -208,6 +208,44 @@ TEST(Ssor, LayoutFollowsTheMatrix) {
   EXPECT_LE((by_position(S, y4) - expected).norm(), 1e-12 * expected.norm());
 }
 
+// A free node whose diagonal block is numerically singular gets the inverse of the block's
+// diagonal in B^-1 (invert_spd_block's fallback), while the other lanes of its group keep
+// their exact inverses: with v nonzero at one node only, y there is B^-1 v.
+TEST(Ssor, SingularDiagonalBlockFallsBackToItsDiagonal) {
+  test::ClothStepProblem p;
+  test::make_cloth_step_problem(9, 0.02, p);
+  const auto& fixed = p.fixed();
+  BlockMatrix A = p.matrix();
+  const int node = 40;
+  ASSERT_FALSE(fixed[node]);
+  const Vec3 u(1.0, 2.0, -0.5);
+  A.block[A.pattern->diagonal_slot(node)] = u * u.transpose();  // rank one: determinant 0
+  const double omega = 1.2;
+  SsorOperator S;
+  S.assign(A, fixed, omega);
+  int position = -1;
+  for (int q = 0; q < S.num_nodes(); ++q)
+    if (S.order()[q] == node) position = q;
+  ASSERT_GE(position, 0);
+  int neighbour = -1;  // a node of the same group
+  for (int q = 0; q < S.num_nodes(); ++q)
+    if (q != position && S.index(q, 0) / 12 == S.index(position, 0) / 12 && !fixed[S.order()[q]])
+      neighbour = S.order()[q];
+  ASSERT_GE(neighbour, 0);
+  for (int probe : {node, neighbour}) {
+    VecX v = VecX::Zero(3 * 81), v4, y4(S.vector_size());
+    v.segment<3>(3 * probe) = Vec3(0.3, -1.0, 2.0);
+    S.pad(v, v4);
+    S.solve_lower(v4.data(), y4.data());
+    VecX y;
+    S.unpad(y4, y);
+    const Mat3& d = A.block[A.pattern->diagonal_slot(probe)];
+    const Mat3 inv = probe == node ? inverse_of_diagonal(d) : Mat3(d.inverse());
+    const Vec3 expected = omega * inv * v.segment<3>(3 * probe);
+    EXPECT_LE((y.segment<3>(3 * probe) - expected).norm(), 1e-12 * expected.norm()) << "node " << probe;
+  }
+}
+
 // In exact arithmetic CG on the transformed system produces the same iterates as textbook
 // PCG with the explicit SSOR preconditioner M^-1 = (B + U)^-1 B (B + L)^-1 (in the solves'
 // order). After the same number of iterations from the same guess both must agree to
