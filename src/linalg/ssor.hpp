@@ -55,7 +55,8 @@ class SsorOperator {
   int stretch() const { return groups_; }
   /// Doubles in one of the operator's vectors (12 per group).
   long vector_size() const { return 12L * groups_; }
-  /// The node at each position of the solves' order; vectors are by position.
+  /// The node at each position of the solves' order (index() places a position in the
+  /// operator's vectors).
   const std::vector<int>& order() const { return order_; }
   /// Where component c of the node at position p lies in a vector.
   long index(int p, int c) const {
