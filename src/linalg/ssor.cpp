@@ -282,10 +282,9 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot, b
           links.push_back({static_cast<long>(gj) * kLanes + ((k - kj) & (kLanes - 1)), k, s});
       }
     }
-    // By source group, the farthest from the diagonal first.
-    std::sort(links.begin(), links.end(), [upper](const Link& a, const Link& b) {
-      return upper ? a.key > b.key : a.key < b.key;
-    });
+    // By source group, the farthest from the diagonal first (only the lower rows have any).
+    std::sort(links.begin(), links.end(),
+              [](const Link& a, const Link& b) { return a.key < b.key; });
     for (size_t e = 0; e < links.size();) {
       size_t end = e;
       bool whole = links[e].key % kLanes != 0;
@@ -555,7 +554,7 @@ void SsorOperator::upper_solve(const double* z, double beta, double* v, double* 
     V3 sum = load3(acc + o);
     store3(acc + o, zero);
     V3 yg;
-    if (rows.i_start[g] == rows.i_start[g + 1] && upper_.i_start[g] == upper_.i_start[g + 1]) {
+    if (upper_.i_start[g] == upper_.i_start[g + 1]) {  // no couplings inside the group
       yg = block_times(binv + 36L * g, vg - sum);
       store3(y + o, yg);
     } else {
