@@ -42,7 +42,7 @@ std::string method_names() {
 }
 
 Integrator::Integrator(System& system, IntegratorSettings settings)
-    : system_(system), settings_(settings) {
+    : system_(system), settings_(settings), history_(settings.warm_start_history) {
   step_.matrix.reset(system_.pattern());
   const int n = system_.num_nodes();
   mass3_.resize(3 * n);
@@ -172,8 +172,17 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   stats.assembly_seconds += seconds_since(t0);
 
   const auto t1 = Clock::now();
-  // Warm start from the previous change in velocity.
-  if (s.dv_prev.size() == 3 * n) dv_ = s.dv_prev; else dv_ = VecX::Zero(3 * n);
+  // Warm start: the combination of the last steps' solutions whose right-hand sides best fit
+  // this one (SolutionHistory), else the previous change in velocity.
+  if (alpha != history_alpha_ || beta != history_beta_ || dt_b != history_dt_b_ || s.t != history_t_) {
+    history_.clear();
+    history_alpha_ = alpha;
+    history_beta_ = beta;
+    history_dt_b_ = dt_b;
+  }
+  if (!history_.guess(rhs_, dv_)) {
+    if (s.dv_prev.size() == 3 * n) dv_ = s.dv_prev; else dv_ = VecX::Zero(3 * n);
+  }
   PcgSettings ps{settings_.cg_tolerance, settings_.cg_max_iterations, preconditioner_};
   ps.node_order = system_.solver_order();
   ps.ssor_omega = settings_.ssor_relaxation;
@@ -181,6 +190,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   stats.cg_iterations += r.iterations;
   ++stats.cg_solves;
   if (!r.converged) ++stats.cg_failures;
+  if (r.converged) history_.record(rhs_, system_.fixed(), dv_);
   stats.solve_seconds += seconds_since(t1);
 
   // dx = beta dx_p + dt_b (v + alpha dv), built in dx_prev's storage (no allocation per step);
@@ -203,6 +213,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   s.dv_prev = dv_;
   s.has_history = true;
   s.t += dt;
+  history_t_ = s.t;
 }
 
 void Integrator::derivative(const VecX& x, const VecX& v, VecX& a, double& viscous_power) {

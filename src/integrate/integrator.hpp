@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "linalg/pcg.hpp"
+#include "linalg/solution_history.hpp"
 #include "system/system.hpp"
 
 namespace weft {
@@ -27,6 +28,9 @@ struct IntegratorSettings {
   double error_tolerance = 1e-6;    ///< RK45 local error tolerance (relative and absolute)
   /// SSOR relaxation in (0, 2); 0 chooses it from the mesh size (ssor_relaxation_for).
   double ssor_relaxation = 0.0;
+  /// Steps whose right-hand sides and solutions the linear solves' warm start combines
+  /// (SolutionHistory); 0 starts each solve from the previous step's dv.
+  int warm_start_history = 3;
 };
 
 /// Free nodes from which the automatic choice is multigrid rather than SSOR: below, SSOR's
@@ -99,6 +103,10 @@ class Integrator {
   PcgWorkspace pcg_;
   Preconditioner preconditioner_ = Preconditioner::kBlockJacobi;
   VecX rhs_, dv_, tmp_, tmp2_;
+  SolutionHistory history_;
+  /// The linear step the history's solves belong to (alpha, beta, dt_b) and the time they
+  /// reached: another step size or a state from elsewhere starts the history afresh.
+  double history_alpha_ = -1, history_beta_ = 0, history_dt_b_ = 0, history_t_ = 0;
   VecX mass3_;  ///< mass per coordinate
 };
 

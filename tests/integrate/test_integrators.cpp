@@ -155,3 +155,39 @@ TEST(Energy, ImplicitMidpointKeepsEnergyOfUndampedLinearSystemBackwardEulerLoses
     }
   }
 }
+
+TEST(WarmStart, ConstantMatrixNeedsNoIterationsOnceTheHistorySpansTheRightHandSides) {
+  // Two nodes on zero-rest-length springs (linear, undamped): the step matrix is the same
+  // every step, and the right-hand side, -dt K (x + dt v / 2), follows the step map of the
+  // two nodes' positions and velocities, the same 4x4 map in each direction, so any four
+  // consecutive right-hand sides span all later ones (Cayley-Hamilton). With four pairs kept
+  // the guess is the solution itself, and the solve takes no iteration; with three it is
+  // not (the test fails), nor with none (the previous dv as the guess).
+  VecX mass(2);
+  mass << 1.0, 1.3;
+  const std::vector<weft::test::Spring> springs = {{0, 1, 40.0, 0.0, 0.0}, {1, -1, 25.0, 0.0, 0.0}};
+  State s0;
+  s0.x = VecX(6);
+  s0.x << 0.3, -0.2, 0.5, 1.1, 0.4, -0.7;
+  s0.v = VecX(6);
+  s0.v << 0.2, 0.9, -0.4, -0.5, 0.1, 0.3;
+  for (int history : {4, 0}) {
+    weft::test::SpringSystem sys(mass, springs);
+    auto st = settings_for(Method::AlphaFamily, 0.5, 0.05);
+    st.cg_tolerance = 1e-8;
+    st.warm_start_history = history;
+    Integrator integ(sys, st);
+    State s = s0;
+    StepStatistics stats;
+    for (int k = 0; k < 6; ++k) integ.step(s, 0.05, stats);
+    for (int k = 0; k < 20; ++k) {
+      const long before = stats.cg_iterations;
+      integ.step(s, 0.05, stats);
+      if (history > 0)
+        EXPECT_EQ(stats.cg_iterations - before, 0) << "step " << 7 + k;
+      else
+        EXPECT_GT(stats.cg_iterations - before, 0) << "step " << 7 + k;
+    }
+    EXPECT_EQ(stats.cg_failures, 0);
+  }
+}
