@@ -549,6 +549,28 @@ inline D4 node_values(const double* y, int j) {
 }
 inline D4 dot3(const D4* a, const D4* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
+// project_indefinite_2x2 of four lanes' [[a, c], [c, b]] (the same expressions, so the same
+// values), applied to the lanes where `keep` is false.
+template <class Mask>
+inline void project_indefinite_lanes(D4& a, D4& b, D4& c, Mask keep) {
+  const D4 zero = splat(0);
+  const D4 h = 0.5 * (a - b), mean = 0.5 * (a + b), q = h * h + c * c;
+  const D4 r = {std::sqrt(q[0]), std::sqrt(q[1]), std::sqrt(q[2]), std::sqrt(q[3])};
+  const D4 l1 = mean + r;
+  const Mask degenerate = (l1 <= 0) | ~(r > 0);
+  const Mask h_positive = h >= 0;
+  const D4 large = h_positive ? h + r : r - h;
+  const D4 small = c * c / large;
+  const D4 scale = l1 / (2 * r);
+  const D4 positive_l1 = l1 < 0 ? zero : l1;  // std::max(l1, 0.0)
+  const D4 pa = degenerate ? positive_l1 : scale * (h_positive ? large : small);
+  const D4 pb = degenerate ? positive_l1 : scale * (h_positive ? small : large);
+  const D4 pc = degenerate ? zero : scale * c;
+  a = keep ? a : pa;
+  b = keep ? b : pb;
+  c = keep ? c : pc;
+}
+
 // A batch of four triangles: lane l of each D4 is triangle tr[l]'s area and shape-function
 // gradients r_u, r_v; o[k][l] the offset of its vertex k.
 struct TriangleBatch {
@@ -622,17 +644,11 @@ void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const
     const D4 sv0 = eu * r0, sv1 = ev * r1, sv2 = es * r2;
     power -= A * (sv0 * r0 + sv1 * r1 + sv2 * r2);
     const D4 fu = A * (suu + sv0), fv = A * (svv + sv1), fs = A * (suv + sv2);
-    // The stress matrix projected to its positive semi-definite part, lane by lane where it
+    // The stress matrix projected to its positive semi-definite part in the lanes where it
     // is not already.
     D4 s00 = suu, s11 = svv, s01 = suv;
-    for (int l = 0; l < 4; ++l)
-      if (!(s00[l] >= 0 && s11[l] >= 0 && s00[l] * s11[l] >= s01[l] * s01[l])) {
-        double a = s00[l], b = s11[l], cc = s01[l];
-        project_indefinite_2x2(a, b, cc);
-        s00[l] = a;
-        s11[l] = b;
-        s01[l] = cc;
-      }
+    const auto psd = (s00 >= 0) & (s11 >= 0) & (s00 * s11 >= s01 * s01);
+    if (!(psd[0] & psd[1] & psd[2] & psd[3])) project_indefinite_lanes(s00, s11, s01, psd);
     const D4 da = dot3(U, dU), db = dot3(V, dV), dc = dot3(U, dV) + dot3(V, dU);
     const D4 du = tu * da + tc * db, dv = tv * db + tc * da, ds = ts * dc;
     for (int c = 0; c < 3; ++c) {
