@@ -37,7 +37,10 @@ inline double reduce(long size, Term term) {
 // second (w - 1) p + (2 - w) L^T t, written by the first. x itself is updated with the t's.
 // The transformed residual r^ = (B + L)^-1 r is not the true one, so the true residual is
 // computed (one product) whenever |r^| scaled by the last known |r| / |r^| reaches the
-// target, and CG stops only when the true |r| does. Vectors are in the operator's layout
+// target, and CG stops only when the true |r| does. The ratio starts from the one found at
+// the previous solve's last check (the solves of a simulation resemble each other; the
+// initial residual's ratio is often far from the ratio near convergence), else the initial
+// residual's. Vectors are in the operator's layout
 // (12 doubles per group of four nodes).
 PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const PcgSettings& settings,
                      double bnorm, VecX& x, PcgWorkspace& ws) {
@@ -73,7 +76,7 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
   if (rnorm > target) {
     for (long k = 0; k < size; ++k) wp[k] = bp[k] - qp[k];
     S.solve_lower(wp, rp);  // r^
-    double scale = rnorm / std::max(ws.r.norm(), 1e-300);
+    double scale = ws.ssor_residual_ratio > 0 ? ws.ssor_residual_ratio : rnorm / std::max(ws.r.norm(), 1e-300);
     ws.p.setZero();
     S.diagonal_times(1.0 / omega, rp, zp);  // z^ = B r^
     double rz = reduce(size, [&](long k) { return rp[k] * zp[k]; });
@@ -99,8 +102,9 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
         pending = 0.0;
         rnorm = true_residual();
         rnorm_current = true;
-        if (rnorm <= target) break;
         scale = rnorm / std::max(rh_norm, 1e-300);
+        ws.ssor_residual_ratio = scale;
+        if (rnorm <= target) break;
       }
       beta = rz_new / rz;
       rz = rz_new;

@@ -47,6 +47,9 @@ struct PcgWorkspace {
   /// kSsor: the SSOR operators on a copy of A, and vectors with 4 doubles per node.
   SsorOperator ssor;
   VecX t, w, x4, b4;
+  /// kSsor: |r| / |r^| (true over transformed residual) at the last solve's last check of
+  /// the true residual, from which the next solve predicts when to check; 0: none yet.
+  double ssor_residual_ratio = 0;
 };
 
 /// The automatic SSOR relaxation for N free nodes, 2 / (1 + 3.5 N^-1/4): 1.24 at 33x33, 1.39

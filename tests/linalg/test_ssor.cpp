@@ -335,6 +335,42 @@ TEST(Ssor, SolvesToTheTrueResidualInFewerIterationsThanBlockJacobi) {
 
 // Outside 0 < omega < 2 the SSOR operator is not positive definite; the solver refuses
 // (0 asks for the automatic choice, which must lie inside and grow with the mesh).
+TEST(Ssor, StopsOnTheTrueResidualWhateverRatioThePreviousSolveLeft) {
+  // The solve predicts when to check the true residual from the ratio |r| / |r^| the
+  // previous solve left in the workspace. A ratio far too small (checks every iteration) or
+  // far too large (checks late) changes the work, not the answer; and the solve leaves the
+  // ratio it measured, not the one it was given.
+  test::ClothStepProblem p;
+  test::make_cloth_step_problem(33, 0.02, p);
+  const BlockMatrix& A = p.matrix();
+  const std::vector<char>& fixed = p.fixed();
+  PcgSettings s;
+  s.relative_tolerance = 1e-7;
+  s.preconditioner = Preconditioner::kSsor;
+  PcgWorkspace fresh;
+  VecX x_fresh = p.guess;
+  ASSERT_TRUE(solve_pcg(A, p.rhs, fixed, s, x_fresh, fresh).converged);
+  const double measured = fresh.ssor_residual_ratio;
+  ASSERT_GT(measured, 0.0);
+  VecX b = p.rhs;
+  zero_fixed(fixed, b);
+  for (double given : {1e-6, 1e6}) {
+    PcgWorkspace ws;
+    ws.ssor_residual_ratio = given;
+    VecX x = p.guess;
+    const PcgResult r = solve_pcg(A, p.rhs, fixed, s, x, ws);
+    ASSERT_TRUE(r.converged) << "given ratio " << given;
+    VecX res;
+    A.multiply(x, res);
+    res -= b;
+    zero_fixed(fixed, res);
+    EXPECT_LE(res.norm(), 1e-7 * b.norm()) << "given ratio " << given;
+    EXPECT_LE((x - x_fresh).norm(), 1e-4 * x_fresh.norm()) << "given ratio " << given;
+    EXPECT_GT(ws.ssor_residual_ratio, 1e-3 * measured) << "given ratio " << given;
+    EXPECT_LT(ws.ssor_residual_ratio, 1e3 * measured) << "given ratio " << given;
+  }
+}
+
 TEST(Ssor, RejectsRelaxationOutsideTheOpenInterval) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(5, 0.0, p);
