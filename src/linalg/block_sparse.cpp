@@ -1,6 +1,7 @@
 #include "linalg/block_sparse.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 namespace weft {
@@ -33,6 +34,11 @@ int BlockPattern::slot(int i, int j) const {
   auto begin = col_.begin() + row_start_[i], end = col_.begin() + row_start_[i + 1];
   auto it = std::lower_bound(begin, end, j);
   return (it != end && *it == j) ? static_cast<int>(it - col_.begin()) : -1;
+}
+
+long next_constant_version() {
+  static std::atomic<long> next{0};
+  return ++next;
 }
 
 void BlockMatrix::multiply(const VecX& x, VecX& y) const {

@@ -32,16 +32,31 @@ class BlockPattern {
   std::vector<int> row_start_, col_, diag_;
 };
 
+/// A number no other call returns (for BlockMatrix::constant_version).
+long next_constant_version();
+
 /// Values of a matrix on a BlockPattern.
 struct BlockMatrix {
   const BlockPattern* pattern = nullptr;
   std::vector<Mat3> block;
+  /// Optional, for the copies solvers make (SsorOperator): per slot, 1 where the block
+  /// changes only together with constant_version. The code that fills the matrix sets it
+  /// and must call constants_changed whenever it changes such a block; null: any block may
+  /// change at any time.
+  const std::vector<char>* constant_slots = nullptr;
+  long constant_version = next_constant_version();
 
   void reset(const BlockPattern& p) {
     pattern = &p;
     block.assign(p.num_blocks(), Mat3::Zero());
+    constants_changed();
   }
-  void set_zero() { std::fill(block.begin(), block.end(), Mat3::Zero()); }
+  void set_zero() {
+    std::fill(block.begin(), block.end(), Mat3::Zero());
+    constants_changed();
+  }
+  /// Marks the blocks of constant_slots as changed (a version no matrix had before).
+  void constants_changed() { constant_version = next_constant_version(); }
   /// y = A x
   void multiply(const VecX& x, VecX& y) const;
   /// Dense copy (tests and small systems only).

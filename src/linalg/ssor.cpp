@@ -231,20 +231,25 @@ int SsorOperator::num_sequential_groups() const {
   return count;
 }
 
-bool SsorOperator::Rows::fill(const double* a) {
+bool SsorOperator::Rows::fill(const double* a, bool constants) {
   copy_lanes(a, w_slot, w_val);
   copy_lanes(a, x_slot, x_val);
-  for (size_t e = 0; e < s_slot.size(); ++e) {
-    if (s_slot[e] < 0) continue;
-    const double* m = a + 9L * s_slot[e];
-    if (!is_multiple_of_identity(m)) return false;
-    s_val[e] = m[0];
+  // The constant scalar entries (the hinge couplings of a cloth, scattered through A) are
+  // read again only when they changed.
+  for (const std::vector<int>* list : {&s_variable, &s_constant}) {
+    if (list == &s_constant && !constants) continue;
+    for (const int e : *list) {
+      const double* m = a + 9L * s_slot[e];
+      if (!is_multiple_of_identity(m)) return false;
+      s_val[e] = m[0];
+    }
   }
   for (size_t e = 0; e < i_slot.size(); ++e) copy_block(a + 9L * i_slot[e], i_val.data() + 9 * e);
   return true;
 }
 
-void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot, bool upper) const {
+void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot,
+                              const std::vector<char>* constant_slots, bool upper) const {
   const auto& rs = pattern_->row_start();
   const auto& col = pattern_->column();
   std::vector<int> slot_node(static_cast<size_t>(kLanes) * groups_, -1);
@@ -314,6 +319,12 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot, b
   rows.w_val.assign(36 * rows.w_src.size(), 0.0);
   rows.x_val.assign(36 * rows.x_src.size(), 0.0);
   rows.s_val.assign(kLanes * rows.s_src.size(), 0.0);
+  rows.s_constant.clear();
+  rows.s_variable.clear();
+  for (size_t e = 0; e < rows.s_slot.size(); ++e)
+    if (rows.s_slot[e] >= 0)
+      (constant_slots && (*constant_slots)[rows.s_slot[e]] ? rows.s_constant : rows.s_variable)
+          .push_back(static_cast<int>(e));
   rows.i_val.assign(9 * rows.i_slot.size(), 0.0);
   rows.n_val.assign(upper ? 0 : 36L * groups_, 0.0);
 }
@@ -377,8 +388,12 @@ void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed,
       slot_.push_back(kLanes * g + k);
       node_slot_[b[m]] = kLanes * g + k;
     }
-  build_rows(lower_, whole_slot, false);
-  build_rows(upper_, whole_slot, true);
+  constant_slots_ = A.constant_slots && static_cast<int>(A.constant_slots->size()) == blocks_
+                        ? A.constant_slots
+                        : nullptr;
+  constant_version_ = 0;
+  build_rows(lower_, whole_slot, constant_slots_, false);
+  build_rows(upper_, whole_slot, constant_slots_, true);
   // Fixed and absent nodes keep zero diagonal blocks; assign writes the rest.
   diag_.assign(36L * groups_, 0.0);
   binv_.assign(36L * groups_, 0.0);
@@ -396,14 +411,17 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
                           const std::vector<int>* base) {
   const bool same = pattern_ == A.pattern && blocks_ == A.pattern->num_blocks() &&
                     n_ == A.pattern->num_nodes() && fixed_ == fixed &&
-                    (base ? *base == base_ : base_.empty());
+                    (base ? *base == base_ : base_.empty()) &&
+                    (constant_slots_ == A.constant_slots || !constant_slots_);
   if (!same) build(A, fixed, base);
   omega_ = omega;
   const double* a = A.block.front().data();
   for (int pass = 0; pass < 2; ++pass) {
-    if (lower_.fill(a) && upper_.fill(a)) break;
+    const bool constants = !constant_slots_ || A.constant_version != constant_version_;
+    if (lower_.fill(a, constants) && upper_.fill(a, constants)) break;
     build(A, fixed, base);  // a block stored as a scalar stopped being one: lay out again
   }
+  constant_version_ = constant_slots_ ? A.constant_version : 0;
   // D by lanes, and B^-1 = omega D^-1 four lanes at a time from the symmetric cofactors of
   // D's lower triangle (a lane whose D is numerically singular takes invert_spd_block's
   // fallback; fixed and absent lanes stay zero).

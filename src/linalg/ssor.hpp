@@ -110,6 +110,9 @@ class SsorOperator {
     std::vector<double> w_val;
     std::vector<int> s_start, s_src, s_slot;
     std::vector<double> s_val;
+    /// The scalar entries' lanes (indices into s_slot) whose slots are among the matrix's
+    /// constant slots (BlockMatrix::constant_slots), and the others.
+    std::vector<int> s_constant, s_variable;
     std::vector<int> x_start, x_src, x_shift, x_slot;
     std::vector<double> x_val;
     std::vector<int> i_start, i_lane, i_from, i_slot;
@@ -119,12 +122,13 @@ class SsorOperator {
     /// per group).
     std::vector<char> near;
     std::vector<double> n_val;
-    /// Copies the values from A's blocks; false when a block stored as a scalar is not a
-    /// multiple of the identity.
-    bool fill(const double* a);
+    /// Copies the values from A's blocks, those of the constant scalar entries only when
+    /// `constants`; false when a block stored as a scalar is not a multiple of the identity.
+    bool fill(const double* a, bool constants);
   };
   void build(const BlockMatrix& A, const std::vector<char>& fixed, const std::vector<int>* base);
-  void build_rows(Rows& rows, const std::vector<char>& whole_slot, bool upper) const;
+  void build_rows(Rows& rows, const std::vector<char>& whole_slot, const std::vector<char>* constant_slots,
+                  bool upper) const;
   template <bool kUpper>
   void lane_by_lane(const Rows& rows, int g, const double* v, double* y, double* acc) const;
   template <bool kDot>
@@ -134,6 +138,10 @@ class SsorOperator {
                    double cu, double* x, double a) const;
 
   const BlockPattern* pattern_ = nullptr;
+  /// The matrix's constant slots when laid out, and the version of their values copied
+  /// (none: 0; the versions start at 1).
+  const std::vector<char>* constant_slots_ = nullptr;
+  long constant_version_ = 0;
   int blocks_ = 0;
   int n_ = 0;
   int groups_ = 0;

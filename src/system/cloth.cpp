@@ -156,6 +156,8 @@ ClothSystem::ClothSystem(const ClothModel& model, DampingSettings damping)
     }
     p.bending_only_end = static_cast<int>(bending_only_slots_.size());
   }
+  constant_slots_.assign(model.pattern.num_blocks(), 0);
+  for (int slot : bending_only_slots_) constant_slots_[slot] = 1;
 }
 
 namespace {
@@ -767,7 +769,19 @@ void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, Ste
   out.gravity_energy = gravity_energy;
   out.elastic_energy = 0;
   out.viscous_power = 0;
-  if (!jacobians) out.matrix.set_zero();
+  if (!jacobians) {
+    out.matrix.set_zero();
+  } else {
+    // The blocks only bending couples are rewritten below with the same values unless ck or
+    // cd changed (or something else changed the matrix since the last assembly).
+    out.matrix.constant_slots = &constant_slots_;
+    if (out.matrix.constant_version != constants_version_ || out.ck != constants_ck_ || out.cd != constants_cd_) {
+      out.matrix.constants_changed();
+      constants_version_ = out.matrix.constant_version;
+      constants_ck_ = out.ck;
+      constants_cd_ = out.cd;
+    }
+  }
   const size_t count = triangles_.size();
   if (linear_moduli_ && jacobians) {
     const size_t batched = count - count % 4;

@@ -150,6 +150,12 @@ class ClothSystem : public System {
   DampingSettings damping_;
   std::vector<PackedTriangle> triangles_;
   std::vector<int> bending_only_slots_;  ///< block slots no membrane writes, by triangle
+  /// Per block slot, 1 for those of bending_only_slots_: their step-matrix blocks,
+  /// ck Q + cd gamma Q, change only with ck and cd (BlockMatrix::constant_slots).
+  std::vector<char> constant_slots_;
+  /// The step matrix's constant_version after the last assembly, and its ck and cd.
+  long constants_version_ = 0;
+  double constants_ck_ = 0, constants_cd_ = 0;
   double coupling_ = 0;                  ///< the material's weft-warp coupling modulus
   bool linear_moduli_ = false;           ///< weft, warp and shear curves all linear
   bool linear_viscosity_ready_ = false;  ///< membrane_viscosity_ holds the adaptive values

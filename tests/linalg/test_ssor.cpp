@@ -208,6 +208,67 @@ TEST(Ssor, LayoutFollowsTheMatrix) {
   EXPECT_LE((by_position(S, y4) - expected).norm(), 1e-12 * expected.norm());
 }
 
+// The product of the copy with a random vector against the dense product.
+double relative_product_error(const SsorOperator& S, const BlockMatrix& A, const std::vector<char>& fixed,
+                              std::mt19937& rng) {
+  const int nodes = A.pattern->num_nodes();
+  const DenseSplit d = split(A, fixed, S.order());
+  VecX v = random_vector(3 * nodes, rng), v4, y4(S.vector_size());
+  S.pad(v, v4);
+  S.multiply(v4.data(), y4.data());
+  VecX expected = d.A * by_position(S, v4);
+  for (int q = 0; q < nodes; ++q)
+    if (fixed[S.order()[q]]) expected.segment<3>(3 * q).setZero();
+  return (by_position(S, y4) - expected).norm() / expected.norm();
+}
+
+// The cloth marks the hinge couplings' blocks as constant slots of the step matrix; the copy
+// reads them again only when the matrix's constant version changes, and the cloth's
+// assembly changes it when ck or cd (the step size) do.
+TEST(Ssor, ConstantBlocksAreReadAgainWhenTheirVersionChanges) {
+  test::ClothStepProblem p;
+  test::make_cloth_step_problem(9, 0.02, p);
+  const auto& fixed = p.fixed();
+  ASSERT_NE(p.matrix().constant_slots, nullptr);
+  SsorOperator S;
+  S.assign(p.matrix(), fixed, 1.2);
+  std::mt19937 rng(8);
+  EXPECT_LE(relative_product_error(S, p.matrix(), fixed, rng), 1e-12);
+  // A constant block doubled (still a multiple of the identity) without a new version: the
+  // copy keeps the old value, so its product differs from the new matrix's.
+  BlockMatrix A = p.matrix();
+  const auto& rs = A.pattern->row_start();
+  const auto& col = A.pattern->column();
+  int changed = -1;
+  for (int i = 0; i < A.pattern->num_nodes() && changed < 0; ++i)
+    for (int s = rs[i]; s < rs[i + 1]; ++s)
+      if ((*A.constant_slots)[s] && !fixed[i] && !fixed[col[s]]) {
+        A.block[s] *= 2;
+        A.block[A.pattern->slot(col[s], i)] *= 2;
+        changed = s;
+        break;
+      }
+  ASSERT_GE(changed, 0);
+  S.assign(A, fixed, 1.2);
+  EXPECT_GT(relative_product_error(S, A, fixed, rng), 1e-8) << "the copy read the constant block again";
+  A.constants_changed();
+  S.assign(A, fixed, 1.2);
+  EXPECT_LE(relative_product_error(S, A, fixed, rng), 1e-12);
+  // The cloth's assembly with another ck and cd gives a new version, and the copy follows.
+  const long version = p.step.matrix.constant_version;
+  State& st = p.sim->state();
+  const VecX w = 0.005 * st.v;
+  p.sim->system().assemble_step(st.x, st.v, w, p.step);
+  EXPECT_EQ(p.step.matrix.constant_version, version) << "same ck and cd";
+  S.assign(p.step.matrix, fixed, 1.2);
+  p.step.ck *= 1.5;
+  p.step.cd *= 1.2;
+  p.sim->system().assemble_step(st.x, st.v, w, p.step);
+  EXPECT_NE(p.step.matrix.constant_version, version);
+  S.assign(p.step.matrix, fixed, 1.2);
+  EXPECT_LE(relative_product_error(S, p.step.matrix, fixed, rng), 1e-12);
+}
+
 // A free node whose diagonal block is numerically singular gets the inverse of the block's
 // diagonal in B^-1 (invert_spd_block's fallback), while the other lanes of its group keep
 // their exact inverses: with v nonzero at one node only, y there is B^-1 v.

@@ -65,6 +65,7 @@ inline bool break_one_scalar_block(BlockMatrix& A, const std::vector<char>& fixe
       if (fixed[i] || fixed[col[s]] || !(b - b(0, 0) * Mat3::Identity()).isZero(0.0)) continue;
       A.block[s](0, 1) += 1e-3;
       A.block[A.pattern->slot(col[s], i)](1, 0) += 1e-3;
+      A.constants_changed();  // the block may be one of A's constant slots
       return true;
     }
   return false;
