@@ -174,7 +174,8 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   const auto t1 = Clock::now();
   // Warm start: the combination of the last steps' solutions whose right-hand sides best fit
   // this one (SolutionHistory), else the previous change in velocity.
-  if (alpha != history_alpha_ || beta != history_beta_ || dt_b != history_dt_b_ || s.t != history_t_) {
+  if (alpha != history_alpha_ || beta != history_beta_ || dt_b != history_dt_b_ ||
+      s.t != history_t_) {
     history_.clear();
     history_alpha_ = alpha;
     history_beta_ = beta;

@@ -40,8 +40,7 @@ inline double reduce(long size, Term term) {
 // target, and CG stops only when the true |r| does. The ratio starts from the one found at
 // the previous solve's last check (the solves of a simulation resemble each other; the
 // initial residual's ratio is often far from the ratio near convergence), else the initial
-// residual's. Vectors are in the operator's layout
-// (12 doubles per group of four nodes).
+// residual's. Vectors are in the operator's layout (12 doubles per group of four nodes).
 PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const PcgSettings& settings,
                      double bnorm, VecX& x, PcgWorkspace& ws) {
   const double target = settings.relative_tolerance * bnorm;
@@ -76,7 +75,8 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
   if (rnorm > target) {
     for (long k = 0; k < size; ++k) wp[k] = bp[k] - qp[k];
     S.solve_lower(wp, rp);  // r^
-    double scale = ws.ssor_residual_ratio > 0 ? ws.ssor_residual_ratio : rnorm / std::max(ws.r.norm(), 1e-300);
+    double scale = ws.ssor_residual_ratio > 0 ? ws.ssor_residual_ratio
+                                              : rnorm / std::max(ws.r.norm(), 1e-300);
     ws.p.setZero();
     S.diagonal_times(1.0 / omega, rp, zp);  // z^ = B r^
     double rz = reduce(size, [&](long k) { return rp[k] * zp[k]; });

@@ -74,7 +74,7 @@ inline V3 block_transpose_times(const double* m, const V3& x) {
           load(m + 24) * x.c0 + load(m + 28) * x.c1 + load(m + 32) * x.c2};
 }
 
-// The raw pointers of one triangle's rows, taken once per pass (the solves' stores may
+// The raw pointers of one triangular half's rows, taken once per pass (the solves' stores may
 // alias anything, which would otherwise make the compiler reload the vectors' pointers).
 struct View {
   const int *w_start, *w_src, *s_start, *s_src, *x_start, *x_src, *x_shift, *i_start;
@@ -236,14 +236,15 @@ bool SsorOperator::Rows::fill(const double* a, bool constants) {
   copy_lanes(a, x_slot, x_val);
   // The constant scalar entries (the hinge couplings of a cloth, scattered through A) are
   // read again only when they changed.
-  for (const std::vector<int>* list : {&s_variable, &s_constant}) {
-    if (list == &s_constant && !constants) continue;
-    for (const int e : *list) {
+  const auto fill_scalars = [&](const std::vector<int>& entries) {
+    for (const int e : entries) {
       const double* m = a + 9L * s_slot[e];
       if (!is_multiple_of_identity(m)) return false;
       s_val[e] = m[0];
     }
-  }
+    return true;
+  };
+  if (!fill_scalars(s_variable) || (constants && !fill_scalars(s_constant))) return false;
   for (size_t e = 0; e < i_slot.size(); ++e) copy_block(a + 9L * i_slot[e], i_val.data() + 9 * e);
   return true;
 }

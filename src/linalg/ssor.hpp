@@ -127,8 +127,8 @@ class SsorOperator {
     bool fill(const double* a, bool constants);
   };
   void build(const BlockMatrix& A, const std::vector<char>& fixed, const std::vector<int>* base);
-  void build_rows(Rows& rows, const std::vector<char>& whole_slot, const std::vector<char>* constant_slots,
-                  bool upper) const;
+  void build_rows(Rows& rows, const std::vector<char>& whole_slot,
+                  const std::vector<char>* constant_slots, bool upper) const;
   template <bool kUpper>
   void lane_by_lane(const Rows& rows, int g, const double* v, double* y, double* acc) const;
   template <bool kDot>
