@@ -136,7 +136,7 @@ inline const double* near_entry(const View& r, int g) { return r.n_val + 36L * g
 
 // Four lanes' blocks of a (9 doubles each at the slots, zeros where a slot is -1) to each
 // entry's 36 doubles: two 4x4 transposes and the last entries.
-void copy_lanes(const double* a, const std::vector<int>& slot, std::vector<double>& val) {
+void copy_lanes(const double* a, const std::vector<int>& slot, AlignedVector<double>& val) {
   static const double kZero[9] = {};
   const long entries = static_cast<long>(slot.size()) / kLanes;
   for (long e = 0; e < entries; ++e) {

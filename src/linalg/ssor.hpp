@@ -33,6 +33,7 @@
 // zero blocks and come out zero.
 #include <vector>
 
+#include "linalg/aligned_allocator.hpp"
 #include "linalg/block_sparse.hpp"
 
 namespace weft {
@@ -107,21 +108,21 @@ class SsorOperator {
   // vectors (12 times the group). Slots are A's block slots per entry and lane (-1: none).
   struct Rows {
     std::vector<int> w_start, w_src, w_slot;
-    std::vector<double> w_val;
+    AlignedVector<double> w_val;
     std::vector<int> s_start, s_src, s_slot;
-    std::vector<double> s_val;
+    AlignedVector<double> s_val;
     /// The scalar entries' lanes (indices into s_slot) whose slots are among the matrix's
     /// constant slots (BlockMatrix::constant_slots), and the others.
     std::vector<int> s_constant, s_variable;
     std::vector<int> x_start, x_src, x_shift, x_slot;
-    std::vector<double> x_val;
+    AlignedVector<double> x_val;
     std::vector<int> i_start, i_lane, i_from, i_slot;
-    std::vector<double> i_val;  ///< 9 doubles per entry, column-major
+    AlignedVector<double> i_val;  ///< 9 doubles per entry, column-major
     /// Per group of the lower triangle: 1 when its last whole entry is the group solved just
     /// before (g - 1), whose blocks premultiplied by B_g^-1 are kept in n_val (36 doubles
     /// per group).
     std::vector<char> near;
-    std::vector<double> n_val;
+    AlignedVector<double> n_val;
     /// Copies the values from A's blocks, those of the constant scalar entries only when
     /// `constants`; false when a block stored as a scalar is not a multiple of the identity.
     bool fill(const double* a, bool constants);
@@ -152,14 +153,14 @@ class SsorOperator {
   /// slot of node i.
   std::vector<int> order_, slot_, node_slot_;
   Rows lower_, upper_;
-  std::vector<double> diag_;  ///< D per group, 36 doubles laid out as a whole entry
-  std::vector<double> binv_;  ///< B^-1 = omega D^-1 likewise (zero on fixed and absent nodes)
+  AlignedVector<double> diag_;  ///< D per group, 36 doubles laid out as a whole entry
+  AlignedVector<double> binv_;  ///< B^-1 = omega D^-1 likewise (zero on fixed and absent nodes)
   /// Per slot: A's diagonal block slot and 1.0 for a free node (-1 and 0.0 for fixed and
   /// absent nodes).
   std::vector<int> diag_slot_;
-  std::vector<double> present_;
+  AlignedVector<double> present_;
   /// The upper solve's row sums, gathered by columns (zero between solves).
-  mutable std::vector<double> acc_;
+  mutable AlignedVector<double> acc_;
 };
 
 }  // namespace weft
