@@ -67,6 +67,22 @@ inline V3 block_times(const double* m, const V3& x) {
           load(m + 8) * x.c0 + load(m + 20) * x.c1 + load(m + 32) * x.c2};
 }
 
+// Where entry (r, c) of a symmetric 3x3 block lies among its lower triangle's six entries,
+// (0, 0), (1, 0), (2, 0), (1, 1), (2, 1), (2, 2).
+constexpr int sym(int r, int c) {
+  const int i = r > c ? r : c, j = r > c ? c : r;
+  return j == 0 ? i : (j == 1 ? 2 + i : 5);
+}
+
+// Four lanes' symmetric 3x3 blocks m (24 doubles, their lower triangles: 4 sym(r, c) + lane)
+// times the lanes' vectors.
+inline V3 symmetric_block_times(const double* m, const V3& x) {
+  const V4 m00 = load(m), m10 = load(m + 4), m20 = load(m + 8), m11 = load(m + 12),
+           m21 = load(m + 16), m22 = load(m + 20);
+  return {m00 * x.c0 + m10 * x.c1 + m20 * x.c2, m10 * x.c0 + m11 * x.c1 + m21 * x.c2,
+          m20 * x.c0 + m21 * x.c1 + m22 * x.c2};
+}
+
 // The lanes' transposed blocks times their vectors: sum_r m(r, c) x_r.
 inline V3 block_transpose_times(const double* m, const V3& x) {
   return {load(m) * x.c0 + load(m + 4) * x.c1 + load(m + 8) * x.c2,
@@ -396,8 +412,8 @@ void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed,
   build_rows(lower_, whole_slot, constant_slots_, false);
   build_rows(upper_, whole_slot, constant_slots_, true);
   // Fixed and absent nodes keep zero diagonal blocks; assign writes the rest.
-  diag_.assign(36L * groups_, 0.0);
-  binv_.assign(36L * groups_, 0.0);
+  diag_.assign(24L * groups_, 0.0);
+  binv_.assign(24L * groups_, 0.0);
   acc_.assign(12L * groups_, 0.0);
   diag_slot_.assign(static_cast<size_t>(kLanes) * groups_, -1);
   present_.assign(static_cast<size_t>(kLanes) * groups_, 0.0);
@@ -426,31 +442,34 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
   // D by lanes, and B^-1 = omega D^-1 four lanes at a time from the symmetric cofactors of
   // D's lower triangle (a lane whose D is numerically singular takes invert_spd_block's
   // fallback; fixed and absent lanes stay zero).
-  copy_lanes(a, diag_slot_, diag_);
   for (int g = 0; g < groups_; ++g) {
-    const double* d = diag_.data() + 36L * g;
-    const V4 a00 = load(d), a10 = load(d + 4), a20 = load(d + 8), a11 = load(d + 16),
-             a21 = load(d + 20), a22 = load(d + 32);
+    double* d = diag_.data() + 24L * g;
+    for (int k = 0; k < kLanes; ++k) {
+      const int slot = diag_slot_[kLanes * g + k];
+      if (slot < 0) continue;  // stays zero
+      const double* m = a + 9L * slot;  // column-major: (r, c) at 3 c + r
+      for (int c = 0; c < 3; ++c)
+        for (int r = c; r < 3; ++r) d[4 * sym(r, c) + k] = m[3 * c + r];
+    }
+    const V4 a00 = load(d), a10 = load(d + 4), a20 = load(d + 8), a11 = load(d + 12),
+             a21 = load(d + 16), a22 = load(d + 20);
     const V4 c00 = a11 * a22 - a21 * a21, c10 = a20 * a21 - a10 * a22, c20 = a10 * a21 - a20 * a11;
     const V4 c11 = a00 * a22 - a20 * a20, c21 = a10 * a20 - a00 * a21, c22 = a00 * a11 - a10 * a10;
     const V4 det = a00 * c00 + a10 * c10 + a20 * c20;
     const V4 present = load(present_.data() + 4L * g);
     const V4 s = present * (omega / (det + (1.0 - present)));  // 0 on fixed and absent lanes
-    double* bi = binv_.data() + 36L * g;
+    double* bi = binv_.data() + 24L * g;
     store(bi, s * c00);
     store(bi + 4, s * c10);
     store(bi + 8, s * c20);
-    store(bi + 12, s * c10);
-    store(bi + 16, s * c11);
-    store(bi + 20, s * c21);
-    store(bi + 24, s * c20);
-    store(bi + 28, s * c21);
-    store(bi + 32, s * c22);
+    store(bi + 12, s * c11);
+    store(bi + 16, s * c21);
+    store(bi + 20, s * c22);
     for (int k = 0; k < kLanes; ++k) {
       if (present[k] == 0.0 || (det[k] > 0 && std::isfinite(det[k]))) continue;
       const Mat3 inv = omega * invert_spd_block(A.block[diag_slot_[kLanes * g + k]]);
       for (int c = 0; c < 3; ++c)
-        for (int r = 0; r < 3; ++r) bi[4 * (3 * c + r) + k] = inv(r, c);
+        for (int r = c; r < 3; ++r) bi[4 * sym(r, c) + k] = inv(r, c);
     }
   }
   // The nearest group's blocks of a near row times B_g^-1: P(r, c) = sum_q B^-1(r, q) M(q, c).
@@ -458,13 +477,13 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
     if (!lower_.near[g]) continue;
     const double* m = lower_.w_val.data() + 36L * (lower_.w_start[g + 1] - 1);
     double* pm = lower_.n_val.data() + 36L * g;
-    const double* bi = binv_.data() + 36L * g;
+    const double* bi = binv_.data() + 24L * g;
     V4 prod[9];
     for (int c = 0; c < 3; ++c)
       for (int r = 0; r < 3; ++r)
-        prod[3 * c + r] = load(bi + 4 * r) * load(m + 4 * (3 * c)) +
-                          load(bi + 4 * (3 + r)) * load(m + 4 * (3 * c + 1)) +
-                          load(bi + 4 * (6 + r)) * load(m + 4 * (3 * c + 2));
+        prod[3 * c + r] = load(bi + 4 * sym(r, 0)) * load(m + 4 * (3 * c)) +
+                          load(bi + 4 * sym(r, 1)) * load(m + 4 * (3 * c + 1)) +
+                          load(bi + 4 * sym(r, 2)) * load(m + 4 * (3 * c + 2));
     for (int q = 0; q < 9; ++q) store(pm + 4 * q, prod[q]);
   }
 }
@@ -476,7 +495,7 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
 template <bool kUpper>
 void SsorOperator::lane_by_lane(const Rows& rows, int g, const double* v, double* y,
                                 double* acc) const {
-  const double* bi = binv_.data() + 36L * g;
+  const double* bi = binv_.data() + 24L * g;
   double* yg = y + 12L * g;
   for (int kk = 0; kk < kLanes; ++kk) {
     const int k = kUpper ? kLanes - 1 - kk : kk;
@@ -490,7 +509,7 @@ void SsorOperator::lane_by_lane(const Rows& rows, int g, const double* v, double
     for (int r = 0; r < 3; ++r) w[r] = v[4 * r + k] - acc[4 * r + k];
     for (int r = 0; r < 3; ++r) {
       double s = 0;
-      for (int c = 0; c < 3; ++c) s += bi[4 * (3 * c + r) + k] * w[c];
+      for (int c = 0; c < 3; ++c) s += bi[4 * sym(r, c) + k] * w[c];
       yg[4 * r + k] = s;
     }
   }
@@ -521,7 +540,7 @@ double SsorOperator::lower_solve(const double* v, double* y, const double* p,
     const V3 rest = row_times(rows, g, y, true);
     V3 yg;
     if (rows.i_start[g] == rows.i_start[g + 1]) {
-      yg = block_times(binv + 36L * g, load3(v + o) - rest);
+      yg = symmetric_block_times(binv + 24L * g, load3(v + o) - rest);
       if (rows.near[g]) yg = yg - block_times(near_entry(rows, g), last);
       store3(y + o, yg);
     } else {
@@ -574,7 +593,7 @@ void SsorOperator::upper_solve(const double* z, double beta, double* v, double* 
     store3(acc + o, zero);
     V3 yg;
     if (upper_.i_start[g] == upper_.i_start[g + 1]) {  // no couplings inside the group
-      yg = block_times(binv + 36L * g, vg - sum);
+      yg = symmetric_block_times(binv + 24L * g, vg - sum);
       store3(y + o, yg);
     } else {
       double s[12];
@@ -599,7 +618,7 @@ double SsorOperator::update(double a, const double* t, const double* q, double* 
     const V3 qg = load3(q + o), tg = load3(t + o);
     const V3 rg = load3(r + o) - a * V3{qg.c0 + tg.c0, qg.c1 + tg.c1, qg.c2 + tg.c2};
     store3(r + o, rg);
-    const V3 zg = s * block_times(diag + 36L * g, rg);
+    const V3 zg = s * symmetric_block_times(diag + 24L * g, rg);
     store3(z + o, zg);
     rr4 += dot3(rg, rg);
     rz4 += dot3(rg, zg);
@@ -620,7 +639,7 @@ void SsorOperator::multiply(const double* x, double* y) const {
   for (int g = 0; g < groups_; ++g) {
     const long o = 12L * g;
     const V3 xg = load3(x + o);
-    store3(y + o, block_times(diag + 36L * g, xg) + row_times(lower, g, x, false));
+    store3(y + o, symmetric_block_times(diag + 24L * g, xg) + row_times(lower, g, x, false));
     for (const Rows* rows : {&lower_, &upper_})
       for (int e = rows->i_start[g]; e < rows->i_start[g + 1]; ++e) {
         const double* m = rows->i_val.data() + 9L * e;
@@ -635,7 +654,7 @@ void SsorOperator::multiply(const double* x, double* y) const {
 void SsorOperator::diagonal_times(double s, const double* x, double* y) const {
   const double* diag = diag_.data();
   for (int g = 0; g < groups_; ++g)
-    store3(y + 12L * g, s * block_times(diag + 36L * g, load3(x + 12L * g)));
+    store3(y + 12L * g, s * symmetric_block_times(diag + 24L * g, load3(x + 12L * g)));
 }
 
 void SsorOperator::pad(const VecX& v, VecX& g) const {

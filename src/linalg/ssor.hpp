@@ -153,7 +153,9 @@ class SsorOperator {
   /// slot of node i.
   std::vector<int> order_, slot_, node_slot_;
   Rows lower_, upper_;
-  AlignedVector<double> diag_;  ///< D per group, 36 doubles laid out as a whole entry
+  /// D per group: 24 doubles, the lower triangles of the four lanes' symmetric blocks
+  /// ((0, 0), (1, 0), (2, 0), (1, 1), (2, 1), (2, 2), four lanes each).
+  AlignedVector<double> diag_;
   AlignedVector<double> binv_;  ///< B^-1 = omega D^-1 likewise (zero on fixed and absent nodes)
   /// Per slot: A's diagonal block slot and 1.0 for a free node (-1 and 0.0 for fixed and
   /// absent nodes).
