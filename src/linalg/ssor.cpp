@@ -94,21 +94,19 @@ inline V3 block_transpose_times(const double* m, const V3& x) {
 // alias anything, which would otherwise make the compiler reload the vectors' pointers).
 struct View {
   const int *w_start, *w_src, *s_start, *s_src, *x_start, *x_src, *x_shift, *i_start;
-  const char* near;
-  const double *w_val, *s_val, *x_val, *n_val;
+  const double *w_val, *s_val, *x_val;
 };
 
 template <class Rows>
 View view_of(const Rows& r) {
   return {r.w_start.data(), r.w_src.data(),   r.s_start.data(), r.s_src.data(), r.x_start.data(),
-          r.x_src.data(),   r.x_shift.data(), r.i_start.data(), r.near.data(),  r.w_val.data(),
-          r.s_val.data(),   r.x_val.data(),   r.n_val.data()};
+          r.x_src.data(),   r.x_shift.data(), r.i_start.data(), r.w_val.data(),  r.s_val.data(),
+          r.x_val.data()};
 }
 
-// The group's row of the lower triangle times x, except the couplings inside the group and,
-// when skip_near, the nearest group's entry of a near row. The scalar blocks are summed
-// apart from the whole ones, so the sums' chains are short.
-inline V3 row_times(const View& r, int g, const double* x, bool skip_near) {
+// The group's row of the lower triangle times x, except the couplings inside the group. The
+// scalar blocks are summed apart from the whole ones, so the sums' chains are short.
+inline V3 row_times(const View& r, int g, const double* x) {
   V3 a = zero3(), b = zero3();
   for (int e = r.s_start[g], end = r.s_start[g + 1]; e < end; ++e) {
     const V4 s = load(r.s_val + 4L * e);
@@ -121,7 +119,7 @@ inline V3 row_times(const View& r, int g, const double* x, bool skip_near) {
     b += block_times(r.x_val + 36L * e, {rotate(load(xj), shift), rotate(load(xj + 4), shift),
                                          rotate(load(xj + 8), shift)});
   }
-  for (int e = r.w_start[g], end = r.w_start[g + 1] - (skip_near ? r.near[g] : 0); e < end; ++e)
+  for (int e = r.w_start[g], end = r.w_start[g + 1]; e < end; ++e)
     a += block_times(r.w_val + 36L * e, load3(x + r.w_src[e]));
   a += b;
   return a;
@@ -146,9 +144,6 @@ inline void add_column_times(const View& r, int g, const V3& y, double* acc) {
     store3(a, load3(a) + block_transpose_times(r.w_val + 36L * e, y));
   }
 }
-
-// A near row's nearest entry premultiplied: B_g^-1 times the blocks of its last whole entry.
-inline const double* near_entry(const View& r, int g) { return r.n_val + 36L * g; }
 
 // Four lanes' blocks of a (9 doubles each at the slots, zeros where a slot is -1) to each
 // entry's 36 doubles: two 4x4 transposes and the last entries.
@@ -276,7 +271,6 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot,
     v->clear();
   for (auto* v : {&rows.w_start, &rows.s_start, &rows.x_start, &rows.i_start})
     v->assign(groups_ + 1, 0);
-  rows.near.assign(groups_, 0);
   struct Link {
     long key;  // source group * kLanes + lane shift
     int lane, slot;
@@ -329,9 +323,6 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot,
     rows.s_start[g + 1] = static_cast<int>(rows.s_src.size());
     rows.x_start[g + 1] = static_cast<int>(rows.x_src.size());
     rows.i_start[g + 1] = static_cast<int>(rows.i_slot.size());
-    const int last = rows.w_start[g + 1] - 1;
-    rows.near[g] = !upper && rows.i_start[g + 1] == rows.i_start[g] && last >= rows.w_start[g] &&
-                   rows.w_src[last] == 12 * (g - 1);
   }
   rows.w_val.assign(36 * rows.w_src.size(), 0.0);
   rows.x_val.assign(36 * rows.x_src.size(), 0.0);
@@ -343,7 +334,6 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot,
       (constant_slots && (*constant_slots)[rows.s_slot[e]] ? rows.s_constant : rows.s_variable)
           .push_back(static_cast<int>(e));
   rows.i_val.assign(9 * rows.i_slot.size(), 0.0);
-  rows.n_val.assign(upper ? 0 : 36L * groups_, 0.0);
 }
 
 void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed,
@@ -472,20 +462,6 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
         for (int r = c; r < 3; ++r) bi[4 * sym(r, c) + k] = inv(r, c);
     }
   }
-  // The nearest group's blocks of a near row times B_g^-1: P(r, c) = sum_q B^-1(r, q) M(q, c).
-  for (int g = 0; g < groups_; ++g) {
-    if (!lower_.near[g]) continue;
-    const double* m = lower_.w_val.data() + 36L * (lower_.w_start[g + 1] - 1);
-    double* pm = lower_.n_val.data() + 36L * g;
-    const double* bi = binv_.data() + 24L * g;
-    V4 prod[9];
-    for (int c = 0; c < 3; ++c)
-      for (int r = 0; r < 3; ++r)
-        prod[3 * c + r] = load(bi + 4 * sym(r, 0)) * load(m + 4 * (3 * c)) +
-                          load(bi + 4 * sym(r, 1)) * load(m + 4 * (3 * c + 1)) +
-                          load(bi + 4 * sym(r, 2)) * load(m + 4 * (3 * c + 2));
-    for (int q = 0; q < 9; ++q) store(pm + 4 * q, prod[q]);
-  }
 }
 
 // Solves group g lane by lane when its nodes are coupled: acc (12 doubles, laid out as a
@@ -525,23 +501,18 @@ double SsorOperator::solve_lower_dot(const double* v, double* y, const double* p
 }
 
 // Group by group: y_g = B_g^-1 (v_g - sum of the row's blocks times the y's solved before).
-// The nearest group's blocks (g - 1) are kept premultiplied by B_g^-1, so that the chain of
-// dependent groups runs through one block product: y_g = B_g^-1 (v_g - rest) - P y_(g-1),
-// with y_(g-1) still in registers.
 template <bool kDot>
 double SsorOperator::lower_solve(const double* v, double* y, const double* p,
                                  const double* t) const {
   const View rows = view_of(lower_);
   const double* binv = binv_.data();
   V4 dot = {0, 0, 0, 0};
-  V3 last = zero3();  // y of the group solved just before
   for (int g = 0; g < groups_; ++g) {
     const long o = 12L * g;
-    const V3 rest = row_times(rows, g, y, true);
+    const V3 rest = row_times(rows, g, y);
     V3 yg;
     if (rows.i_start[g] == rows.i_start[g + 1]) {
       yg = symmetric_block_times(binv + 24L * g, load3(v + o) - rest);
-      if (rows.near[g]) yg = yg - block_times(near_entry(rows, g), last);
       store3(y + o, yg);
     } else {
       double acc[12];
@@ -549,7 +520,6 @@ double SsorOperator::lower_solve(const double* v, double* y, const double* p,
       lane_by_lane<false>(lower_, g, v + o, y, acc);
       yg = load3(y + o);
     }
-    last = yg;
     if constexpr (kDot) {
       const V3 tg = load3(t + o);
       dot += dot3(load3(p + o), V3{yg.c0 + tg.c0, yg.c1 + tg.c1, yg.c2 + tg.c2});
@@ -639,7 +609,7 @@ void SsorOperator::multiply(const double* x, double* y) const {
   for (int g = 0; g < groups_; ++g) {
     const long o = 12L * g;
     const V3 xg = load3(x + o);
-    store3(y + o, symmetric_block_times(diag + 24L * g, xg) + row_times(lower, g, x, false));
+    store3(y + o, symmetric_block_times(diag + 24L * g, xg) + row_times(lower, g, x));
     for (const Rows* rows : {&lower_, &upper_})
       for (int e = rows->i_start[g]; e < rows->i_start[g + 1]; ++e) {
         const double* m = rows->i_val.data() + 9L * e;

@@ -24,13 +24,11 @@
 // half the off-diagonal blocks of a cloth) are stored as four numbers. The lower solve
 // gathers each group's row; the upper solve uses the same rows by columns, adding the
 // transposed blocks times a solved group's values to the sums of the groups they couple to.
-// In the lower solve, the chain of dependent groups runs through the group solved just
-// before, so that entry is also kept premultiplied by the group's inverse diagonal: each
-// group then waits on one block product. The stretch length is chosen near n / kLanes so
-// that the lanes' coupling patterns coincide (on a grid, lanes start in the same column and
-// row parity), which keeps the union of their entries small. Groups whose nodes are coupled
-// (tiny meshes) are solved lane by lane. Fixed nodes and the lanes past the last node hold
-// zero blocks and come out zero.
+// The stretch length is chosen near n / kLanes so that the lanes' coupling patterns coincide
+// (on a grid, lanes start in the same column and row parity), which keeps the union of their
+// entries small. Groups whose nodes are coupled (tiny meshes) are solved lane by lane. Fixed
+// nodes and the lanes past the last node hold zero blocks and come out zero. The arrays start
+// on cache lines (linalg/aligned_allocator.hpp), so no four-wide load straddles two.
 #include <vector>
 
 #include "linalg/aligned_allocator.hpp"
@@ -118,11 +116,6 @@ class SsorOperator {
     AlignedVector<double> x_val;
     std::vector<int> i_start, i_lane, i_from, i_slot;
     AlignedVector<double> i_val;  ///< 9 doubles per entry, column-major
-    /// Per group of the lower triangle: 1 when its last whole entry is the group solved just
-    /// before (g - 1), whose blocks premultiplied by B_g^-1 are kept in n_val (36 doubles
-    /// per group).
-    std::vector<char> near;
-    AlignedVector<double> n_val;
     /// Copies the values from A's blocks, those of the constant scalar entries only when
     /// `constants`; false when a block stored as a scalar is not a multiple of the identity.
     bool fill(const double* a, bool constants);
