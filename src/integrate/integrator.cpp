@@ -205,7 +205,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   // dx/dt (METHOD.md 6); for forward Euler the start's velocity.
   if (alpha > 0.0) {
     tmp_ = s.dx_prev / dt;
-    s.viscous_dissipated -= dt * system_.viscous_power(s.x, tmp_);
+    s.viscous_dissipated -= dt * system_.step_viscous_power(s.x, tmp_, step_);
   } else {
     s.viscous_dissipated -= dt * step_.viscous_power;
   }

@@ -608,9 +608,10 @@ void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const
                                              StepAssembly& out) const {
   // assemble_membranes<true> with the element arithmetic of four triangles at a time, lane l
   // of every D4 belonging to triangle t + l: the same expressions, so the same values. The
-  // results go through a small per-batch table to the scalar scatter (forces, K w) and the
-  // block writer, which take the triangles in order (the first writer of each block slot is
-  // unchanged).
+  // results go through a small per-batch table (the four matrices then transposed to one
+  // row of entries per triangle) to the scalar scatter (forces, K w) and the block writer,
+  // which take the triangles in order (the first writer of each block slot is unchanged).
+  // The batch's U and V are kept in out.element_data for step_viscous_power.
   const Material& mat = model_.material;
   const double C = coupling_;
   const double ck = out.ck, cd = out.cd;
@@ -622,7 +623,7 @@ void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const
   const auto [X, Vel, W, F, KW, blocks, q, qd, viscosity] = membrane_arrays(x, v, w, out);
   D4 energy = splat(0), power = splat(0);
   // Per batch: force and K w per vertex and component (9 + 9) and the four matrices' 9
-  // entries each (Muu, Muv, Mvu, Mvv), lane by lane.
+  // entries each (Muu, Muv, Mvu, Mvv), lane by lane (a row per quantity, a lane per triangle).
   enum { kForce = 0, kStiffness = 9, kMatrices = 18, kRows = 54 };
   alignas(32) double table[kRows][4];
   for (size_t t0 = 0; t0 < end; t0 += 4) {
@@ -639,6 +640,12 @@ void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const
     batch.gradient(X, U, V);
     batch.gradient(Vel, Ud, Vd);
     batch.gradient(W, dU, dV);
+    // Kept for step_viscous_power: U and V of the batch, six D4.
+    D4* frame = reinterpret_cast<D4*>(out.element_data.data() + 6 * t0);
+    for (int c = 0; c < 3; ++c) {
+      frame[c] = U[c];
+      frame[3 + c] = V[c];
+    }
     const D4 euu = 0.5 * (dot3(U, U) - 1.0), evv = 0.5 * (dot3(V, V) - 1.0), euv = dot3(U, V);
     const D4 suu = mu * euu + C * evv, svv = mv * evv + C * euu, suv = ms * euv;
     energy += A * (0.5 * mu * euu * euu + 0.5 * mv * evv * evv + 0.5 * ms * euv * euv + C * euu * evv);
@@ -681,6 +688,21 @@ void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const
         *reinterpret_cast<D4*>(table[kMatrices + 18 + e]) = mvu;
         *reinterpret_cast<D4*>(table[kMatrices + 27 + e]) = mvv;
       }
+    // The four matrices' first eight entries by triangle (4x4 transposes of the table's rows):
+    // lane l's Muu, Muv, Mvu, Mvv entries 0-3 and 4-7 in TriangleMatrices' order.
+    alignas(32) double lanes[4][8][4];
+    for (int m = 0; m < 4; ++m)
+      for (int h = 0; h < 2; ++h) {
+        const double* rows = table[kMatrices + 9 * m + 4 * h];
+        const D4 r0 = *reinterpret_cast<const D4*>(rows), r1 = *reinterpret_cast<const D4*>(rows + 4);
+        const D4 r2 = *reinterpret_cast<const D4*>(rows + 8), r3 = *reinterpret_cast<const D4*>(rows + 12);
+        const D4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6), t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
+        const D4 t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6), t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
+        *reinterpret_cast<D4*>(lanes[0][2 * m + h]) = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+        *reinterpret_cast<D4*>(lanes[1][2 * m + h]) = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+        *reinterpret_cast<D4*>(lanes[2][2 * m + h]) = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+        *reinterpret_cast<D4*>(lanes[3][2 * m + h]) = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+      }
     // In triangle order: scatter the vertex terms, write the blocks.
     for (int l = 0; l < 4; ++l) {
       const PackedTriangle& t = *tr[l];
@@ -689,19 +711,18 @@ void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const
           F[o[i][l] + c] -= table[kForce + 3 * i + c][l];
           KW[o[i][l] + c] -= table[kStiffness + 3 * i + c][l];
         }
-      const auto entries = [&](int m, int e0) {
-        const double* base = table[kMatrices + 9 * m + e0];
-        return Eigen::Array4d(base[l], base[4 + l], base[8 + l], base[12 + l]);
+      const auto entries = [&](int k) {
+        return Eigen::Array4d(Eigen::Map<const Eigen::Array4d, Eigen::Aligned32>(lanes[l][k]));
       };
       TriangleMatrices M;
-      M.uu_lo = entries(0, 0);
-      M.uu_hi = entries(0, 4);
-      M.uv_lo = entries(1, 0);
-      M.uv_hi = entries(1, 4);
-      M.vu_lo = entries(2, 0);
-      M.vu_hi = entries(2, 4);
-      M.vv_lo = entries(3, 0);
-      M.vv_hi = entries(3, 4);
+      M.uu_lo = entries(0);
+      M.uu_hi = entries(1);
+      M.uv_lo = entries(2);
+      M.uv_hi = entries(3);
+      M.vu_lo = entries(4);
+      M.vu_hi = entries(5);
+      M.vv_lo = entries(6);
+      M.vv_hi = entries(7);
       M.uu_8 = table[kMatrices + 8][l];
       M.x_8 = table[kMatrices + 9 + 8][l];
       M.vv_8 = table[kMatrices + 27 + 8][l];
@@ -785,18 +806,29 @@ void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, Ste
   const size_t count = triangles_.size();
   if (linear_moduli_ && jacobians) {
     const size_t batched = count - count % 4;
+    out.element_data.resize(6 * batched);
     assemble_membranes_batched(x, v, w, batched, out);
     assemble_membranes<true>(x, v, w, jacobians, batched, count, out);
   } else if (linear_moduli_) {
+    out.element_data.clear();
     assemble_membranes<true>(x, v, w, jacobians, 0, count, out);
   } else {
+    out.element_data.clear();
     assemble_membranes<false>(x, v, w, jacobians, 0, count, out);
   }
   out.elastic_energy += bending_energy;
   out.viscous_power += bending_power;
 }
 
-double ClothSystem::viscous_power(const VecX& x, const VecX& v) {
+double ClothSystem::viscous_power(const VecX& x, const VecX& v) { return viscous_power_with(x, v, nullptr); }
+
+double ClothSystem::step_viscous_power(const VecX& x, const VecX& v, const StepAssembly& assembly) {
+  const size_t count = triangles_.size();
+  const bool stored = assembly.element_data.size() == 6 * (count - count % 4) && count >= 4;
+  return viscous_power_with(x, v, stored ? assembly.element_data.data() : nullptr);
+}
+
+double ClothSystem::viscous_power_with(const VecX& x, const VecX& v, const double* frames) const {
   const double* X = x.data();
   const double* Vel = v.data();
   // Four triangles at a time (TriangleBatch), the rest one at a time.
@@ -806,7 +838,15 @@ double ClothSystem::viscous_power(const VecX& x, const VecX& v) {
     const PackedTriangle* tr[4] = {&triangles_[t0], &triangles_[t0 + 1], &triangles_[t0 + 2], &triangles_[t0 + 3]};
     const TriangleBatch batch(tr);
     D4 U[3], V[3], Ud[3], Vd[3];
-    batch.gradient(X, U, V);
+    if (frames) {  // the assembly's U and V: the same sums of the same positions
+      const D4* frame = reinterpret_cast<const D4*>(frames + 6 * t0);
+      for (int c = 0; c < 3; ++c) {
+        U[c] = frame[c];
+        V[c] = frame[3 + c];
+      }
+    } else {
+      batch.gradient(X, U, V);
+    }
     batch.gradient(Vel, Ud, Vd);
     const D4 r0 = dot3(U, Ud), r1 = dot3(V, Vd), r2 = dot3(U, Vd) + dot3(V, Ud);
     const Vec3* eta = membrane_viscosity_.data();
@@ -832,11 +872,14 @@ double ClothSystem::viscous_power(const VecX& x, const VecX& v) {
   const auto& col = model_.pattern.column();
   const double* qd = bending_slot_damping_.data();
   const int n = num_nodes();
+  // v . gamma Q v from the lower half of the symmetric gamma Q (a row's columns are sorted,
+  // so the slots before the diagonal's are those of earlier nodes, each with a next node).
   for (int i = 0; i < n; ++i) {
+    const int d = model_.pattern.diagonal_slot(i);
     D4 qv = splat(0);  // lane 3 unused
-    for (int s = rs[i]; s < rs[i + 1]; ++s)
-      qv += qd[s] * (col[s] + 1 < n ? node_values<true>(Vel, col[s]) : node_values<false>(Vel, col[s]));
-    power -= Vel[3 * i] * qv[0] + Vel[3 * i + 1] * qv[1] + Vel[3 * i + 2] * qv[2];
+    for (int s = rs[i]; s < d; ++s) qv += qd[s] * node_values<true>(Vel, col[s]);
+    const double* vi = Vel + 3 * i;
+    power -= 2 * (vi[0] * qv[0] + vi[1] * qv[1] + vi[2] * qv[2]) + qd[d] * (vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2]);
   }
   return power;
 }

@@ -84,6 +84,9 @@ class ClothSystem : public System {
   /// Fused assembly: forces, step matrix and K w in one pass over the elements.
   void assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) override;
   double viscous_power(const VecX& x, const VecX& v) override;
+  /// viscous_power, taking the deformation gradients from the assembly when its batched
+  /// membrane pass stored them (the same values, without gathering x again).
+  double step_viscous_power(const VecX& x, const VecX& v, const StepAssembly& assembly) override;
 
   const ClothModel& model() const { return model_; }
   const DampingSettings& damping_settings() const { return damping_; }
@@ -99,6 +102,9 @@ class ClothSystem : public System {
   std::vector<double> membrane_kappa_max(const VecX& x, double dt) const;
 
  private:
+  /// The viscous power at (x, v); the batched triangles' deformation gradients U, V from
+  /// `frames` (assemble_membranes_batched's StepAssembly::element_data) when not null.
+  double viscous_power_with(const VecX& x, const VecX& v, const double* frames) const;
   /// Sets the energies and adds gravity and the membrane forces to `force`; with `jacobians`
   /// calls `add_jacobians` per triangle with its result (9x9 blocks when `expand`).
   template <class AddJacobians>

@@ -4,6 +4,7 @@
 // the same integrator code steps a single spring and a garment.
 #include <vector>
 
+#include "linalg/aligned_allocator.hpp"
 #include "linalg/block_sparse.hpp"
 
 namespace weft {
@@ -26,6 +27,8 @@ struct StepAssembly {
   BlockMatrix matrix;          ///< A
   VecX stiffness_times_w;      ///< K w
   double elastic_energy = 0, gravity_energy = 0, viscous_power = 0;
+  /// What a system keeps from the assembly for step_viscous_power (empty: nothing).
+  AlignedVector<double> element_data;
   Evaluation scratch;          ///< used by the generic implementation
 };
 
@@ -52,6 +55,11 @@ class System {
   virtual void assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out);
   /// Power of the viscous forces at (x, v) (W, <= 0).
   virtual double viscous_power(const VecX& x, const VecX& v);
+  /// The same power where x holds the positions `assembly` was last assembled at (by this
+  /// system's assemble_step): a system may reuse what the assembly computed there.
+  virtual double step_viscous_power(const VecX& x, const VecX& v, const StepAssembly& /*assembly*/) {
+    return viscous_power(x, v);
+  }
 
   /// Sets `out`'s matrices on this system's pattern.
   void prepare(Evaluation& out) const {
