@@ -7,7 +7,8 @@
 // is one whole solve_pcg call (including the per-matrix multigrid update or SSOR copy).
 // Counters: CG iterations; for multigrid the setup, update and one V-cycle in milliseconds,
 // the number of levels and the nodes and blocks of each coarse level.
-// SsorLowerSolve: one triangular solve of the SSOR operator alone, per node.
+// SsorLowerSolve<T>: one triangular solve of the SSOR operator alone, per node, in double
+// precision (four lanes, the one CG uses) and in single precision (eight lanes).
 //   build/weft_bench --benchmark_filter='Solve/' --benchmark_repetitions=3
 #include <benchmark/benchmark.h>
 
@@ -89,11 +90,12 @@ BENCHMARK_CAPTURE(Solve, Ssor, Preconditioner::kSsor)
     ->ArgsProduct({{33, 65, 129, 257}, {0, 12, 14, 16}})->Unit(benchmark::kMillisecond)->MinTime(0.5);
 
 namespace {
+template <class T>
 void SsorLowerSolve(benchmark::State& bs) {
   const test::ClothStepProblem& p = problem(static_cast<int>(bs.range(0)));
-  SsorOperator S;
+  SsorOperatorT<T> S;
   S.assign(p.step.matrix, p.sim->system().fixed(), 1.4);
-  VecX v4, y4(S.vector_size());
+  typename SsorOperatorT<T>::Vector v4, y4(S.vector_size());
   S.pad(p.rhs, v4);
   for (auto _ : bs) {
     S.solve_lower(v4.data(), y4.data());
@@ -103,4 +105,5 @@ void SsorLowerSolve(benchmark::State& bs) {
       S.num_nodes(), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 }  // namespace
-BENCHMARK(SsorLowerSolve)->Arg(33)->Arg(129)->Unit(benchmark::kMicrosecond);
+BENCHMARK(SsorLowerSolve<double>)->Arg(33)->Arg(65)->Arg(129)->Unit(benchmark::kMicrosecond);
+BENCHMARK(SsorLowerSolve<float>)->Arg(33)->Arg(65)->Arg(129)->Unit(benchmark::kMicrosecond);

@@ -10,61 +10,127 @@ namespace weft {
 
 namespace {
 
-constexpr int kLanes = SsorOperator::kLanes;
-static_assert(kLanes == 4, "the kernels are written for four lanes");
+// One 32-byte vector of T: four doubles or eight floats, loaded and stored without alignment
+// requirements (GCC/Clang vector extension: one AVX register where available, two SSE ones
+// otherwise).
+template <class T>
+struct Simd {
+  static constexpr int kLanes = SsorOperatorT<T>::kLanes;
+  typedef T V __attribute__((vector_size(32), aligned(alignof(T)), may_alias));
+};
+template <class T>
+using V = typename Simd<T>::V;
 
-// Four doubles, loaded and stored without alignment requirements (GCC/Clang vector
-// extension: one AVX register where available, two SSE ones otherwise).
-typedef double V4 __attribute__((vector_size(32), aligned(8), may_alias));
-
-inline V4 load(const double* p) { return *reinterpret_cast<const V4*>(p); }
-inline void store(double* p, V4 v) { *reinterpret_cast<V4*>(p) = v; }
-inline double sum(V4 v) { return (v[0] + v[1]) + (v[2] + v[3]); }
-
-// Lane k of the result is lane k - shift of x.
-inline V4 rotate(V4 x, int shift) {
-  switch (shift) {
-    case 1:
-      return V4{x[3], x[0], x[1], x[2]};
-    case 2:
-      return V4{x[2], x[3], x[0], x[1]};
-    case 3:
-      return V4{x[1], x[2], x[3], x[0]};
-    default:
-      return x;
-  }
+template <class T>
+inline V<T> load(const T* p) {
+  return *reinterpret_cast<const V<T>*>(p);
+}
+template <class T>
+inline void store(T* p, V<T> v) {
+  *reinterpret_cast<V<T>*>(p) = v;
+}
+inline double sum(V<double> v) { return (v[0] + v[1]) + (v[2] + v[3]); }
+inline double sum(V<float> v) {
+  return (double(v[0]) + double(v[1])) + (double(v[2]) + double(v[3])) + (double(v[4]) + double(v[5])) +
+         (double(v[6]) + double(v[7]));
+}
+template <class T>
+inline V<T> splat(double a) {
+  return V<T>{} + static_cast<T>(a);
 }
 
-// Three four-wide vectors: a component each, a node per lane.
+// Lane k of the result is lane k - shift of x.
+template <int kShift>
+inline V<double> rotate_by(V<double> x) {
+  return __builtin_shufflevector(x, x, (0 - kShift) & 3, (1 - kShift) & 3, (2 - kShift) & 3, (3 - kShift) & 3);
+}
+template <int kShift>
+inline V<float> rotate_by(V<float> x) {
+  return __builtin_shufflevector(x, x, (0 - kShift) & 7, (1 - kShift) & 7, (2 - kShift) & 7, (3 - kShift) & 7,
+                                 (4 - kShift) & 7, (5 - kShift) & 7, (6 - kShift) & 7, (7 - kShift) & 7);
+}
+template <class T>
+inline V<T> rotate(V<T> x, int shift) {
+  switch (shift) {
+    case 1:
+      return rotate_by<1>(x);
+    case 2:
+      return rotate_by<2>(x);
+    case 3:
+      return rotate_by<3>(x);
+    default:
+      break;
+  }
+  if constexpr (Simd<T>::kLanes == 8) {
+    switch (shift) {
+      case 4:
+        return rotate_by<4>(x);
+      case 5:
+        return rotate_by<5>(x);
+      case 6:
+        return rotate_by<6>(x);
+      case 7:
+        return rotate_by<7>(x);
+      default:
+        break;
+    }
+  }
+  return x;
+}
+
+// Three vectors: a component each, a node per lane.
+template <class T>
 struct V3 {
-  V4 c0, c1, c2;
-  V3& operator+=(const V3& o) {
+  V<T> c0, c1, c2;
+  V3<T>& operator+=(const V3<T>& o) {
     c0 += o.c0;
     c1 += o.c1;
     c2 += o.c2;
     return *this;
   }
 };
-inline V3 operator-(const V3& a, const V3& b) { return {a.c0 - b.c0, a.c1 - b.c1, a.c2 - b.c2}; }
-inline V3 operator+(const V3& a, const V3& b) { return {a.c0 + b.c0, a.c1 + b.c1, a.c2 + b.c2}; }
-inline V3 operator*(double s, const V3& a) { return {s * a.c0, s * a.c1, s * a.c2}; }
-inline V3 zero3() {
-  const V4 z = {0, 0, 0, 0};
+template <class T>
+inline V3<T> operator-(const V3<T>& a, const V3<T>& b) {
+  return {a.c0 - b.c0, a.c1 - b.c1, a.c2 - b.c2};
+}
+template <class T>
+inline V3<T> operator+(const V3<T>& a, const V3<T>& b) {
+  return {a.c0 + b.c0, a.c1 + b.c1, a.c2 + b.c2};
+}
+template <class T>
+inline V3<T> operator*(double s, const V3<T>& a) {
+  const T t = static_cast<T>(s);
+  return {t * a.c0, t * a.c1, t * a.c2};
+}
+template <class T>
+inline V3<T> zero3() {
+  const V<T> z = {};
   return {z, z, z};
 }
-inline V3 load3(const double* p) { return {load(p), load(p + 4), load(p + 8)}; }
-inline void store3(double* p, const V3& v) {
-  store(p, v.c0);
-  store(p + 4, v.c1);
-  store(p + 8, v.c2);
+template <class T>
+inline V3<T> load3(const T* p) {
+  constexpr int L = Simd<T>::kLanes;
+  return {load(p), load(p + L), load(p + 2 * L)};
 }
-inline V4 dot3(const V3& a, const V3& b) { return a.c0 * b.c0 + a.c1 * b.c1 + a.c2 * b.c2; }
+template <class T>
+inline void store3(T* p, const V3<T>& v) {
+  constexpr int L = Simd<T>::kLanes;
+  store(p, v.c0);
+  store(p + L, v.c1);
+  store(p + 2 * L, v.c2);
+}
+template <class T>
+inline V<T> dot3(const V3<T>& a, const V3<T>& b) {
+  return a.c0 * b.c0 + a.c1 * b.c1 + a.c2 * b.c2;
+}
 
-// Four lanes' 3x3 blocks m (36 doubles, (3 c + r) * 4 + lane) times the lanes' vectors.
-inline V3 block_times(const double* m, const V3& x) {
-  return {load(m) * x.c0 + load(m + 12) * x.c1 + load(m + 24) * x.c2,
-          load(m + 4) * x.c0 + load(m + 16) * x.c1 + load(m + 28) * x.c2,
-          load(m + 8) * x.c0 + load(m + 20) * x.c1 + load(m + 32) * x.c2};
+// The lanes' 3x3 blocks m (9 kLanes numbers, (3 c + r) kLanes + lane) times the lanes' vectors.
+template <class T>
+inline V3<T> block_times(const T* m, const V3<T>& x) {
+  constexpr int L = Simd<T>::kLanes;
+  return {load(m) * x.c0 + load(m + 3 * L) * x.c1 + load(m + 6 * L) * x.c2,
+          load(m + L) * x.c0 + load(m + 4 * L) * x.c1 + load(m + 7 * L) * x.c2,
+          load(m + 2 * L) * x.c0 + load(m + 5 * L) * x.c1 + load(m + 8 * L) * x.c2};
 }
 
 // Where entry (r, c) of a symmetric 3x3 block lies among its lower triangle's six entries,
@@ -74,31 +140,36 @@ constexpr int sym(int r, int c) {
   return j == 0 ? i : (j == 1 ? 2 + i : 5);
 }
 
-// Four lanes' symmetric 3x3 blocks m (24 doubles, their lower triangles: 4 sym(r, c) + lane)
-// times the lanes' vectors.
-inline V3 symmetric_block_times(const double* m, const V3& x) {
-  const V4 m00 = load(m), m10 = load(m + 4), m20 = load(m + 8), m11 = load(m + 12),
-           m21 = load(m + 16), m22 = load(m + 20);
+// The lanes' symmetric 3x3 blocks m (6 kLanes numbers, their lower triangles: kLanes sym(r, c)
+// + lane) times the lanes' vectors.
+template <class T>
+inline V3<T> symmetric_block_times(const T* m, const V3<T>& x) {
+  constexpr int L = Simd<T>::kLanes;
+  const V<T> m00 = load(m), m10 = load(m + L), m20 = load(m + 2 * L), m11 = load(m + 3 * L),
+             m21 = load(m + 4 * L), m22 = load(m + 5 * L);
   return {m00 * x.c0 + m10 * x.c1 + m20 * x.c2, m10 * x.c0 + m11 * x.c1 + m21 * x.c2,
           m20 * x.c0 + m21 * x.c1 + m22 * x.c2};
 }
 
 // The lanes' transposed blocks times their vectors: sum_r m(r, c) x_r.
-inline V3 block_transpose_times(const double* m, const V3& x) {
-  return {load(m) * x.c0 + load(m + 4) * x.c1 + load(m + 8) * x.c2,
-          load(m + 12) * x.c0 + load(m + 16) * x.c1 + load(m + 20) * x.c2,
-          load(m + 24) * x.c0 + load(m + 28) * x.c1 + load(m + 32) * x.c2};
+template <class T>
+inline V3<T> block_transpose_times(const T* m, const V3<T>& x) {
+  constexpr int L = Simd<T>::kLanes;
+  return {load(m) * x.c0 + load(m + L) * x.c1 + load(m + 2 * L) * x.c2,
+          load(m + 3 * L) * x.c0 + load(m + 4 * L) * x.c1 + load(m + 5 * L) * x.c2,
+          load(m + 6 * L) * x.c0 + load(m + 7 * L) * x.c1 + load(m + 8 * L) * x.c2};
 }
 
 // The raw pointers of one triangular half's rows, taken once per pass (the solves' stores may
 // alias anything, which would otherwise make the compiler reload the vectors' pointers).
+template <class T>
 struct View {
   const int *w_start, *w_src, *s_start, *s_src, *x_start, *x_src, *x_shift, *i_start;
-  const double *w_val, *s_val, *x_val;
+  const T *w_val, *s_val, *x_val;
 };
 
-template <class Rows>
-View view_of(const Rows& r) {
+template <class T, class Rows>
+View<T> view_of(const Rows& r) {
   return {r.w_start.data(), r.w_src.data(),   r.s_start.data(), r.s_src.data(), r.x_start.data(),
           r.x_src.data(),   r.x_shift.data(), r.i_start.data(), r.w_val.data(),  r.s_val.data(),
           r.x_val.data()};
@@ -106,67 +177,78 @@ View view_of(const Rows& r) {
 
 // The group's row of the lower triangle times x, except the couplings inside the group. The
 // scalar blocks are summed apart from the whole ones, so the sums' chains are short.
-inline V3 row_times(const View& r, int g, const double* x) {
-  V3 a = zero3(), b = zero3();
+template <class T>
+inline V3<T> row_times(const View<T>& r, int g, const T* x) {
+  constexpr int L = Simd<T>::kLanes;
+  V3<T> a = zero3<T>(), b = zero3<T>();
   for (int e = r.s_start[g], end = r.s_start[g + 1]; e < end; ++e) {
-    const V4 s = load(r.s_val + 4L * e);
-    const V3 xj = load3(x + r.s_src[e]);
-    b += V3{s * xj.c0, s * xj.c1, s * xj.c2};
+    const V<T> s = load(r.s_val + static_cast<long>(L) * e);
+    const V3<T> xj = load3(x + r.s_src[e]);
+    b += V3<T>{s * xj.c0, s * xj.c1, s * xj.c2};
   }
   for (int e = r.x_start[g], end = r.x_start[g + 1]; e < end; ++e) {
-    const double* xj = x + r.x_src[e];
+    const T* xj = x + r.x_src[e];
     const int shift = r.x_shift[e];
-    b += block_times(r.x_val + 36L * e, {rotate(load(xj), shift), rotate(load(xj + 4), shift),
-                                         rotate(load(xj + 8), shift)});
+    b += block_times(r.x_val + 9L * L * e, V3<T>{rotate<T>(load(xj), shift), rotate<T>(load(xj + L), shift),
+                                                 rotate<T>(load(xj + 2 * L), shift)});
   }
   for (int e = r.w_start[g], end = r.w_start[g + 1]; e < end; ++e)
-    a += block_times(r.w_val + 36L * e, load3(x + r.w_src[e]));
+    a += block_times(r.w_val + 9L * L * e, load3(x + r.w_src[e]));
   a += b;
   return a;
 }
 
 // The transpose of the group's row of the lower triangle times the group's y, added to the
 // source groups' sums: acc_src += M^T y (rotated back to the source's lanes).
-inline void add_column_times(const View& r, int g, const V3& y, double* acc) {
+template <class T>
+inline void add_column_times(const View<T>& r, int g, const V3<T>& y, T* acc) {
+  constexpr int L = Simd<T>::kLanes;
   for (int e = r.s_start[g], end = r.s_start[g + 1]; e < end; ++e) {
-    const V4 s = load(r.s_val + 4L * e);
-    double* a = acc + r.s_src[e];
-    store3(a, load3(a) + V3{s * y.c0, s * y.c1, s * y.c2});
+    const V<T> s = load(r.s_val + static_cast<long>(L) * e);
+    T* a = acc + r.s_src[e];
+    store3(a, load3(a) + V3<T>{s * y.c0, s * y.c1, s * y.c2});
   }
   for (int e = r.x_start[g], end = r.x_start[g + 1]; e < end; ++e) {
-    const V3 t = block_transpose_times(r.x_val + 36L * e, y);
-    const int back = (kLanes - r.x_shift[e]) & (kLanes - 1);
-    double* a = acc + r.x_src[e];
-    store3(a, load3(a) + V3{rotate(t.c0, back), rotate(t.c1, back), rotate(t.c2, back)});
+    const V3<T> t = block_transpose_times(r.x_val + 9L * L * e, y);
+    const int back = (L - r.x_shift[e]) & (L - 1);
+    T* a = acc + r.x_src[e];
+    store3(a, load3(a) + V3<T>{rotate<T>(t.c0, back), rotate<T>(t.c1, back), rotate<T>(t.c2, back)});
   }
   for (int e = r.w_start[g], end = r.w_start[g + 1]; e < end; ++e) {
-    double* a = acc + r.w_src[e];
-    store3(a, load3(a) + block_transpose_times(r.w_val + 36L * e, y));
+    T* a = acc + r.w_src[e];
+    store3(a, load3(a) + block_transpose_times(r.w_val + 9L * L * e, y));
   }
 }
 
-// Four lanes' blocks of a (9 doubles each at the slots, zeros where a slot is -1) to each
-// entry's 36 doubles: two 4x4 transposes and the last entries.
-void copy_lanes(const double* a, const std::vector<int>& slot, AlignedVector<double>& val) {
+// The lanes' blocks of a (9 doubles each at the slots, zeros where a slot is -1) to each
+// entry's 9 kLanes numbers: in double precision two 4x4 transposes and the last entries, in
+// single precision entry by entry.
+template <class T>
+void copy_lanes(const double* a, const std::vector<int>& slot, AlignedVector<T>& val) {
+  constexpr int L = Simd<T>::kLanes;
   static const double kZero[9] = {};
-  const long entries = static_cast<long>(slot.size()) / kLanes;
+  const long entries = static_cast<long>(slot.size()) / L;
   for (long e = 0; e < entries; ++e) {
-    const double* m[kLanes];
-    for (int k = 0; k < kLanes; ++k)
-      m[k] = slot[kLanes * e + k] < 0 ? kZero : a + 9L * slot[kLanes * e + k];
-    double* d = val.data() + 36 * e;
-    for (int h = 0; h < 8; h += 4) {
-      const V4 r0 = load(m[0] + h), r1 = load(m[1] + h), r2 = load(m[2] + h), r3 = load(m[3] + h);
-      const V4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6),
-               t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
-      const V4 t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6),
-               t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
-      store(d + 4 * h, __builtin_shufflevector(t0, t2, 0, 1, 4, 5));
-      store(d + 4 * h + 4, __builtin_shufflevector(t1, t3, 0, 1, 4, 5));
-      store(d + 4 * h + 8, __builtin_shufflevector(t0, t2, 2, 3, 6, 7));
-      store(d + 4 * h + 12, __builtin_shufflevector(t1, t3, 2, 3, 6, 7));
+    const double* m[L];
+    for (int k = 0; k < L; ++k) m[k] = slot[L * e + k] < 0 ? kZero : a + 9L * slot[L * e + k];
+    T* d = val.data() + 9L * L * e;
+    if constexpr (L == 4) {
+      for (int h = 0; h < 8; h += 4) {
+        const V<double> r0 = load(m[0] + h), r1 = load(m[1] + h), r2 = load(m[2] + h), r3 = load(m[3] + h);
+        const V<double> t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6),
+                        t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
+        const V<double> t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6),
+                        t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
+        store(d + 4 * h, __builtin_shufflevector(t0, t2, 0, 1, 4, 5));
+        store(d + 4 * h + 4, __builtin_shufflevector(t1, t3, 0, 1, 4, 5));
+        store(d + 4 * h + 8, __builtin_shufflevector(t0, t2, 2, 3, 6, 7));
+        store(d + 4 * h + 12, __builtin_shufflevector(t1, t3, 2, 3, 6, 7));
+      }
+      store(d + 32, V<double>{m[0][8], m[1][8], m[2][8], m[3][8]});
+    } else {
+      for (int q = 0; q < 9; ++q)
+        for (int k = 0; k < L; ++k) d[L * q + k] = static_cast<T>(m[k][q]);
     }
-    store(d + 32, V4{m[0][8], m[1][8], m[2][8], m[3][8]});
   }
 }
 
@@ -174,6 +256,7 @@ void copy_lanes(const double* a, const std::vector<int>& slot, AlignedVector<dou
 // triangular solve: per group the diagonal solve and, per entry of the lower triangle (both
 // solves use it), 21 for four whole blocks, 7 for four scalars, more for shifted lanes
 // and much more for a group solved lane by lane. Only every `every`-th group is counted.
+template <int kLanes>
 double layout_cost(const BlockPattern& pattern, const std::vector<char>& whole_slot,
                    const std::vector<char>& fixed, const std::vector<int>& base,
                    const std::vector<int>& where, int stretch, int every, std::vector<long>& keys) {
@@ -219,7 +302,8 @@ double layout_cost(const BlockPattern& pattern, const std::vector<char>& whole_s
 
 }  // namespace
 
-long SsorOperator::num_whole() const {
+template <class T>
+long SsorOperatorT<T>::num_whole() const {
   long count = 0;
   for (const Rows* r : {&lower_, &upper_}) {
     for (int s : r->w_slot) count += s >= 0;
@@ -229,20 +313,23 @@ long SsorOperator::num_whole() const {
   return count;
 }
 
-long SsorOperator::num_scalar() const {
+template <class T>
+long SsorOperatorT<T>::num_scalar() const {
   long count = 0;
   for (const Rows* r : {&lower_, &upper_})
     for (int s : r->s_slot) count += s >= 0;
   return count;
 }
 
-int SsorOperator::num_sequential_groups() const {
+template <class T>
+int SsorOperatorT<T>::num_sequential_groups() const {
   int count = 0;
   for (int g = 0; g < groups_; ++g) count += lower_.i_start[g] != lower_.i_start[g + 1];
   return count;
 }
 
-bool SsorOperator::Rows::fill(const double* a, bool constants) {
+template <class T>
+bool SsorOperatorT<T>::Rows::fill(const double* a, bool constants) {
   copy_lanes(a, w_slot, w_val);
   copy_lanes(a, x_slot, x_val);
   // The constant scalar entries (the hinge couplings of a cloth, scattered through A) are
@@ -251,16 +338,17 @@ bool SsorOperator::Rows::fill(const double* a, bool constants) {
     for (const int e : entries) {
       const double* m = a + 9L * s_slot[e];
       if (!is_multiple_of_identity(m)) return false;
-      s_val[e] = m[0];
+      s_val[e] = static_cast<T>(m[0]);
     }
     return true;
   };
   if (!fill_scalars(s_variable) || (constants && !fill_scalars(s_constant))) return false;
-  for (size_t e = 0; e < i_slot.size(); ++e) copy_block(a + 9L * i_slot[e], i_val.data() + 9 * e);
+  for (size_t e = 0; e < i_slot.size(); ++e) for (int q = 0; q < 9; ++q) i_val[9 * e + q] = static_cast<T>(a[9L * i_slot[e] + q]);
   return true;
 }
 
-void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot,
+template <class T>
+void SsorOperatorT<T>::build_rows(Rows& rows, const std::vector<char>& whole_slot,
                               const std::vector<char>* constant_slots, bool upper) const {
   const auto& rs = pattern_->row_start();
   const auto& col = pattern_->column();
@@ -306,7 +394,7 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot,
       bool whole = links[e].key % kLanes != 0;
       for (; end < links.size() && links[end].key == links[e].key; ++end)
         if (whole_slot[links[end].slot]) whole = true;
-      const int src = static_cast<int>(12 * (links[e].key / kLanes)),
+      const int src = static_cast<int>(3 * kLanes * (links[e].key / kLanes)),
                 shift = static_cast<int>(links[e].key % kLanes);
       std::vector<int>& slots = shift ? rows.x_slot : (whole ? rows.w_slot : rows.s_slot);
       if (shift) {
@@ -324,8 +412,8 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot,
     rows.x_start[g + 1] = static_cast<int>(rows.x_src.size());
     rows.i_start[g + 1] = static_cast<int>(rows.i_slot.size());
   }
-  rows.w_val.assign(36 * rows.w_src.size(), 0.0);
-  rows.x_val.assign(36 * rows.x_src.size(), 0.0);
+  rows.w_val.assign(9 * kLanes * rows.w_src.size(), 0.0);
+  rows.x_val.assign(9 * kLanes * rows.x_src.size(), 0.0);
   rows.s_val.assign(kLanes * rows.s_src.size(), 0.0);
   rows.s_constant.clear();
   rows.s_variable.clear();
@@ -336,7 +424,8 @@ void SsorOperator::build_rows(Rows& rows, const std::vector<char>& whole_slot,
   rows.i_val.assign(9 * rows.i_slot.size(), 0.0);
 }
 
-void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed,
+template <class T>
+void SsorOperatorT<T>::build(const BlockMatrix& A, const std::vector<char>& fixed,
                          const std::vector<int>* base) {
   pattern_ = A.pattern;
   blocks_ = A.pattern->num_blocks();
@@ -378,7 +467,7 @@ void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed,
   for (int p : {3, 7, 13, 29, 61, 127})
     if (shortest / p >= 150) every = p;
   for (int s = shortest; s <= shortest + window; ++s) {
-    const double cost = layout_cost(*pattern_, whole_slot, fixed, b, where, s, every, keys);
+    const double cost = layout_cost<kLanes>(*pattern_, whole_slot, fixed, b, where, s, every, keys);
     if (s == shortest || cost < best_cost) {
       best_cost = cost;
       groups_ = s;
@@ -402,9 +491,9 @@ void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed,
   build_rows(lower_, whole_slot, constant_slots_, false);
   build_rows(upper_, whole_slot, constant_slots_, true);
   // Fixed and absent nodes keep zero diagonal blocks; assign writes the rest.
-  diag_.assign(24L * groups_, 0.0);
-  binv_.assign(24L * groups_, 0.0);
-  acc_.assign(12L * groups_, 0.0);
+  diag_.assign(6L * kLanes * groups_, 0.0);
+  binv_.assign(6L * kLanes * groups_, 0.0);
+  acc_.assign(3L * kLanes * groups_, 0.0);
   diag_slot_.assign(static_cast<size_t>(kLanes) * groups_, -1);
   present_.assign(static_cast<size_t>(kLanes) * groups_, 0.0);
   for (int p = 0; p < n_; ++p)
@@ -414,7 +503,8 @@ void SsorOperator::build(const BlockMatrix& A, const std::vector<char>& fixed,
     }
 }
 
-void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega,
+template <class T>
+void SsorOperatorT<T>::assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega,
                           const std::vector<int>* base) {
   const bool same = pattern_ == A.pattern && blocks_ == A.pattern->num_blocks() &&
                     n_ == A.pattern->num_nodes() && fixed_ == fixed &&
@@ -433,107 +523,113 @@ void SsorOperator::assign(const BlockMatrix& A, const std::vector<char>& fixed, 
   // D's lower triangle (a lane whose D is numerically singular takes invert_spd_block's
   // fallback; fixed and absent lanes stay zero).
   for (int g = 0; g < groups_; ++g) {
-    double* d = diag_.data() + 24L * g;
+    T* d = diag_.data() + 6L * kLanes * g;
     for (int k = 0; k < kLanes; ++k) {
       const int slot = diag_slot_[kLanes * g + k];
       if (slot < 0) continue;  // stays zero
       const double* m = a + 9L * slot;  // column-major: (r, c) at 3 c + r
       for (int c = 0; c < 3; ++c)
-        for (int r = c; r < 3; ++r) d[4 * sym(r, c) + k] = m[3 * c + r];
+        for (int r = c; r < 3; ++r) d[kLanes * sym(r, c) + k] = m[3 * c + r];
     }
-    const V4 a00 = load(d), a10 = load(d + 4), a20 = load(d + 8), a11 = load(d + 12),
-             a21 = load(d + 16), a22 = load(d + 20);
-    const V4 c00 = a11 * a22 - a21 * a21, c10 = a20 * a21 - a10 * a22, c20 = a10 * a21 - a20 * a11;
-    const V4 c11 = a00 * a22 - a20 * a20, c21 = a10 * a20 - a00 * a21, c22 = a00 * a11 - a10 * a10;
-    const V4 det = a00 * c00 + a10 * c10 + a20 * c20;
-    const V4 present = load(present_.data() + 4L * g);
-    const V4 s = present * (omega / (det + (1.0 - present)));  // 0 on fixed and absent lanes
-    double* bi = binv_.data() + 24L * g;
+    const V<T> a00 = load(d), a10 = load(d + kLanes), a20 = load(d + 2 * kLanes), a11 = load(d + 3 * kLanes),
+             a21 = load(d + 4 * kLanes), a22 = load(d + 5 * kLanes);
+    const V<T> c00 = a11 * a22 - a21 * a21, c10 = a20 * a21 - a10 * a22, c20 = a10 * a21 - a20 * a11;
+    const V<T> c11 = a00 * a22 - a20 * a20, c21 = a10 * a20 - a00 * a21, c22 = a00 * a11 - a10 * a10;
+    const V<T> det = a00 * c00 + a10 * c10 + a20 * c20;
+    const V<T> present = load(present_.data() + static_cast<long>(kLanes) * g);
+    const V<T> s = present * (static_cast<T>(omega) / (det + (T(1) - present)));  // 0 on fixed and absent lanes
+    T* bi = binv_.data() + 6L * kLanes * g;
     store(bi, s * c00);
-    store(bi + 4, s * c10);
-    store(bi + 8, s * c20);
-    store(bi + 12, s * c11);
-    store(bi + 16, s * c21);
-    store(bi + 20, s * c22);
+    store(bi + kLanes, s * c10);
+    store(bi + 2 * kLanes, s * c20);
+    store(bi + 3 * kLanes, s * c11);
+    store(bi + 4 * kLanes, s * c21);
+    store(bi + 5 * kLanes, s * c22);
     for (int k = 0; k < kLanes; ++k) {
       if (present[k] == 0.0 || (det[k] > 0 && std::isfinite(det[k]))) continue;
       const Mat3 inv = omega * invert_spd_block(A.block[diag_slot_[kLanes * g + k]]);
       for (int c = 0; c < 3; ++c)
-        for (int r = c; r < 3; ++r) bi[4 * sym(r, c) + k] = inv(r, c);
+        for (int r = c; r < 3; ++r) bi[kLanes * sym(r, c) + k] = inv(r, c);
     }
   }
 }
 
-// Solves group g lane by lane when its nodes are coupled: acc (12 doubles, laid out as a
+// Solves group g lane by lane when its nodes are coupled: acc (3 kLanes numbers, laid out as a
 // group's vector) holds the row sums from the other groups; each lane adds its couplings to
 // the lanes solved before it in this solve's direction, then solves. v is the group's
 // right-hand side.
+template <class T>
 template <bool kUpper>
-void SsorOperator::lane_by_lane(const Rows& rows, int g, const double* v, double* y,
-                                double* acc) const {
-  const double* bi = binv_.data() + 24L * g;
-  double* yg = y + 12L * g;
+void SsorOperatorT<T>::lane_by_lane(const Rows& rows, int g, const T* v, T* y,
+                                T* acc) const {
+  const T* bi = binv_.data() + 6L * kLanes * g;
+  T* yg = y + 3L * kLanes * g;
   for (int kk = 0; kk < kLanes; ++kk) {
     const int k = kUpper ? kLanes - 1 - kk : kk;
     for (int e = rows.i_start[g]; e < rows.i_start[g + 1]; ++e) {
       if (rows.i_lane[e] != k) continue;
-      const double* m = rows.i_val.data() + 9L * e;
+      const T* m = rows.i_val.data() + 9L * e;
       for (int c = 0; c < 3; ++c)
-        for (int r = 0; r < 3; ++r) acc[4 * r + k] += m[3 * c + r] * yg[4 * c + rows.i_from[e]];
+        for (int r = 0; r < 3; ++r) acc[kLanes * r + k] += m[3 * c + r] * yg[kLanes * c + rows.i_from[e]];
     }
     double w[3];
-    for (int r = 0; r < 3; ++r) w[r] = v[4 * r + k] - acc[4 * r + k];
+    for (int r = 0; r < 3; ++r) w[r] = v[kLanes * r + k] - acc[kLanes * r + k];
     for (int r = 0; r < 3; ++r) {
       double s = 0;
-      for (int c = 0; c < 3; ++c) s += bi[4 * sym(r, c) + k] * w[c];
-      yg[4 * r + k] = s;
+      for (int c = 0; c < 3; ++c) s += bi[kLanes * sym(r, c) + k] * w[c];
+      yg[kLanes * r + k] = s;
     }
   }
 }
 
-void SsorOperator::solve_lower(const double* v, double* y) const {
+template <class T>
+void SsorOperatorT<T>::solve_lower(const T* v, T* y) const {
   lower_solve<false>(v, y, nullptr, nullptr);
 }
 
-double SsorOperator::solve_lower_dot(const double* v, double* y, const double* p,
-                                     const double* t) const {
+template <class T>
+double SsorOperatorT<T>::solve_lower_dot(const T* v, T* y, const T* p,
+                                     const T* t) const {
   return lower_solve<true>(v, y, p, t);
 }
 
 // Group by group: y_g = B_g^-1 (v_g - sum of the row's blocks times the y's solved before).
+template <class T>
 template <bool kDot>
-double SsorOperator::lower_solve(const double* v, double* y, const double* p,
-                                 const double* t) const {
-  const View rows = view_of(lower_);
-  const double* binv = binv_.data();
-  V4 dot = {0, 0, 0, 0};
+double SsorOperatorT<T>::lower_solve(const T* v, T* y, const T* p,
+                                 const T* t) const {
+  const View<T> rows = view_of<T>(lower_);
+  const T* binv = binv_.data();
+  V<T> dot = {};
   for (int g = 0; g < groups_; ++g) {
-    const long o = 12L * g;
-    const V3 rest = row_times(rows, g, y);
-    V3 yg;
+    const long o = 3L * kLanes * g;
+    const V3<T> rest = row_times(rows, g, y);
+    V3<T> yg;
     if (rows.i_start[g] == rows.i_start[g + 1]) {
-      yg = symmetric_block_times(binv + 24L * g, load3(v + o) - rest);
+      yg = symmetric_block_times(binv + 6L * kLanes * g, load3(v + o) - rest);
       store3(y + o, yg);
     } else {
-      double acc[12];
+      T acc[3 * kLanes];
       store3(acc, rest);
       lane_by_lane<false>(lower_, g, v + o, y, acc);
       yg = load3(y + o);
     }
     if constexpr (kDot) {
-      const V3 tg = load3(t + o);
-      dot += dot3(load3(p + o), V3{yg.c0 + tg.c0, yg.c1 + tg.c1, yg.c2 + tg.c2});
+      const V3<T> tg = load3(t + o);
+      dot += dot3(load3(p + o), V3<T>{yg.c0 + tg.c0, yg.c1 + tg.c1, yg.c2 + tg.c2});
     }
   }
   return sum(dot);
 }
 
-void SsorOperator::solve_upper(const double* v, double* y, double* u, double cp, double cu) const {
-  upper_solve<false>(nullptr, 0.0, const_cast<double*>(v), y, u, cp, cu, nullptr, 0.0);
+template <class T>
+void SsorOperatorT<T>::solve_upper(const T* v, T* y, T* u, double cp, double cu) const {
+  upper_solve<false>(nullptr, 0.0, const_cast<T*>(v), y, u, cp, cu, nullptr, 0.0);
 }
 
-void SsorOperator::step_and_solve_upper(const double* z, double beta, double* p, double* y,
-                                        double* u, double cp, double cu, double* x,
+template <class T>
+void SsorOperatorT<T>::step_and_solve_upper(const T* z, double beta, T* p, T* y,
+                                        T* u, double cp, double cu, T* x,
                                         double a) const {
   upper_solve<true>(z, beta, p, y, u, cp, cu, x, a);
 }
@@ -542,31 +638,33 @@ void SsorOperator::step_and_solve_upper(const double* z, double beta, double* p,
 // times the y's solved before, has been gathered in acc_ by columns: once y_g is known, the
 // transposes of its lower row's blocks times y_g go to the groups they couple to (all
 // solved later). Only the lower triangle is kept. s_g is also u's L^T y; acc_ is left zero.
+template <class T>
 template <bool kStep>
-void SsorOperator::upper_solve(const double* z, double beta, double* v, double* y, double* u,
-                               double cp, double cu, double* x, double a) const {
-  const View rows = view_of(lower_);
-  const double* binv = binv_.data();
-  double* acc = acc_.data();
-  const V3 zero = zero3();
+void SsorOperatorT<T>::upper_solve(const T* z, double beta, T* v, T* y, T* u,
+                               double cp, double cu, T* x, double a) const {
+  const View<T> rows = view_of<T>(lower_);
+  const T* binv = binv_.data();
+  T* acc = acc_.data();
+  const V3<T> zero = zero3<T>();
+  const T tb = static_cast<T>(beta), ta = static_cast<T>(a), tcp = static_cast<T>(cp), tcu = static_cast<T>(cu);
   for (int g = groups_ - 1; g >= 0; --g) {
-    const long o = 12L * g;
-    V3 vg = load3(v + o);
+    const long o = 3L * kLanes * g;
+    V3<T> vg = load3(v + o);
     if constexpr (kStep) {
-      const V3 zg = load3(z + o);
-      vg = V3{zg.c0 + beta * vg.c0, zg.c1 + beta * vg.c1, zg.c2 + beta * vg.c2};
+      const V3<T> zg = load3(z + o);
+      vg = V3<T>{zg.c0 + tb * vg.c0, zg.c1 + tb * vg.c1, zg.c2 + tb * vg.c2};
       store3(v + o, vg);
       if (a != 0.0)  // y still holds the previous step's values here
-        for (int c = 0; c < 12; c += 4) store(x + o + c, load(x + o + c) + a * load(y + o + c));
+        for (int c = 0; c < 3 * kLanes; c += kLanes) store(x + o + c, load(x + o + c) + ta * load(y + o + c));
     }
-    V3 sum = load3(acc + o);
+    V3<T> sum = load3(acc + o);
     store3(acc + o, zero);
-    V3 yg;
+    V3<T> yg;
     if (upper_.i_start[g] == upper_.i_start[g + 1]) {  // no couplings inside the group
-      yg = symmetric_block_times(binv + 24L * g, vg - sum);
+      yg = symmetric_block_times(binv + 6L * kLanes * g, vg - sum);
       store3(y + o, yg);
     } else {
-      double s[12];
+      T s[3 * kLanes];
       store3(s, sum);
       lane_by_lane<true>(upper_, g, v + o, y, s);
       sum = load3(s);
@@ -574,21 +672,22 @@ void SsorOperator::upper_solve(const double* z, double beta, double* v, double* 
     }
     if (u)
       store3(u + o,
-             V3{cp * vg.c0 + cu * sum.c0, cp * vg.c1 + cu * sum.c1, cp * vg.c2 + cu * sum.c2});
+             V3<T>{tcp * vg.c0 + tcu * sum.c0, tcp * vg.c1 + tcu * sum.c1, tcp * vg.c2 + tcu * sum.c2});
     add_column_times(rows, g, yg, acc);
   }
 }
 
-double SsorOperator::update(double a, const double* t, const double* q, double* r, double s,
-                            double* z, double& rz) const {
-  V4 rr4 = {0, 0, 0, 0}, rz4 = {0, 0, 0, 0};
-  const double* diag = diag_.data();
+template <class T>
+double SsorOperatorT<T>::update(double a, const T* t, const T* q, T* r, double s,
+                            T* z, double& rz) const {
+  V<T> rr4 = {}, rz4 = {};
+  const T* diag = diag_.data();
   for (int g = 0; g < groups_; ++g) {
-    const long o = 12L * g;
-    const V3 qg = load3(q + o), tg = load3(t + o);
-    const V3 rg = load3(r + o) - a * V3{qg.c0 + tg.c0, qg.c1 + tg.c1, qg.c2 + tg.c2};
+    const long o = 3L * kLanes * g;
+    const V3<T> qg = load3(q + o), tg = load3(t + o);
+    const V3<T> rg = load3(r + o) - a * V3<T>{qg.c0 + tg.c0, qg.c1 + tg.c1, qg.c2 + tg.c2};
     store3(r + o, rg);
-    const V3 zg = s * symmetric_block_times(diag + 24L * g, rg);
+    const V3<T> zg = s * symmetric_block_times(diag + 6L * kLanes * g, rg);
     store3(z + o, zg);
     rr4 += dot3(rg, rg);
     rz4 += dot3(rg, zg);
@@ -597,47 +696,56 @@ double SsorOperator::update(double a, const double* t, const double* q, double* 
   return sum(rr4);
 }
 
-void SsorOperator::axpy(double a, const double* t, double* x) const {
-  for (long k = 0; k < vector_size(); k += 4) store(x + k, load(x + k) + a * load(t + k));
+template <class T>
+void SsorOperatorT<T>::axpy(double a, const T* t, T* x) const {
+  const T ta = static_cast<T>(a);
+  for (long k = 0; k < vector_size(); k += kLanes) store(x + k, load(x + k) + ta * load(t + k));
 }
 
 // A x = D x + L x + L^T x: by groups, the diagonal and lower row (gathered), then the
 // transposes of the lower row's blocks times x_g added to the earlier groups they couple to.
-void SsorOperator::multiply(const double* x, double* y) const {
-  const View lower = view_of(lower_);
-  const double* diag = diag_.data();
+template <class T>
+void SsorOperatorT<T>::multiply(const T* x, T* y) const {
+  const View<T> lower = view_of<T>(lower_);
+  const T* diag = diag_.data();
   for (int g = 0; g < groups_; ++g) {
-    const long o = 12L * g;
-    const V3 xg = load3(x + o);
-    store3(y + o, symmetric_block_times(diag + 24L * g, xg) + row_times(lower, g, x));
+    const long o = 3L * kLanes * g;
+    const V3<T> xg = load3(x + o);
+    store3(y + o, symmetric_block_times(diag + 6L * kLanes * g, xg) + row_times(lower, g, x));
     for (const Rows* rows : {&lower_, &upper_})
       for (int e = rows->i_start[g]; e < rows->i_start[g + 1]; ++e) {
-        const double* m = rows->i_val.data() + 9L * e;
+        const T* m = rows->i_val.data() + 9L * e;
         const int k = rows->i_lane[e], from = rows->i_from[e];
         for (int c = 0; c < 3; ++c)
-          for (int r = 0; r < 3; ++r) y[o + 4 * r + k] += m[3 * c + r] * x[o + 4 * c + from];
+          for (int r = 0; r < 3; ++r) y[o + kLanes * r + k] += m[3 * c + r] * x[o + kLanes * c + from];
       }
     add_column_times(lower, g, xg, y);
   }
 }
 
-void SsorOperator::diagonal_times(double s, const double* x, double* y) const {
-  const double* diag = diag_.data();
+template <class T>
+void SsorOperatorT<T>::diagonal_times(double s, const T* x, T* y) const {
+  const T* diag = diag_.data();
   for (int g = 0; g < groups_; ++g)
-    store3(y + 12L * g, s * symmetric_block_times(diag + 24L * g, load3(x + 12L * g)));
+    store3(y + 3L * kLanes * g, s * symmetric_block_times(diag + 6L * kLanes * g, load3(x + 3L * kLanes * g)));
 }
 
-void SsorOperator::pad(const VecX& v, VecX& g) const {
+template <class T>
+void SsorOperatorT<T>::pad(const VecX& v, Vector& g) const {
   g.setZero(vector_size());
   for (int p = 0; p < n_; ++p)
     if (!fixed_[order_[p]])
-      for (int c = 0; c < 3; ++c) g(index(p, c)) = v(3 * order_[p] + c);
+      for (int c = 0; c < 3; ++c) g(index(p, c)) = static_cast<T>(v(3 * order_[p] + c));
 }
 
-void SsorOperator::unpad(const VecX& g, VecX& v) const {
+template <class T>
+void SsorOperatorT<T>::unpad(const Vector& g, VecX& v) const {
   v.resize(3L * n_);
   for (int p = 0; p < n_; ++p)
     for (int c = 0; c < 3; ++c) v(3 * order_[p] + c) = g(index(p, c));
 }
+
+template class SsorOperatorT<double>;
+template class SsorOperatorT<float>;
 
 }  // namespace weft

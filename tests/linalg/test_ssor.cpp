@@ -4,6 +4,7 @@
 
 #include <random>
 #include <stdexcept>
+#include <type_traits>
 
 #include "linalg/pcg.hpp"
 #include "linalg/ssor.hpp"
@@ -47,7 +48,8 @@ DenseSplit split(const BlockMatrix& M, const std::vector<char>& fixed,
 }
 
 // The operator's vector by position: 3 doubles per node in the solves' order.
-VecX by_position(const SsorOperator& S, const VecX& g) {
+template <class T>
+VecX by_position(const SsorOperatorT<T>& S, const typename SsorOperatorT<T>::Vector& g) {
   const int n = S.num_nodes();
   VecX v(3 * n);
   for (int p = 0; p < n; ++p)
@@ -56,7 +58,8 @@ VecX by_position(const SsorOperator& S, const VecX& g) {
 }
 
 // Sum of |g| over the lanes that hold no node (past the end of the last stretch).
-double absent_lanes(const SsorOperator& S, const VecX& g) {
+template <class T>
+double absent_lanes(const SsorOperatorT<T>& S, const typename SsorOperatorT<T>::Vector& g) {
   std::vector<char> used(g.size(), 0);
   for (int p = 0; p < S.num_nodes(); ++p)
     for (int c = 0; c < 3; ++c) used[S.index(p, c)] = 1;
@@ -119,10 +122,13 @@ TEST(Ssor, OrderTakesStretchesOfTheBaseOrderSideBySide) {
 
 // (B + L) y = v and (B + L^T) y = v with B = D/omega, y = A x and y = s D x, against dense
 // algebra in the solves' order; pinned nodes come out zero and so do the lanes past the last
-// node. On a 9x9 cloth every group is solved four lanes at once; on a 2x2 cloth whose two
-// free nodes (coupled) come a stretch apart in the base order, they share a group, which is
-// then solved lane by lane.
-void expect_operators_match_dense(int n, int pinned, bool sequential) {
+// node. In double precision, on a 9x9 cloth every group is solved four lanes at once; on a
+// 2x2 cloth whose two free nodes (coupled) come a stretch apart in the base order, they share
+// a group, which is then solved lane by lane. In single precision (eight lanes) likewise, and
+// on a 21x21 cloth. `tol`: relative error allowed.
+template <class T>
+void expect_operators_match_dense(int n, int pinned, bool sequential, double tol = 1e-12) {
+  using Vector = typename SsorOperatorT<T>::Vector;
   SCOPED_TRACE(std::to_string(n) + "x" + std::to_string(n));
   test::ClothStepProblem p;
   test::make_cloth_step_problem(n, 0.02, p);
@@ -130,15 +136,15 @@ void expect_operators_match_dense(int n, int pinned, bool sequential) {
   std::vector<char> fixed = p.fixed();
   if (pinned >= 0) fixed[pinned] = 1;
   const double omega = 1.3;
-  std::vector<int> base;
-  if (sequential) {
+  std::vector<int> base;  // on the 2x2 cloth, the two free nodes a stretch apart
+  if (nodes == 4) {
     std::vector<int> free_nodes, fixed_nodes;
     for (int i = 0; i < nodes; ++i) (fixed[i] ? fixed_nodes : free_nodes).push_back(i);
     ASSERT_EQ(free_nodes.size(), 2u);
     base = {free_nodes[0], fixed_nodes[0], free_nodes[1], fixed_nodes[1]};
   }
-  SsorOperator S;
-  S.assign(p.matrix(), fixed, omega, sequential ? &base : nullptr);
+  SsorOperatorT<T> S;
+  S.assign(p.matrix(), fixed, omega, nodes == 4 ? &base : nullptr);
   EXPECT_EQ(S.num_sequential_groups() > 0, sequential);
   if (!sequential)
     EXPECT_GT(S.num_scalar(), 0) << "the hinge couplings are multiples of the identity";
@@ -146,40 +152,52 @@ void expect_operators_match_dense(int n, int pinned, bool sequential) {
   const DenseSplit d = split(p.matrix(), fixed, S.order());
   const MatX B = d.diag / omega;
   std::mt19937 rng(4);
-  VecX v = random_vector(3 * nodes, rng), v4, y4(S.vector_size()), u4(S.vector_size());
+  VecX v = random_vector(3 * nodes, rng);
+  Vector v4, y4(S.vector_size()), u4(S.vector_size());
   S.pad(v, v4);  // zero on pinned nodes
   EXPECT_EQ(v4.size(), S.vector_size());
   const VecX vp = by_position(S, v4);
   S.solve_lower(v4.data(), y4.data());
-  EXPECT_LE(((B + d.lower) * by_position(S, y4) - vp).norm(), 1e-12 * vp.norm());
+  EXPECT_LE(((B + d.lower) * by_position(S, y4) - vp).norm(), tol * vp.norm());
   EXPECT_EQ(absent_lanes(S, y4), 0.0);
-  const VecX t = random_vector(S.vector_size(), rng), q = random_vector(S.vector_size(), rng);
+  const Vector t = random_vector(S.vector_size(), rng).template cast<T>(),
+               q = random_vector(S.vector_size(), rng).template cast<T>();
   const double dot = S.solve_lower_dot(v4.data(), y4.data(), q.data(), t.data());
-  EXPECT_NEAR(dot, q.dot(y4 + t), 1e-12 * q.norm() * (y4 + t).norm());
+  const VecX qd = q.template cast<double>(), yt = (y4 + t).template cast<double>();
+  EXPECT_NEAR(dot, qd.dot(yt), tol * qd.norm() * yt.norm());
   const double cp = 0.3, cu = 0.6;
   S.solve_upper(v4.data(), y4.data(), u4.data(), cp, cu);
   const VecX yp = by_position(S, y4);
-  EXPECT_LE(((B + d.upper) * yp - vp).norm(), 1e-12 * vp.norm());
-  EXPECT_LE((by_position(S, u4) - (cp * vp + cu * d.upper * yp)).norm(), 1e-12 * vp.norm());
+  EXPECT_LE(((B + d.upper) * yp - vp).norm(), tol * vp.norm());
+  EXPECT_LE((by_position(S, u4) - (cp * vp + cu * d.upper * yp)).norm(), tol * vp.norm());
   EXPECT_EQ(absent_lanes(S, y4) + absent_lanes(S, u4), 0.0);
   S.multiply(v4.data(), y4.data());
   VecX expected = d.A * vp;
   for (int k = 0; k < nodes; ++k)
     if (fixed[S.order()[k]]) expected.segment<3>(3 * k).setZero();
-  EXPECT_LE((by_position(S, y4) - expected).norm(), 1e-12 * expected.norm());
+  EXPECT_LE((by_position(S, y4) - expected).norm(), tol * expected.norm());
   EXPECT_EQ(absent_lanes(S, y4), 0.0);
   S.diagonal_times(0.7, v4.data(), y4.data());
-  EXPECT_LE((by_position(S, y4) - 0.7 * d.diag * vp).norm(), 1e-12 * vp.norm());
+  EXPECT_LE((by_position(S, y4) - 0.7 * d.diag * vp).norm(), tol * vp.norm());
   // Back to node order.
   VecX back;
   S.unpad(v4, back);
   zero_fixed(fixed, v);
-  EXPECT_EQ((back - v).norm(), 0.0);
+  const double rounding = std::is_same_v<T, double> ? 0.0 : 1e-7 * v.norm();
+  EXPECT_LE((back - v).norm(), rounding);
 }
 
 TEST(Ssor, OperatorsMatchDense) {
-  expect_operators_match_dense(9, 40, false);
-  expect_operators_match_dense(2, -1, true);
+  expect_operators_match_dense<double>(9, 40, false);
+  expect_operators_match_dense<double>(2, -1, true);
+}
+
+// The same operators in single precision, eight lanes: the same algebra to float rounding.
+TEST(Ssor, SinglePrecisionOperatorsMatchDense) {
+  static_assert(SsorOperatorT<float>::kLanes == 8);
+  expect_operators_match_dense<float>(21, 200, false, 2e-5);
+  expect_operators_match_dense<float>(9, 40, false, 2e-5);
+  expect_operators_match_dense<float>(2, -1, true, 2e-5);
 }
 
 // The product of the copy with a random vector against the dense product.
