@@ -187,6 +187,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   PcgSettings ps{settings_.cg_tolerance, settings_.cg_max_iterations, preconditioner_};
   ps.node_order = system_.solver_order();
   ps.ssor_omega = settings_.ssor_relaxation;
+  ps.ssor_single_precision = settings_.ssor_single_precision;
   PcgResult r = solve_pcg(step_.matrix, rhs_, system_.fixed(), ps, dv_, pcg_);
   stats.cg_iterations += r.iterations;
   ++stats.cg_solves;

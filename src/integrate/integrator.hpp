@@ -28,6 +28,9 @@ struct IntegratorSettings {
   double error_tolerance = 1e-6;    ///< RK45 local error tolerance (relative and absolute)
   /// SSOR relaxation in (0, 2); 0 chooses it from the mesh size (ssor_relaxation_for).
   double ssor_relaxation = 0.0;
+  /// SSOR iterations in single precision (PcgSettings::ssor_single_precision): the same
+  /// stopping rule on the true residual, 0.8-0.9 of the step time on the benchmark cloth.
+  bool ssor_single_precision = true;
   /// Steps whose right-hand sides and solutions the linear solves' warm start combines
   /// (SolutionHistory); 0 starts each solve from the previous step's dv.
   int warm_start_history = 3;

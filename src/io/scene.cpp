@@ -174,7 +174,8 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
   if (r.has("gravity")) s.gravity = r.vec3("gravity");
 
   const Reader in = r.object("integrator");
-  in.allow_only({"method", "alpha", "dt", "tolerance", "max_iterations", "preconditioner", "ssor_relaxation"});
+  in.allow_only({"method", "alpha", "dt", "tolerance", "max_iterations", "preconditioner", "ssor_relaxation",
+                 "ssor_precision"});
   std::optional<double> alpha;
   if (in.has("alpha")) alpha = in.number("alpha");
   set_method(s, in.string("method"), alpha, in.where("method"));
@@ -198,6 +199,12 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
     const double w = in.number("ssor_relaxation");
     if (!(w > 0 && w < 2)) in.fail("ssor_relaxation", "must be in (0, 2), got " + nlohmann::json(w).dump());
     s.integrator.ssor_relaxation = w;
+  }
+  if (in.has("ssor_precision")) {
+    const std::string precision = in.string("ssor_precision");
+    if (precision != "single" && precision != "double")
+      in.fail("ssor_precision", "unknown precision '" + precision + "' (expected single or double)");
+    s.integrator.ssor_single_precision = precision == "single";
   }
   if (r.has("damping")) {
     const Reader d = r.object("damping");

@@ -118,6 +118,106 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
   result.converged = rnorm <= target;
   return result;
 }
+
+// solve_ssor's iterations in single precision (SsorOperatorT<float>): x, b and the true
+// residual r = b - A x stay in double precision in node order (products with A itself). Each
+// run of iterations starts from the true residual and accumulates its correction dx in single
+// precision; when the predicted residual reaches the target, x += dx and the true residual is
+// checked. Above the target CG restarts from it (the single-precision recursion has drifted
+// from the true residual by then, so continuing would not converge); if the restart did not
+// at least halve the true residual since the previous check, or the curvature breaks down,
+// the solve finishes in double precision (solve_ssor) from the x reached.
+PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed, const PcgSettings& settings,
+                            double bnorm, VecX& x, PcgWorkspace& ws) {
+  const double target = settings.relative_tolerance * bnorm;
+  const int free_nodes = static_cast<int>(fixed.size() - ws.fixed_nodes.size());
+  const double omega = settings.ssor_omega > 0 ? settings.ssor_omega : ssor_relaxation_for(free_nodes);
+  SsorOperatorT<float>& S = ws.ssor_single;
+  S.assign(A, fixed, omega, settings.node_order);
+  const long size = S.vector_size();
+  for (Eigen::VectorXf* v : {&ws.fr, &ws.fz, &ws.fp, &ws.fq, &ws.ft, &ws.fw, &ws.fdx}) v->resize(size);
+  float* rp = ws.fr.data();
+  float* zp = ws.fz.data();
+  float* pp = ws.fp.data();
+  float* qp = ws.fq.data();
+  float* tp = ws.ft.data();
+  float* wp = ws.fw.data();
+  float* dxp = ws.fdx.data();
+  auto true_residual = [&]() {
+    A.multiply(x, ws.residual);
+    ws.residual = ws.b - ws.residual;
+    filter(ws.fixed_nodes, ws.residual);
+    return ws.residual.norm();
+  };
+  PcgResult result;
+  double rnorm = true_residual();
+  int it = 0;
+  const double cp = omega - 1.0, cu = 2.0 - omega;
+  constexpr double kRunReduction = 1e-6;
+  while (rnorm > target && it < settings.max_iterations) {
+    // A run of iterations from the true residual: r^ = (B + L)^-1 r, dx = 0.
+    S.pad(ws.residual, ws.fw);
+    S.solve_lower(wp, rp);
+    double scale = ws.ssor_residual_ratio > 0 ? ws.ssor_residual_ratio
+                                              : rnorm / std::max<double>(ws.fr.norm(), 1e-300);
+    ws.fp.setZero();
+    ws.fdx.setZero();
+    S.diagonal_times(1.0 / omega, rp, zp);
+    double rz = ws.fr.cast<double>().dot(ws.fz.cast<double>());
+    double beta = 0.0, pending = 0.0;
+    bool checked = false, breakdown = false;
+    const double run_start = rnorm;
+    // A run aims at most kRunReduction below its start: beyond, the single-precision recursion
+    // keeps shrinking while the true residual it stands for no longer does.
+    const double run_target = std::max(target, kRunReduction * run_start);
+    while (it < settings.max_iterations) {
+      S.step_and_solve_upper(zp, beta, pp, tp, wp, cp, cu, dxp, pending);
+      pending = 0.0;
+      const double pq = S.solve_lower_dot(wp, qp, pp, tp);
+      if (!(pq > 0.0)) {
+        breakdown = true;
+        break;
+      }
+      double rz_new;
+      const double a = rz / pq;
+      const double rr = S.update(a, tp, qp, rp, 1.0 / omega, zp, rz_new);
+      pending = a;
+      ++it;
+      const double rh_norm = std::sqrt(rr);
+      if (rh_norm * scale <= run_target) {
+        checked = true;
+        S.axpy(pending, tp, dxp);
+        pending = 0.0;
+        S.unpad(ws.fdx, ws.correction);
+        x += ws.correction;
+        rnorm = true_residual();
+        ws.ssor_residual_ratio = rnorm / std::max(rh_norm, 1e-300);
+        break;
+      }
+      beta = rz_new / rz;
+      rz = rz_new;
+    }
+    if (!checked) {  // the iteration cap or a breakdown: keep what the run reached
+      if (pending != 0.0) S.axpy(pending, tp, dxp);
+      S.unpad(ws.fdx, ws.correction);
+      x += ws.correction;
+      rnorm = true_residual();
+    }
+    if (rnorm <= target) break;
+    if (breakdown || !(rnorm < 0.5 * run_start)) {
+      ++ws.ssor_single_fallbacks;
+      const PcgResult rest = solve_ssor(A, fixed, settings, bnorm, x, ws);
+      result.iterations = it + rest.iterations;
+      result.relative_residual = rest.relative_residual;
+      result.converged = rest.converged;
+      return result;
+    }
+  }
+  result.iterations = it;
+  result.relative_residual = rnorm / bnorm;
+  result.converged = rnorm <= target;
+  return result;
+}
 }  // namespace
 
 double ssor_relaxation_for(int free_nodes) {
@@ -160,7 +260,8 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
     return result;
   }
   if (settings.preconditioner == Preconditioner::kSsor) {
-    result = solve_ssor(A, fixed, settings, bnorm, x, ws);
+    result = settings.ssor_single_precision ? solve_ssor_single(A, fixed, settings, bnorm, x, ws)
+                                            : solve_ssor(A, fixed, settings, bnorm, x, ws);
     return result;
   }
   // y = A x on the free nodes; with multigrid from the half of A in its compact lower copy.

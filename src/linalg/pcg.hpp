@@ -28,6 +28,11 @@ struct PcgSettings {
   /// kSsor: the node order its solves start from (a permutation of the nodes, neighbours
   /// close together: see SsorOperator); the nodes' numbering when null.
   const std::vector<int>* node_order = nullptr;
+  /// kSsor: run the iterations in single precision (SsorOperatorT<float>, eight lanes), with
+  /// the solution and the true residual in double precision: CG restarts from the true
+  /// residual whenever a check finds it above the tolerance, and finishes in double precision
+  /// should a restart not halve it. The stopping rule is the same.
+  bool ssor_single_precision = false;
 };
 
 struct PcgResult {
@@ -50,6 +55,14 @@ struct PcgWorkspace {
   /// kSsor: |r| / |r^| (true over transformed residual) at the last solve's last check of
   /// the true residual, from which the next solve predicts when to check; 0: none yet.
   double ssor_residual_ratio = 0;
+  /// kSsor in single precision: the operator, its vectors, and node-ordered residual and
+  /// correction in double precision.
+  SsorOperatorT<float> ssor_single;
+  Eigen::VectorXf fr, fz, fp, fq, ft, fw, fdx;
+  VecX residual, correction;
+  /// Single-precision solves that finished in double precision (a restart did not halve the
+  /// true residual, or the curvature broke down).
+  long ssor_single_fallbacks = 0;
 };
 
 /// The automatic SSOR relaxation for N free nodes, 2 / (1 + 3.5 N^-1/4): 1.24 at 33x33, 1.39

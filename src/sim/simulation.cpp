@@ -137,7 +137,10 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
   j["solver_failures"] = r.steps.cg_failures;
   j["solver_tolerance"] = sc.integrator.cg_tolerance;
   j["preconditioner"] = preconditioner_name(sim.integrator().preconditioner());
-  if (sim.integrator().preconditioner() == Preconditioner::kSsor) j["ssor_relaxation"] = sim.integrator().ssor_relaxation();
+  if (sim.integrator().preconditioner() == Preconditioner::kSsor) {
+    j["ssor_relaxation"] = sim.integrator().ssor_relaxation();
+    j["ssor_precision"] = sc.integrator.ssor_single_precision ? "single" : "double";
+  }
   j["status"] = r.status;
   if (r.status != "ok") {
     j["unstable_time"] = r.unstable_time;

@@ -107,13 +107,15 @@ TEST_F(RunCommand, PreconditionerOptionReachesTheSolverAndAllSolveTheSameMotion)
   const int free = v[0].get<int>() * v[1].get<int>() - static_cast<int>(swing["cloth"]["pins"]["grid"].size());
   EXPECT_DOUBLE_EQ(summaries[0]["ssor_relaxation"].get<double>(), weft::ssor_relaxation_for(free));
   EXPECT_FALSE(summaries[1].contains("ssor_relaxation"));
+  EXPECT_EQ(summaries[0]["ssor_precision"], "single") << "the default";
   const auto own = write("ssor.json", scene(R"({"method": "implicit-midpoint", "dt": 0.01, "preconditioner": "ssor",
-                                               "ssor_relaxation": 1.7})"));
+                                               "ssor_relaxation": 1.7, "ssor_precision": "double"})"));
   const auto own_out = folder_ / "pc_own";
   const auto r_own = weft("run '" + own.string() + "' --out '" + own_out.string() + "' --quiet --no-frames");
   ASSERT_EQ(r_own.exit_code, 0) << r_own.error_output;
   const auto own_summary = nlohmann::json::parse(read_text(own_out / "summary.json"));
   EXPECT_EQ(own_summary["ssor_relaxation"], 1.7);
+  EXPECT_EQ(own_summary["ssor_precision"], "double");
   EXPECT_EQ(own_summary["solver_failures"], 0);
   const auto bad = weft("run '" + sc + "' --out '" + (folder_ / "pc_bad").string() + "' --preconditioner ilu");
   EXPECT_EQ(bad.exit_code, 2);
@@ -142,6 +144,8 @@ TEST_F(RunCommand, BadScenesExitTwoWithAMessageNamingTheProblemAndWriteNothing) 
        "key integrator.preconditioner: unknown preconditioner 'ilu' (expected auto, block-jacobi, ssor or multigrid)"},
       {"ssor_relaxation", scene(R"({"method": "implicit-midpoint", "dt": 0.01, "ssor_relaxation": 2})"),
        "key integrator.ssor_relaxation: must be in (0, 2), got 2.0"},
+      {"ssor_precision", scene(R"({"method": "implicit-midpoint", "dt": 0.01, "ssor_precision": "half"})"),
+       "key integrator.ssor_precision: unknown precision 'half' (expected single or double)"},
       {"frame_interval", scene(R"({"method": "implicit-midpoint", "dt": 0.03})"),
        "frame_interval 0.02 s is not a whole number of steps of dt 0.03 s"},
   };

@@ -405,6 +405,45 @@ TEST(Ssor, SolvesToTheTrueResidualInFewerIterationsThanBlockJacobi) {
   }
 }
 
+// In single precision the iterations run on float copies, but the solution and the residual
+// the solve stops on are in double precision: the same tolerance holds on the true residual,
+// also far below what single precision resolves (1e-12 needs restarts from the true
+// residual), and the solution is the double-precision solve's to that tolerance.
+TEST(Ssor, SinglePrecisionSolvesToTheTrueResidual) {
+  test::ClothStepProblem p;
+  test::make_cloth_step_problem(33, 0.02, p);
+  const BlockMatrix& A = p.matrix();
+  std::vector<char> fixed = p.fixed();
+  fixed[500] = 1;
+  VecX b = p.rhs;
+  zero_fixed(fixed, b);
+  for (double tol : {1e-6, 1e-12}) {
+    PcgSettings s;
+    s.relative_tolerance = tol;
+    s.preconditioner = Preconditioner::kSsor;
+    s.node_order = p.sim->system().solver_order();
+    PcgWorkspace ws, ws_double;
+    VecX x_double = p.guess;
+    const PcgResult d = solve_pcg(A, p.rhs, fixed, s, x_double, ws_double);
+    s.ssor_single_precision = true;
+    VecX x = p.guess;
+    const PcgResult r = solve_pcg(A, p.rhs, fixed, s, x, ws);
+    ASSERT_TRUE(d.converged);
+    ASSERT_TRUE(r.converged) << "tolerance " << tol;
+    EXPECT_EQ(ws.ssor_single_fallbacks, 0) << "every restart at least halved the residual";
+    EXPECT_EQ(x.segment<3>(3 * 500).norm(), 0.0);
+    VecX res;
+    A.multiply(x, res);
+    res -= b;
+    zero_fixed(fixed, res);
+    EXPECT_LE(res.norm(), tol * b.norm()) << "tolerance " << tol;
+    EXPECT_NEAR(r.relative_residual, res.norm() / b.norm(), 1e-3 * tol);
+    // Both solutions are within the tolerance's reach of the exact one.
+    EXPECT_LE((x - x_double).norm(), 1e3 * tol * x_double.norm()) << "tolerance " << tol;
+    if (tol < 1e-8) EXPECT_GT(r.iterations, d.iterations) << "restarts cost iterations below float precision";
+  }
+}
+
 // Outside 0 < omega < 2 the SSOR operator is not positive definite; the solver refuses
 // (0 asks for the automatic choice, which must lie inside and grow with the mesh).
 TEST(Ssor, StopsOnTheTrueResidualWhateverRatioThePreviousSolveLeft) {
