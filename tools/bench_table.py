@@ -34,7 +34,7 @@ def main(path):
           "| solve ms | step matrix MB | heap MB | peak RSS MB |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
 
-    names = {0: "block-Jacobi", 1: "multigrid", 2: "SSOR"}
+    names = {0: "block-Jacobi", 1: "multigrid", 2: "SSOR", 3: "SSOR (double)"}
 
     def key(b):
         return (b["run_name"].split("/")[1], int(b["vertices"]), int(b.get("preconditioner", 0)),
@@ -56,7 +56,7 @@ def main(path):
     print("\n| vertices | preconditioner | time IM / BE | CG iterations IM / BE |")
     print("|---|---|---|---|")
     for v in sizes:
-        for pc in names:
+        for pc in (0, 1, 2):
             im, be = by.get(("ImplicitMidpoint", v, pc, 1e-6)), by.get(("BackwardEuler", v, pc, 1e-6))
             if im and be:
                 print(f"| {v} | {names[pc]} | {im['real_time'] / be['real_time']:.2f} | "
@@ -67,11 +67,18 @@ def main(path):
     for method in ("ImplicitMidpoint", "BackwardEuler"):
         for tol in (1e-6, 1e-4):
             for v in sizes:
-                bj, mg, ss = (by.get((method, v, pc, tol)) for pc in names)
+                bj, mg, ss = (by.get((method, v, pc, tol)) for pc in (0, 1, 2))
                 if bj and mg and ss:
                     print(f"| {v} | {method} | {tol:.0e} | {mg['real_time'] / bj['real_time']:.2f} | "
                           f"{ss['real_time'] / bj['real_time']:.2f} | {ss['real_time'] / mg['real_time']:.2f} |")
 
+    print("\n| vertices | time SSOR single / double precision | CG iterations single / double |")
+    print("|---|---|---|")
+    for v in sizes:
+        sp, dp = by.get(("ImplicitMidpoint", v, 2, 1e-6)), by.get(("ImplicitMidpoint", v, 3, 1e-6))
+        if sp and dp:
+            print(f"| {v} | {sp['real_time'] / dp['real_time']:.2f} | "
+                  f"{sp['cg_iterations'] / dp['cg_iterations']:.2f} |")
 
 if __name__ == "__main__":
     main(sys.argv[1])
