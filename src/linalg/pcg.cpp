@@ -158,14 +158,15 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
     // A run of iterations from the true residual: r^ = (B + L)^-1 r, dx = 0.
     S.pad(ws.residual, ws.fw);
     S.solve_lower(wp, rp);
-    double scale = ws.ssor_residual_ratio > 0 ? ws.ssor_residual_ratio
-                                              : rnorm / std::max<double>(ws.fr.norm(), 1e-300);
+    const double scale = ws.ssor_residual_ratio > 0 ? ws.ssor_residual_ratio
+                                                    : rnorm / std::max<double>(ws.fr.norm(), 1e-300);
     ws.fp.setZero();
     ws.fdx.setZero();
     S.diagonal_times(1.0 / omega, rp, zp);
     double rz = ws.fr.cast<double>().dot(ws.fz.cast<double>());
     double beta = 0.0, pending = 0.0;
-    bool checked = false, breakdown = false;
+    double checked_at = -1;  // |r^| where the predicted residual reached the run's target
+    bool breakdown = false;
     const double run_start = rnorm;
     // A run aims at most kRunReduction below its start: beyond, the single-precision recursion
     // keeps shrinking while the true residual it stands for no longer does.
@@ -185,24 +186,18 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
       ++it;
       const double rh_norm = std::sqrt(rr);
       if (rh_norm * scale <= run_target) {
-        checked = true;
-        S.axpy(pending, tp, dxp);
-        pending = 0.0;
-        S.unpad(ws.fdx, ws.correction);
-        x += ws.correction;
-        rnorm = true_residual();
-        ws.ssor_residual_ratio = rnorm / std::max(rh_norm, 1e-300);
+        checked_at = rh_norm;
         break;
       }
       beta = rz_new / rz;
       rz = rz_new;
     }
-    if (!checked) {  // the iteration cap or a breakdown: keep what the run reached
-      if (pending != 0.0) S.axpy(pending, tp, dxp);
-      S.unpad(ws.fdx, ws.correction);
-      x += ws.correction;
-      rnorm = true_residual();
-    }
+    // What the run reached (at its check, the iteration cap or a breakdown) goes into x.
+    if (pending != 0.0) S.axpy(pending, tp, dxp);
+    S.unpad(ws.fdx, ws.correction);
+    x += ws.correction;
+    rnorm = true_residual();
+    if (checked_at >= 0) ws.ssor_residual_ratio = rnorm / std::max(checked_at, 1e-300);
     if (rnorm <= target) break;
     if (breakdown || !(rnorm < 0.5 * run_start)) {
       ++ws.ssor_single_fallbacks;
