@@ -126,7 +126,8 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
 // checked. Above the target CG restarts from it (the single-precision recursion has drifted
 // from the true residual by then, so continuing would not converge); if the restart did not
 // at least halve the true residual since the previous check, or the curvature breaks down,
-// the solve finishes in double precision (solve_ssor) from the x reached.
+// the solve finishes in double precision (solve_ssor) from the x reached, with the
+// iterations left under the cap.
 PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed, const PcgSettings& settings,
                             double bnorm, VecX& x, PcgWorkspace& ws) {
   const double target = settings.relative_tolerance * bnorm;
@@ -201,7 +202,9 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
     if (rnorm <= target) break;
     if (breakdown || !(rnorm < 0.5 * run_start)) {
       ++ws.ssor_single_fallbacks;
-      const PcgResult rest = solve_ssor(A, fixed, settings, bnorm, x, ws);
+      PcgSettings rest_settings = settings;  // the iterations left under the cap
+      rest_settings.max_iterations = settings.max_iterations - it;
+      const PcgResult rest = solve_ssor(A, fixed, rest_settings, bnorm, x, ws);
       result.iterations = it + rest.iterations;
       result.relative_residual = rest.relative_residual;
       result.converged = rest.converged;

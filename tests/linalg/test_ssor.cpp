@@ -444,6 +444,44 @@ TEST(Ssor, SinglePrecisionSolvesToTheTrueResidual) {
   }
 }
 
+// A tolerance below double precision's rounding is out of reach: the single-precision restarts
+// stop halving the true residual, and the solve goes on in double precision with the
+// iterations left, so the cap holds for the solve as a whole. It reports the true residual it
+// ended on (recomputed here in another summation order, so equal to within the products'
+// rounding, a few eps |A| |x|) and that residual is at double precision's level.
+TEST(Ssor, SinglePrecisionFallsBackToDoubleWithinTheIterationCap) {
+  test::ClothStepProblem p;
+  test::make_cloth_step_problem(33, 0.02, p);
+  const BlockMatrix& A = p.matrix();
+  const std::vector<char>& fixed = p.fixed();
+  VecX b = p.rhs;
+  zero_fixed(fixed, b);
+  PcgSettings s;
+  s.relative_tolerance = 1e-17;
+  s.max_iterations = 150;
+  s.preconditioner = Preconditioner::kSsor;
+  s.node_order = p.sim->system().solver_order();
+  s.ssor_single_precision = true;
+  PcgWorkspace ws;
+  VecX x = p.guess;
+  const PcgResult r = solve_pcg(A, p.rhs, fixed, s, x, ws);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(ws.ssor_single_fallbacks, 1);
+  EXPECT_LE(r.iterations, s.max_iterations);
+  EXPECT_GT(r.iterations, 0);
+  VecX res, abs_product;
+  A.multiply(x, res);
+  res -= b;
+  zero_fixed(fixed, res);
+  BlockMatrix abs_A = A;
+  for (Mat3& m : abs_A.block) m = m.cwiseAbs();
+  abs_A.multiply(x.cwiseAbs(), abs_product);
+  zero_fixed(fixed, abs_product);
+  const double rounding = 16 * std::numeric_limits<double>::epsilon() * abs_product.norm() / b.norm();
+  EXPECT_NEAR(r.relative_residual, res.norm() / b.norm(), rounding);
+  EXPECT_LE(r.relative_residual, 100 * rounding) << "at double precision's rounding level";
+}
+
 // Outside 0 < omega < 2 the SSOR operator is not positive definite; the solver refuses
 // (0 asks for the automatic choice, which must lie inside and grow with the mesh).
 TEST(Ssor, StopsOnTheTrueResidualWhateverRatioThePreviousSolveLeft) {
