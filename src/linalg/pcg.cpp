@@ -199,7 +199,7 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
     x += ws.correction;
     rnorm = true_residual();
     if (checked_at >= 0) ws.ssor_residual_ratio = rnorm / std::max(checked_at, 1e-300);
-    if (rnorm <= target) break;
+    if (rnorm <= target || it >= settings.max_iterations) break;
     if (breakdown || !(rnorm < 0.5 * run_start)) {
       ++ws.ssor_single_fallbacks;
       PcgSettings rest_settings = settings;  // the iterations left under the cap

@@ -480,6 +480,16 @@ TEST(Ssor, SinglePrecisionFallsBackToDoubleWithinTheIterationCap) {
   const double rounding = 16 * std::numeric_limits<double>::epsilon() * abs_product.norm() / b.norm();
   EXPECT_NEAR(r.relative_residual, res.norm() / b.norm(), rounding);
   EXPECT_LE(r.relative_residual, 100 * rounding) << "at double precision's rounding level";
+
+  // When the cap ends the single-precision iterations the solve stops there, unconverged.
+  s.relative_tolerance = 1e-6;
+  s.max_iterations = 1;
+  PcgWorkspace ws_capped;
+  VecX x_capped = p.guess;
+  const PcgResult capped = solve_pcg(A, p.rhs, fixed, s, x_capped, ws_capped);
+  EXPECT_FALSE(capped.converged);
+  EXPECT_EQ(capped.iterations, 1);
+  EXPECT_EQ(ws_capped.ssor_single_fallbacks, 0);
 }
 
 // Outside 0 < omega < 2 the SSOR operator is not positive definite; the solver refuses
