@@ -492,8 +492,6 @@ TEST(Ssor, SinglePrecisionFallsBackToDoubleWithinTheIterationCap) {
   EXPECT_EQ(ws_capped.ssor_single_fallbacks, 0);
 }
 
-// Outside 0 < omega < 2 the SSOR operator is not positive definite; the solver refuses
-// (0 asks for the automatic choice, which must lie inside and grow with the mesh).
 TEST(Ssor, StopsOnTheTrueResidualWhateverRatioThePreviousSolveLeft) {
   // The solve predicts when to check the true residual from the ratio |r| / |r^| the
   // previous solve left in the workspace. A ratio far too small (checks every iteration) or
@@ -530,6 +528,8 @@ TEST(Ssor, StopsOnTheTrueResidualWhateverRatioThePreviousSolveLeft) {
   }
 }
 
+// Outside 0 < omega < 2 the SSOR operator is not positive definite; the solver refuses
+// (0 asks for the automatic choice, which must lie inside and grow with the mesh).
 TEST(Ssor, RejectsRelaxationOutsideTheOpenInterval) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(5, 0.0, p);
