@@ -2,9 +2,16 @@
 // the operators it is built on (linalg/ssor.hpp), against dense algebra.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <numeric>
 #include <random>
 #include <stdexcept>
+#include <string>
 #include <type_traits>
+#include <vector>
 
 #include "linalg/pcg.hpp"
 #include "linalg/ssor.hpp"
@@ -127,24 +134,13 @@ TEST(Ssor, OrderTakesStretchesOfTheBaseOrderSideBySide) {
 // a group, which is then solved lane by lane. In single precision (eight lanes) likewise, and
 // on a 21x21 cloth. `tol`: relative error allowed.
 template <class T>
-void expect_operators_match_dense(int n, int pinned, bool sequential, double tol = 1e-12) {
+void expect_operators_match_dense_on(const test::ClothStepProblem& p, const std::vector<char>& fixed,
+                                     const std::vector<int>* base, bool sequential, double tol) {
   using Vector = typename SsorOperatorT<T>::Vector;
-  SCOPED_TRACE(std::to_string(n) + "x" + std::to_string(n));
-  test::ClothStepProblem p;
-  test::make_cloth_step_problem(n, 0.02, p);
-  const int nodes = n * n;
-  std::vector<char> fixed = p.fixed();
-  if (pinned >= 0) fixed[pinned] = 1;
+  const int nodes = p.matrix().pattern->num_nodes();
   const double omega = 1.3;
-  std::vector<int> base;  // on the 2x2 cloth, the two free nodes a stretch apart
-  if (nodes == 4) {
-    std::vector<int> free_nodes, fixed_nodes;
-    for (int i = 0; i < nodes; ++i) (fixed[i] ? fixed_nodes : free_nodes).push_back(i);
-    ASSERT_EQ(free_nodes.size(), 2u);
-    base = {free_nodes[0], fixed_nodes[0], free_nodes[1], fixed_nodes[1]};
-  }
   SsorOperatorT<T> S;
-  S.assign(p.matrix(), fixed, omega, nodes == 4 ? &base : nullptr);
+  S.assign(p.matrix(), fixed, omega, base);
   EXPECT_EQ(S.num_sequential_groups() > 0, sequential);
   if (!sequential)
     EXPECT_GT(S.num_scalar(), 0) << "the hinge couplings are multiples of the identity";
@@ -187,6 +183,67 @@ void expect_operators_match_dense(int n, int pinned, bool sequential, double tol
   EXPECT_LE((back - v).norm(), rounding);
 }
 
+template <class T>
+void expect_operators_match_dense(int n, int pinned, bool sequential, double tol = 1e-12) {
+  SCOPED_TRACE(std::to_string(n) + "x" + std::to_string(n));
+  test::ClothStepProblem p;
+  test::make_cloth_step_problem(n, 0.02, p);
+  std::vector<char> fixed = p.fixed();
+  if (pinned >= 0) fixed[pinned] = 1;
+  std::vector<int> base;  // on the 2x2 cloth, the two free nodes a stretch apart
+  if (n == 2) {
+    std::vector<int> free_nodes, fixed_nodes;
+    for (int i = 0; i < 4; ++i) (fixed[i] ? fixed_nodes : free_nodes).push_back(i);
+    ASSERT_EQ(free_nodes.size(), 2u);
+    base = {free_nodes[0], fixed_nodes[0], free_nodes[1], fixed_nodes[1]};
+  }
+  expect_operators_match_dense_on<T>(p, fixed, n == 2 ? &base : nullptr, sequential, tol);
+}
+
+// An n x n cloth, 1 m across, horizontal at 1 m height, whose cells are split along random
+// diagonals and whose vertices are numbered in random order, as an OBJ file (texture
+// coordinates = pattern in metres); pinned at the two corners of one edge. The lanes'
+// coupling patterns no longer coincide, as on a garment's mesh.
+Scene irregular_cloth_scene(int n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::vector<int> number(n * n);  // grid node -> OBJ vertex
+  std::iota(number.begin(), number.end(), 0);
+  std::shuffle(number.begin(), number.end(), rng);
+  std::vector<Vec2> uv(n * n);
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) uv[number[j * n + i]] = Vec2(double(i) / (n - 1), double(j) / (n - 1));
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("weft_irregular_" + std::to_string(seed) + ".obj")).string();
+  std::ofstream out(path);
+  for (const Vec2& p : uv) out << "v " << p.x() << " 1 " << p.y() << "\n";
+  for (const Vec2& p : uv) out << "vt " << p.x() << " " << p.y() << "\n";
+  const auto face = [&](int a, int b, int c) {
+    out << "f";
+    for (int k : {a, b, c}) out << " " << number[k] + 1 << "/" << number[k] + 1;
+    out << "\n";
+  };
+  std::bernoulli_distribution flip(0.5);
+  for (int j = 0; j + 1 < n; ++j)
+    for (int i = 0; i + 1 < n; ++i) {
+      const int a = j * n + i, b = a + 1, c = a + n, d = c + 1;
+      if (flip(rng)) {
+        face(a, b, d);
+        face(a, d, c);
+      } else {
+        face(a, b, c);
+        face(b, d, c);
+      }
+    }
+  out.close();
+  Scene scene = test::cloth_step_scene(n);
+  scene.cloth.grid.reset();
+  scene.cloth.obj_path = path;
+  scene.cloth.rotation_deg = Vec3::Zero();
+  scene.cloth.pin_grid_nodes.clear();
+  scene.cloth.pin_vertices = {number[0], number[n - 1]};
+  return scene;
+}
+
 TEST(Ssor, OperatorsMatchDense) {
   expect_operators_match_dense<double>(9, 40, false);
   expect_operators_match_dense<double>(2, -1, true);
@@ -198,6 +255,37 @@ TEST(Ssor, SinglePrecisionOperatorsMatchDense) {
   expect_operators_match_dense<float>(21, 200, false, 2e-5);
   expect_operators_match_dense<float>(9, 40, false, 2e-5);
   expect_operators_match_dense<float>(2, -1, true, 2e-5);
+}
+
+// On a mesh with random diagonals and a scrambled numbering, in the order the solver uses
+// (mesh/mesh.hpp banded_order): the same operators in both precisions, and single-precision
+// SSOR-PCG reaches the tolerance on the true residual as double precision does.
+TEST(Ssor, OperatorsMatchDenseOnAnIrregularMesh) {
+  test::ClothStepProblem p;
+  const Scene scene = irregular_cloth_scene(24, 11);
+  test::make_cloth_step_problem(scene, 0.02, p);
+  std::filesystem::remove(scene.cloth.obj_path);  // read when the simulation was built
+  const std::vector<int>* order = p.sim->system().solver_order();
+  ASSERT_NE(order, nullptr);
+  expect_operators_match_dense_on<double>(p, p.fixed(), order, false, 1e-12);
+  expect_operators_match_dense_on<float>(p, p.fixed(), order, false, 2e-5);
+  VecX b = p.rhs;
+  zero_fixed(p.fixed(), b);
+  PcgSettings s;
+  s.preconditioner = Preconditioner::kSsor;
+  s.node_order = order;
+  PcgWorkspace ws_double, ws_single;
+  VecX x_double = p.guess, x_single = p.guess;
+  ASSERT_TRUE(solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x_double, ws_double).converged);
+  s.ssor_single_precision = true;
+  ASSERT_TRUE(solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x_single, ws_single).converged);
+  EXPECT_EQ(ws_single.ssor_single_fallbacks, 0);
+  VecX res;
+  p.matrix().multiply(x_single, res);
+  res -= b;
+  zero_fixed(p.fixed(), res);
+  EXPECT_LE(res.norm(), s.relative_tolerance * b.norm());
+  EXPECT_LE((x_single - x_double).norm(), 1e3 * s.relative_tolerance * x_double.norm());
 }
 
 // The product of the copy with a random vector against the dense product.

@@ -35,9 +35,10 @@ inline Scene cloth_step_scene(int n) {
   return s;
 }
 
-/// Lets the cloth move for `settle_time` seconds, then assembles the next step's system.
-inline void make_cloth_step_problem(int n, double settle_time, ClothStepProblem& p) {
-  p.sim = std::make_unique<Simulation>(cloth_step_scene(n));
+/// Lets the scene's cloth move for `settle_time` seconds, then assembles the next step's
+/// system.
+inline void make_cloth_step_problem(const Scene& scene, double settle_time, ClothStepProblem& p) {
+  p.sim = std::make_unique<Simulation>(scene);
   if (settle_time > 0) p.sim->advance_to(settle_time);
   State& st = p.sim->state();
   System& sys = p.sim->system();
@@ -52,6 +53,11 @@ inline void make_cloth_step_problem(int n, double settle_time, ClothStepProblem&
   for (int i = 0; i < sys.num_nodes(); ++i)
     p.step.matrix.block[sys.pattern().diagonal_slot(i)].diagonal().array() += m[i];
   p.guess = st.dv_prev.size() == 3 * sys.num_nodes() ? st.dv_prev : VecX::Zero(3 * sys.num_nodes());
+}
+
+/// The same for the benchmark cloth at n x n vertices.
+inline void make_cloth_step_problem(int n, double settle_time, ClothStepProblem& p) {
+  make_cloth_step_problem(cloth_step_scene(n), settle_time, p);
 }
 
 /// Perturbs one off-diagonal block between free nodes that is a multiple of I3 (a hinge
