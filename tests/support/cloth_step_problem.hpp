@@ -1,6 +1,7 @@
 #pragma once
 // The linear system of one Implicit Midpoint step of the benchmark cloth (bench/bench_step.cpp):
-// 1 m x 1 m, n x n vertices, pinned at two corners, dt = 5 ms, cotton-like linear material.
+// 1 m x 1 m, n x n vertices, pinned at two corners, dt = 5 ms, cotton-like linear material;
+// or of another scene's cloth.
 // A = M - cd D - ck K and b are assembled as the integrator does (METHOD.md 1-2).
 #include <memory>
 
