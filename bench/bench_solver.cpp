@@ -8,8 +8,16 @@
 // Counters: CG iterations; for multigrid the setup, update and one V-cycle in milliseconds,
 // the number of levels and the nodes and blocks of each coarse level.
 // SsorLowerSolve<T>: one triangular solve of the SSOR operator alone, per node, in double
-// precision (four lanes, the one CG uses) and in single precision (eight lanes).
+// precision (four lanes) and in single precision (eight lanes, the default).
+// StepPart/<n>/<part>: the default solve's parts alone, each repeated on data that stays in
+// the caches as far as it fits: 0 the single-precision SSOR copy of the step matrix
+// (SsorOperatorT<float>::assign, the values only), 1 the double-precision product of the true
+// residual (BlockMatrix::multiply), 2 one single-precision CG iteration (the upper solve with
+// the new direction, the lower solve with the curvature, the residual update). With
+// `Assemble` (bench_assembly.cpp) they give a floor for a step: what it would take if every
+// part ran as fast as it does alone.
 //   build/weft_bench --benchmark_filter='Solve/' --benchmark_repetitions=3
+//   build/weft_bench --benchmark_filter='StepPart|Assemble' --benchmark_repetitions=5
 #include <benchmark/benchmark.h>
 
 #include <chrono>
@@ -105,5 +113,41 @@ void SsorLowerSolve(benchmark::State& bs) {
       S.num_nodes(), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 }  // namespace
+namespace {
+void StepPart(benchmark::State& bs) {
+  const int n = static_cast<int>(bs.range(0)), part = static_cast<int>(bs.range(1));
+  const test::ClothStepProblem& p = problem(n);
+  const auto& fixed = p.sim->system().fixed();
+  const std::vector<int>* order = p.sim->system().solver_order();
+  int free_nodes = 0;
+  for (char f : fixed) free_nodes += !f;
+  const double omega = ssor_relaxation_for(free_nodes), cp = omega - 1.0, cu = 2.0 - omega;
+  SsorOperatorT<float> S;
+  S.assign(p.step.matrix, fixed, omega, order);
+  Eigen::VectorXf r, z, d, q, t, w, dx;
+  S.pad(p.rhs, r);
+  z = d = q = t = w = r;
+  dx.setZero(r.size());
+  VecX y(p.rhs.size());
+  double rz = 0, sink = 0;
+  for (auto _ : bs) {
+    if (part == 0) {
+      S.assign(p.step.matrix, fixed, omega, order);
+    } else if (part == 1) {
+      p.step.matrix.multiply(p.guess, y);
+      benchmark::DoNotOptimize(y.data());
+    } else {
+      // Tiny steps along the directions keep the vectors' values (and their timing) steady.
+      S.step_and_solve_upper(z.data(), 0.5, d.data(), t.data(), w.data(), cp, cu, dx.data(), 0.0);
+      sink += S.solve_lower_dot(w.data(), q.data(), d.data(), t.data());
+      sink += S.update(1e-12, t.data(), q.data(), r.data(), 1.0 / omega, z.data(), rz);
+    }
+  }
+  benchmark::DoNotOptimize(sink);
+  bs.SetLabel(part == 0 ? "ssor copy" : part == 1 ? "product" : "cg iteration");
+}
+}  // namespace
+BENCHMARK(StepPart)
+    ->ArgsProduct({{33, 65, 129}, {0, 1, 2}})->ArgNames({"n", "part"})->Unit(benchmark::kMicrosecond);
 BENCHMARK(SsorLowerSolve<double>)->Arg(33)->Arg(65)->Arg(129)->Unit(benchmark::kMicrosecond);
 BENCHMARK(SsorLowerSolve<float>)->Arg(33)->Arg(65)->Arg(129)->Unit(benchmark::kMicrosecond);
