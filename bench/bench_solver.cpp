@@ -112,8 +112,7 @@ void SsorLowerSolve(benchmark::State& bs) {
   bs.counters["ns_per_node"] = benchmark::Counter(
       S.num_nodes(), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
-}  // namespace
-namespace {
+
 void StepPart(benchmark::State& bs) {
   const int n = static_cast<int>(bs.range(0)), part = static_cast<int>(bs.range(1));
   const test::ClothStepProblem& p = problem(n);
