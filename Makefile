@@ -4,7 +4,7 @@ JOBS ?= $(shell nproc)
 PACKAGES := cmake ninja-build g++ libeigen3-dev nlohmann-json3-dev libcli11-dev \
             libgtest-dev libbenchmark-dev libpng-dev libtinyobjloader-dev gnuplot-nox
 
-.PHONY: all deps build demo test bench results clean
+.PHONY: all deps build demo test sanitize fuzz bench results clean
 
 all: build
 
@@ -24,15 +24,32 @@ $(BUILD)/build.ninja: | deps
 build: deps $(BUILD)/build.ninja
 	cmake --build $(BUILD) -j $(JOBS)
 
-demo: build
+# The demo needs only the command, not the tests or the benchmarks.
+demo: deps $(BUILD)/build.ninja
+	cmake --build $(BUILD) -j $(JOBS) --target weft
 	$(BUILD)/weft run scenes/swing.json --out out/swing
 	@echo "Results: out/swing (frames/, energy.csv, summary.json)"
 
-test: build
+test: deps $(BUILD)/build.ninja
+	cmake --build $(BUILD) -j $(JOBS) --target weft weft_tests
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
-bench: build
-	$(BUILD)/weft_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+# The test suite under AddressSanitizer and UndefinedBehaviorSanitizer, in its own folder.
+SAN_BUILD ?= build-san
+sanitize: deps
+	cmake -S . -B $(SAN_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DWEFT_SANITIZE=address,undefined \
+	  -DWEFT_BUILD_BENCH=OFF
+	cmake --build $(SAN_BUILD) -j $(JOBS) --target weft weft_tests
+	cd $(SAN_BUILD) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	  ctest --output-on-failure -j $(JOBS) $(SAN_CTEST_ARGS)
+
+# Benchmarks are built for the building machine's CPU (-march=native) in their own folder;
+# the figures in docs/performance.md say which build gave them.
+BENCH_BUILD ?= build-native
+bench: deps
+	cmake -S . -B $(BENCH_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release -DWEFT_NATIVE=ON -DWEFT_BUILD_TESTS=OFF
+	cmake --build $(BENCH_BUILD) -j $(JOBS) --target weft_bench
+	$(BENCH_BUILD)/weft_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 
 results: build
 	sh tools/results.sh

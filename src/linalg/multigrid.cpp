@@ -158,7 +158,8 @@ void AggregationMultigrid::build(const BlockPattern& pattern, const std::vector<
   Level& last = *levels_.back();
   last.coarsest = true;
   last.dense.setZero(3 * last.n, 3 * last.n);
-  last.llt = Eigen::LLT<MatX>(3 * last.n);
+  // The factor is sized by its first compute(). (Not by assigning a sized LLT: Eigen leaves a
+  // constructed but uncomputed LLT's info member uninitialised, and copying it reads it.)
 }
 
 void AggregationMultigrid::build_coarse(int l, bool with_values) {
