@@ -80,7 +80,9 @@ struct StabilityMap {
 
 /// Samples scheme.spectral_radius on the grid above. Requires kappa_max > 0,
 /// lambda_max > 0 (finite) and size >= 2; throws std::invalid_argument otherwise.
+/// `threads` splits the rows over that many threads (0: one per core, at most one per 64
+/// rows); the result is the same bits for any thread count.
 StabilityMap compute_stability_map(const StabilityScheme& scheme, double kappa_max,
-                                   double lambda_max, int size);
+                                   double lambda_max, int size, int threads = 0);
 
 }  // namespace weft

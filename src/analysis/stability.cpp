@@ -122,7 +122,7 @@ StabilityScheme stability_scheme_by_name(const std::string& method, double alpha
 }
 
 StabilityMap compute_stability_map(const StabilityScheme& scheme, double kappa_max,
-                                   double lambda_max, int size) {
+                                   double lambda_max, int size, int threads) {
   if (!(std::isfinite(kappa_max) && kappa_max > 0.0) ||
       !(std::isfinite(lambda_max) && lambda_max > 0.0) || size < 2)
     throw std::invalid_argument("compute_stability_map: need kappa_max > 0, lambda_max > 0, size >= 2");
@@ -137,7 +137,8 @@ StabilityMap compute_stability_map(const StabilityScheme& scheme, double kappa_m
   // Every point is independent, so splitting the kappa rows over threads gives the same
   // bits for any thread count.
   const int thread_count =
-      std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, std::max(1, size / 64));
+      threads > 0 ? std::min(threads, size)
+                  : std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, std::max(1, size / 64));
   auto fill_rows = [&](int first, int last) {
     for (int i = first; i < last; ++i)
       for (int j = 0; j < size; ++j)

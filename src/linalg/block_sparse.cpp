@@ -1,5 +1,7 @@
 #include "linalg/block_sparse.hpp"
 
+#include "linalg/dispatch.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -41,7 +43,7 @@ long next_constant_version() {
   return ++next;
 }
 
-void BlockMatrix::multiply(const VecX& x, VecX& y) const {
+WEFT_HOT_KERNEL void BlockMatrix::multiply(const VecX& x, VecX& y) const {
   const auto& rs = pattern->row_start();
   const auto& col = pattern->column();
   const int n = pattern->num_nodes();

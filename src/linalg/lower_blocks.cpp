@@ -1,5 +1,7 @@
 #include "linalg/lower_blocks.hpp"
 
+#include "linalg/dispatch.hpp"
+
 #include <algorithm>
 
 namespace weft {
@@ -74,7 +76,7 @@ void LowerBlocks::assign(const BlockMatrix& A, const std::vector<char>& fixed) {
   }
 }
 
-void LowerBlocks::multiply(const VecX& x, VecX& y) const {
+WEFT_HOT_KERNEL void LowerBlocks::multiply(const VecX& x, VecX& y) const {
   y.setZero(3 * n_);
   const double* xp = x.data();
   double* yp = y.data();

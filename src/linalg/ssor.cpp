@@ -1,5 +1,7 @@
 #include "linalg/ssor.hpp"
 
+#include "linalg/dispatch.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -224,7 +226,7 @@ inline void add_column_times(const View<T>& r, int g, const V3<T>& y, T* acc) {
 // entry's 9 kLanes numbers: in double precision two 4x4 transposes and the last entries, in
 // single precision entry by entry.
 template <class T>
-void copy_lanes(const double* a, const std::vector<int>& slot, AlignedVector<T>& val) {
+WEFT_HOT_KERNEL void copy_lanes(const double* a, const std::vector<int>& slot, AlignedVector<T>& val) {
   constexpr int L = Simd<T>::kLanes;
   static const double kZero[9] = {};
   const long entries = static_cast<long>(slot.size()) / L;
@@ -504,7 +506,7 @@ void SsorOperatorT<T>::build(const BlockMatrix& A, const std::vector<char>& fixe
 }
 
 template <class T>
-void SsorOperatorT<T>::assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega,
+WEFT_HOT_KERNEL void SsorOperatorT<T>::assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega,
                           const std::vector<int>* base) {
   const bool same = pattern_ == A.pattern && blocks_ == A.pattern->num_blocks() &&
                     n_ == A.pattern->num_nodes() && fixed_ == fixed &&
@@ -596,7 +598,7 @@ double SsorOperatorT<T>::solve_lower_dot(const T* v, T* y, const T* p,
 // Group by group: y_g = B_g^-1 (v_g - sum of the row's blocks times the y's solved before).
 template <class T>
 template <bool kDot>
-double SsorOperatorT<T>::lower_solve(const T* v, T* y, const T* p,
+WEFT_HOT_KERNEL double SsorOperatorT<T>::lower_solve(const T* v, T* y, const T* p,
                                  const T* t) const {
   const View<T> rows = view_of<T>(lower_);
   const T* binv = binv_.data();
@@ -640,7 +642,7 @@ void SsorOperatorT<T>::step_and_solve_upper(const T* z, double beta, T* p, T* y,
 // solved later). Only the lower triangle is kept. s_g is also u's L^T y; acc_ is left zero.
 template <class T>
 template <bool kStep>
-void SsorOperatorT<T>::upper_solve(const T* z, double beta, T* v, T* y, T* u,
+WEFT_HOT_KERNEL void SsorOperatorT<T>::upper_solve(const T* z, double beta, T* v, T* y, T* u,
                                double cp, double cu, T* x, double a) const {
   const View<T> rows = view_of<T>(lower_);
   const T* binv = binv_.data();
@@ -678,7 +680,7 @@ void SsorOperatorT<T>::upper_solve(const T* z, double beta, T* v, T* y, T* u,
 }
 
 template <class T>
-double SsorOperatorT<T>::update(double a, const T* t, const T* q, T* r, double s,
+WEFT_HOT_KERNEL double SsorOperatorT<T>::update(double a, const T* t, const T* q, T* r, double s,
                             T* z, double& rz) const {
   V<T> rr4 = {}, rz4 = {};
   const T* diag = diag_.data();
@@ -697,7 +699,7 @@ double SsorOperatorT<T>::update(double a, const T* t, const T* q, T* r, double s
 }
 
 template <class T>
-void SsorOperatorT<T>::axpy(double a, const T* t, T* x) const {
+WEFT_HOT_KERNEL void SsorOperatorT<T>::axpy(double a, const T* t, T* x) const {
   const T ta = static_cast<T>(a);
   for (long k = 0; k < vector_size(); k += kLanes) store(x + k, load(x + k) + ta * load(t + k));
 }
@@ -705,7 +707,7 @@ void SsorOperatorT<T>::axpy(double a, const T* t, T* x) const {
 // A x = D x + L x + L^T x: by groups, the diagonal and lower row (gathered), then the
 // transposes of the lower row's blocks times x_g added to the earlier groups they couple to.
 template <class T>
-void SsorOperatorT<T>::multiply(const T* x, T* y) const {
+WEFT_HOT_KERNEL void SsorOperatorT<T>::multiply(const T* x, T* y) const {
   const View<T> lower = view_of<T>(lower_);
   const T* diag = diag_.data();
   for (int g = 0; g < groups_; ++g) {

@@ -1,5 +1,7 @@
 #include "system/cloth.hpp"
 
+#include "linalg/dispatch.hpp"
+
 #include <algorithm>
 #include <cstring>
 #include <cmath>
@@ -604,7 +606,7 @@ struct TriangleBatch {
 };
 }  // namespace
 
-void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t end,
+WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t end,
                                              StepAssembly& out) const {
   // assemble_membranes<true> with the element arithmetic of four triangles at a time, lane l
   // of every D4 belonging to triangle t + l: the same expressions, so the same values. The
@@ -828,7 +830,7 @@ double ClothSystem::step_viscous_power(const VecX& x, const VecX& v, const StepA
   return viscous_power_with(x, v, stored ? assembly.element_data.data() : nullptr);
 }
 
-double ClothSystem::viscous_power_with(const VecX& x, const VecX& v, const double* frames) const {
+WEFT_HOT_KERNEL double ClothSystem::viscous_power_with(const VecX& x, const VecX& v, const double* frames) const {
   const double* X = x.data();
   const double* Vel = v.data();
   // Four triangles at a time (TriangleBatch), the rest one at a time.

@@ -1,4 +1,5 @@
 // Stability of the alpha family and progressive BDF-2 on one damped spring (METHOD.md 3).
+#include <cstring>
 #include <gtest/gtest.h>
 
 #include "support/command.hpp"
@@ -238,6 +239,20 @@ TEST(StabilityMap, GridAndStableFlags) {
       if (distance_to_boundary(0.0, map.kappa[i], map.lambda[j]) > 0.02)
         EXPECT_EQ(map.stable(i, j), alpha_family_is_stable(0.0, map.kappa[i], map.lambda[j]));
     }
+}
+
+TEST(StabilityMap, SameBitsAtEveryThreadCount) {
+  // The map is the one computation of weft split over threads: one thread, two, an odd
+  // count that does not divide the rows, and more threads than rows must give the same bits.
+  const auto scheme = weft::stability_scheme_by_name("implicit-midpoint", NAN);
+  const weft::StabilityMap one = weft::compute_stability_map(scheme, 50.0, 8.0, 37, 1);
+  for (int threads : {2, 3, 7, 64}) {
+    const weft::StabilityMap many = weft::compute_stability_map(scheme, 50.0, 8.0, 37, threads);
+    ASSERT_EQ(many.spectral_radius.rows(), 37);
+    EXPECT_EQ(0, std::memcmp(one.spectral_radius.data(), many.spectral_radius.data(),
+                             sizeof(double) * one.spectral_radius.size()))
+        << threads << " threads";
+  }
 }
 
 TEST(StabilityMap, LargeMapsMatchPointwiseValues) {
