@@ -333,7 +333,11 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   progress.finish();
   const bool failed = !out.failures.empty();
   const bool interrupted = !failed && r.status == "interrupted";
-  if (interrupted) write_checkpoint(r);
+  // Interrupted: where to go on from. Finished with --checkpoint-every: the exact final state.
+  // Unstable: none (going on would repeat the blow-up).
+  const bool keep_checkpoint = interrupted || (r.status == "ok" && a.checkpoint_every);
+  if (!failed && keep_checkpoint) write_checkpoint(r);
+  if (!failed && !keep_checkpoint) fs::remove(out.checkpoint(), ec);
 
   const bool energy_written =
       out.write(out.dir() / "energy.csv", [&](std::ostream& o) { o << energy_csv(r.energy); });
@@ -370,9 +374,6 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
                  sim.state().t, frames_kept.c_str(), out.checkpoint().c_str(), a.out.c_str());
     return app::kExitInterrupted;
   }
-  // The run is over: its checkpoint has served.
-  fs::remove(out.checkpoint(), ec);
-
   if (!a.quiet) {
     std::fprintf(stderr, "%s: %ld steps in %.2f s (%.3f ms/step), CG %.1f iterations/step, kappa %.3g..%.3g, damping %.3g\n",
                  summary["status"].get<std::string>().c_str(), r.steps.steps, r.wall_seconds,
