@@ -1,12 +1,23 @@
-// `weft run SCENE --out DIR`: simulate a scene and write frames, energies and a summary.
+// `weft run SCENE --out DIR`: simulate a scene and write frames, energies and a summary;
+// `weft run --resume DIR`: continue a run from its checkpoint.
+#include <csignal>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
-#include <iostream>
+#include <fstream>
 #include <memory>
+#include <regex>
+#include <sstream>
+
+#include <unistd.h>
 
 #include "command.hpp"
-#include "weft/atomic_file.hpp"
 #include "progress.hpp"
+#include "sim/checkpoint.hpp"
+#include "weft/atomic_file.hpp"
 #include "weft/error.hpp"
 #include "weft/simulation.hpp"
 
@@ -14,31 +25,59 @@ namespace fs = std::filesystem;
 
 namespace {
 
+constexpr const char* kCheckpointName = "checkpoint.weft";
+
 struct RunArgs {
-  std::string scene, out, method, frame_format = "obj", preconditioner;
-  std::optional<double> alpha, dt, duration, tolerance, damping_ratio;
+  std::string scene, out, method, preconditioner, resume;
+  std::optional<std::string> frame_format;
+  std::optional<double> alpha, dt, duration, tolerance, damping_ratio, checkpoint_every;
   bool no_frames = false, quiet = false;
 };
 
-void write_ply(const std::string& path, const weft::Simulation& sim) {
-  const auto& x = sim.state().x;
-  const auto& tris = sim.model().mesh.triangles;
-  const weft::VecX eta = sim.system().added_viscosity_per_vertex();
-  weft::write_file_atomically(path, [&](std::ostream& out) {
-    out << "ply\nformat ascii 1.0\ncomment weft frame; added_viscosity in N s/m (adaptive damping)\n"
-        << "element vertex " << x.size() / 3 << "\nproperty float x\nproperty float y\nproperty float z\n"
-        << "property float added_viscosity\nelement face " << tris.size()
-        << "\nproperty list uchar int vertex_indices\nend_header\n";
-    char buf[128];
-    for (int i = 0; i < x.size() / 3; ++i) {
-      std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g %.6g\n", x[3 * i], x[3 * i + 1], x[3 * i + 2], eta[i]);
-      out << buf;
-    }
-    for (const auto& t : tris) out << "3 " << t[0] << ' ' << t[1] << ' ' << t[2] << '\n';
-  });
+// The settings a checkpoint keeps so that --resume rebuilds the same simulation.
+nlohmann::json options_json(const RunArgs& a) {
+  nlohmann::json j;
+  j["method"] = a.method;
+  j["preconditioner"] = a.preconditioner;
+  j["frame_format"] = a.frame_format.value_or("obj");
+  j["no_frames"] = a.no_frames;
+  const std::pair<const char*, const std::optional<double>*> numbers[] = {
+      {"alpha", &a.alpha}, {"dt", &a.dt}, {"duration", &a.duration}, {"tolerance", &a.tolerance},
+      {"damping_ratio", &a.damping_ratio}, {"checkpoint_every", &a.checkpoint_every}};
+  for (const auto& [key, value] : numbers)
+    if (*value) j[key] = **value;
+  return j;
 }
 
-int run(const RunArgs& a) {
+RunArgs options_from_json(const nlohmann::json& j) {
+  RunArgs a;
+  a.method = j.at("method").get<std::string>();
+  a.preconditioner = j.at("preconditioner").get<std::string>();
+  a.frame_format = j.at("frame_format").get<std::string>();
+  a.no_frames = j.at("no_frames").get<bool>();
+  const std::pair<const char*, std::optional<double>*> numbers[] = {
+      {"alpha", &a.alpha}, {"dt", &a.dt}, {"duration", &a.duration}, {"tolerance", &a.tolerance},
+      {"damping_ratio", &a.damping_ratio}, {"checkpoint_every", &a.checkpoint_every}};
+  for (const auto& [key, value] : numbers)
+    if (j.contains(key)) *value = j.at(key).get<double>();
+  return a;
+}
+
+std::string read_bytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw weft::InputError(path.string() + ": cannot read");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string hash_hex(const std::string& bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(weft::fnv1a(bytes.data(), bytes.size())));
+  return buf;
+}
+
+weft::Scene build_scene(const RunArgs& a) {
   using namespace weft;
   Scene scene = load_scene(a.scene);
   const std::string where = "command line";
@@ -49,59 +88,308 @@ int run(const RunArgs& a) {
   if (a.damping_ratio) scene.damping_ratio = *a.damping_ratio;
   if (!a.preconditioner.empty()) scene.integrator.preconditioner = *parse_preconditioner(a.preconditioner);
   validate_timing(scene, where);
+  if (a.checkpoint_every && !(*a.checkpoint_every >= 0 && std::isfinite(*a.checkpoint_every)))
+    throw InputError(where + ": --checkpoint-every must be a number of seconds >= 0, got " +
+                     std::to_string(*a.checkpoint_every));
+  return scene;
+}
+
+// An output that could not be written: the file and why.
+struct OutputFailure {
+  std::string path, reason;
+};
+
+std::string failure_reason(const std::exception& e) {
+  std::string reason = e.what();
+  // The streams do not say why a write failed; errno still does for the usual causes.
+  const int err = errno;
+  if (err == ENOSPC || err == EFBIG || err == EDQUOT || err == EROFS || err == EIO || err == EACCES)
+    reason += std::string(" (") + std::strerror(err) + ")";
+  return reason;
+}
+
+// The files a run writes into its folder; never touches anything else there.
+class OutputFolder {
+ public:
+  explicit OutputFolder(fs::path dir) : dir_(std::move(dir)) {}
+  const fs::path& dir() const { return dir_; }
+  fs::path frames() const { return dir_ / "frames"; }
+  fs::path checkpoint() const { return dir_ / kCheckpointName; }
+
+  /// Removes the outputs of an earlier run (and temporaries of interrupted writes): frames
+  /// and body frames from frame `first_frame` on, energy.csv, summary.json and the checkpoint
+  /// unless `keep_checkpoint`. Files of other names are left alone.
+  void clear(long first_frame, bool keep_checkpoint) const {
+    static const std::regex frame(R"((frame_|body\d+_)(\d{5,})\.(obj|ply)((\.\d+)?\.tmp)?)");
+    static const std::regex top(R"((energy\.csv|summary\.json|checkpoint\.weft)(\.\d+\.tmp)?)");
+    std::error_code ec;
+    if (fs::is_directory(frames(), ec)) {
+      for (const auto& e : fs::directory_iterator(frames())) {
+        std::smatch m;
+        const std::string name = e.path().filename().string();
+        if (std::regex_match(name, m, frame) && (m[4].matched || std::stol(m[2]) >= first_frame)) fs::remove(e.path());
+      }
+      fs::remove(frames(), ec);  // only when empty
+    }
+    for (const auto& e : fs::directory_iterator(dir_)) {
+      std::smatch m;
+      const std::string name = e.path().filename().string();
+      if (std::regex_match(name, m, top) && !(keep_checkpoint && name == kCheckpointName)) fs::remove(e.path());
+    }
+  }
+
+  /// Runs `write` (which writes `path` atomically, throwing when it cannot); false, and the
+  /// failure noted, when it throws.
+  bool attempt(const fs::path& path, const std::function<void()>& write) {
+    try {
+      write();
+      return true;
+    } catch (const std::exception& e) {
+      failures.push_back({path.string(), failure_reason(e)});
+      return false;
+    }
+  }
+  bool write(const fs::path& path, const std::function<void(std::ostream&)>& content) {
+    return attempt(path, [&] { weft::write_file_atomically(path.string(), content); });
+  }
+  bool write_bytes(const fs::path& path, const std::string& bytes) {
+    return write(path, [&](std::ostream& o) { o.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
+  }
+
+  std::vector<OutputFailure> failures;
+
+ private:
+  fs::path dir_;
+};
+
+void write_ply(std::ostream& out, const weft::Simulation& sim) {
+  const auto& x = sim.state().x;
+  const auto& tris = sim.model().mesh.triangles;
+  const weft::VecX eta = sim.system().added_viscosity_per_vertex();
+  out << "ply\nformat ascii 1.0\ncomment weft frame; added_viscosity in N s/m (adaptive damping)\n"
+      << "element vertex " << x.size() / 3 << "\nproperty float x\nproperty float y\nproperty float z\n"
+      << "property float added_viscosity\nelement face " << tris.size()
+      << "\nproperty list uchar int vertex_indices\nend_header\n";
+  char buf[128];
+  for (int i = 0; i < x.size() / 3; ++i) {
+    std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g %.6g\n", x[3 * i], x[3 * i + 1], x[3 * i + 2], eta[i]);
+    out << buf;
+  }
+  for (const auto& t : tris) out << "3 " << t[0] << ' ' << t[1] << ' ' << t[2] << '\n';
+}
+
+// The changes that could stabilise a run, leaving out those already in force.
+std::string stability_advice(const weft::Scene& sc) {
+  using weft::Method;
+  std::vector<std::string> items;
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "a smaller time step than the current %g s (e.g. --dt %g)", sc.integrator.dt,
+                sc.integrator.dt / 2);
+  items.push_back(buf);
+  if (!(sc.integrator.method == Method::AlphaFamily && sc.integrator.alpha == 1.0))
+    items.push_back("a more implicit method (--method backward-euler)");
+  const double zeta = sc.effective_damping_ratio();
+  if (zeta < 1.0) {
+    const double more = zeta > 0 ? std::min(1.0, 2 * zeta) : 0.05;
+    if (zeta > 0)
+      std::snprintf(buf, sizeof buf, "more damping than the current ratio of %g (e.g. --damping-ratio %g)", zeta, more);
+    else
+      std::snprintf(buf, sizeof buf, "adaptive damping, off now (e.g. --damping-ratio %g)", more);
+    items.push_back(buf);
+  }
+  std::string s = "Try ";
+  for (size_t i = 0; i < items.size(); ++i)
+    s += (i == 0 ? "" : i + 1 == items.size() ? " or " : ", ") + items[i];
+  return s + ".";
+}
+
+// Ctrl-C (SIGINT) and SIGTERM ask the run to stop at the next frame boundary; the handler
+// resets itself, so a second signal ends the process at once.
+volatile std::sig_atomic_t g_stop_signal = 0;
+
+extern "C" void on_stop_signal(int sig) {
+  g_stop_signal = sig;
+  static const char note[] = "\nweft: stopping at the next frame boundary (again to quit at once)\n";
+  const ssize_t ignored = ::write(2, note, sizeof note - 1);
+  (void)ignored;
+}
+
+void install_signal_handlers() {
+  struct sigaction sa {};
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESETHAND;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  // A file-size limit then fails the write (reported, exit status 4) instead of killing weft.
+  std::signal(SIGXFSZ, SIG_IGN);
+}
+
+std::string count_of(size_t n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
+
+int run(RunArgs a, const std::function<bool(const char*)>& given) {
+  using namespace weft;
+  const bool resume = !a.resume.empty();
+  std::string checkpoint_bytes_in;
+  nlohmann::json header;
+  if (resume) {
+    for (const char* option : {"scene", "--out", "--method", "--alpha", "--dt", "--duration", "--tolerance",
+                               "--preconditioner", "--damping-ratio", "--frame-format", "--no-frames"})
+      if (given(option))
+        throw InputError(std::string("command line: ") + option +
+                         " cannot be combined with --resume: the run goes on with the settings it started with");
+    const fs::path file = fs::path(a.resume) / kCheckpointName;
+    if (!fs::exists(file))
+      throw InputError(file.string() + ": no checkpoint to resume from (a run writes one when interrupted, and "
+                                       "every --checkpoint-every seconds)");
+    checkpoint_bytes_in = read_bytes(file);
+    header = checkpoint_header(checkpoint_bytes_in, file.string());
+    RunArgs stored;
+    try {
+      stored = options_from_json(header.at("options"));
+      stored.scene = header.at("scene").get<std::string>();
+      const std::string hash = header.at("scene_hash").get<std::string>();
+      if (hash_hex(read_bytes(stored.scene)) != hash)
+        throw InputError(stored.scene + ": the scene changed since the checkpoint " + file.string() +
+                         " was written (its hash was " + hash + "); resume needs the same scene");
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError(file.string() + ": checkpoint header is damaged: " + e.what());
+    }
+    stored.out = a.resume;
+    stored.quiet = a.quiet;
+    if (a.checkpoint_every) stored.checkpoint_every = a.checkpoint_every;
+    a = stored;
+  } else if (a.scene.empty() || a.out.empty()) {
+    throw InputError("command line: give a scene and --out DIR, or --resume DIR");
+  }
+  const Scene scene = build_scene(a);
   Simulation sim(scene);  // validates the mesh, material and pins before anything is written
+  RunResult so_far;
+  if (resume) so_far = restore_checkpoint(checkpoint_bytes_in, (fs::path(a.resume) / kCheckpointName).string(), sim);
   std::vector<std::unique_ptr<WalkingBody>> bodies;
   for (const auto& b : scene.bodies) bodies.push_back(std::make_unique<WalkingBody>(b));
   if (!bodies.empty() && !a.quiet)
     std::fprintf(stderr, "note: the scene's body colliders are animated and written as frames/body<k>_NNNNN.obj; "
                          "the cloth does not collide with them in this version\n");
 
-  const fs::path out(a.out);
+  OutputFolder out(a.out);
   std::error_code ec;
-  fs::create_directories(out / "frames", ec);
+  fs::create_directories(out.dir(), ec);
   if (ec) throw InputError(a.out + ": cannot create output folder: " + ec.message());
+  const long first_frame = static_cast<long>(so_far.energy.size());
+  // A fresh run replaces an earlier run's outputs; a resumed one those past its checkpoint.
+  out.clear(first_frame, resume);
+  const std::string frame_format = a.frame_format.value_or("obj");
   if (!a.no_frames) {
-    // Remove frames of an earlier run so the folder holds one consistent run.
-    for (const auto& e : fs::directory_iterator(out / "frames"))
-      if (e.path().filename().string().rfind("frame_", 0) == 0 || e.path().filename().string().rfind("body", 0) == 0)
-        fs::remove(e.path());
+    fs::create_directories(out.frames(), ec);
+    if (ec) throw InputError(out.frames().string() + ": cannot create output folder: " + ec.message());
   }
+  nlohmann::json checkpoint_header_out;
+  checkpoint_header_out["weft_version"] = WEFT_VERSION;
+  checkpoint_header_out["scene"] = fs::absolute(a.scene).string();
+  checkpoint_header_out["scene_hash"] = hash_hex(read_bytes(a.scene));
+  checkpoint_header_out["options"] = options_json(a);
+  long checkpoint_frame = resume ? first_frame - 1 : -1;  // the last frame a checkpoint on disk holds
+  auto write_checkpoint = [&](const RunResult& r) {
+    if (out.write_bytes(out.checkpoint(), checkpoint_bytes(checkpoint_header_out, sim, r)))
+      checkpoint_frame = static_cast<long>(r.energy.size()) - 1;
+  };
 
+  install_signal_handlers();
   app::Progress progress("weft run " + scene.method_name, !a.quiet);
+  using Clock = std::chrono::steady_clock;
+  auto last_checkpoint = Clock::now();
+  long frames_complete = first_frame;  // frames 0 .. frames_complete - 1 are on disk
   RunCallbacks cb;
   cb.on_frame = [&](int f, const Simulation& s) {
-    if (a.no_frames) return;
+    if (a.no_frames || !out.failures.empty()) return;
     char name[64];
-    std::snprintf(name, sizeof name, "frame_%05d.%s", f, a.frame_format.c_str());
-    const std::string path = (out / "frames" / name).string();
-    if (a.frame_format == "ply") write_ply(path, s); else write_obj(path, s.state().x, s.model().mesh.triangles);
+    std::snprintf(name, sizeof name, "frame_%05d.%s", f, frame_format.c_str());
+    const fs::path path = out.frames() / name;
+    bool ok = frame_format == "ply"
+                  ? out.write(path, [&](std::ostream& o) { write_ply(o, s); })
+                  : out.attempt(path, [&] { write_obj(path.string(), s.state().x, s.model().mesh.triangles); });
     Points body_positions;
-    for (size_t k = 0; k < bodies.size(); ++k) {
+    for (size_t k = 0; ok && k < bodies.size(); ++k) {
       std::snprintf(name, sizeof name, "body%zu_%05d.obj", k, f);
       bodies[k]->positions(s.state().t, body_positions);
-      write_obj((out / "frames" / name).string(), body_positions, bodies[k]->triangles());
+      const fs::path body_path = out.frames() / name;
+      ok = out.attempt(body_path, [&] { write_obj(body_path.string(), body_positions, bodies[k]->triangles()); });
     }
+    if (ok) frames_complete = f + 1;
   };
   cb.on_progress = [&](double fr) { progress.update(fr); };
-  RunResult r = run_simulation(sim, cb);
+  cb.after_frame = [&](const RunResult& r) {
+    if (!out.failures.empty() || g_stop_signal) return true;
+    if (a.checkpoint_every &&
+        std::chrono::duration<double>(Clock::now() - last_checkpoint).count() >= *a.checkpoint_every) {
+      write_checkpoint(r);
+      last_checkpoint = Clock::now();
+    }
+    return !out.failures.empty();
+  };
+  RunResult r = run_simulation(sim, cb, resume ? &so_far : nullptr);
   progress.finish();
-  write_file_atomically((out / "energy.csv").string(), [&](std::ostream& o) { o << energy_csv(r.energy); });
-  const nlohmann::json summary = summary_json(sim, r);
-  write_file_atomically((out / "summary.json").string(), [&](std::ostream& o) { o << summary.dump(2) << "\n"; });
+  const bool failed = !out.failures.empty();
+  const bool interrupted = !failed && r.status == "interrupted";
+  // Interrupted: where to go on from. Finished with --checkpoint-every: the exact final state.
+  // Unstable: none (going on would repeat the blow-up).
+  const bool keep_checkpoint = interrupted || (r.status == "ok" && a.checkpoint_every);
+  if (!failed && keep_checkpoint) write_checkpoint(r);
+  if (!failed && !keep_checkpoint) fs::remove(out.checkpoint(), ec);
 
+  const bool energy_written =
+      out.write(out.dir() / "energy.csv", [&](std::ostream& o) { o << energy_csv(r.energy); });
+  nlohmann::json summary = summary_json(sim, r);
+  if (!out.failures.empty()) {
+    summary["status"] = "output_failed";
+    summary["message"] = "could not write " + out.failures.front().path + ": " + out.failures.front().reason;
+  }
+  const bool summary_written =
+      out.write(out.dir() / "summary.json", [&](std::ostream& o) { o << summary.dump(2) << "\n"; });
+  const std::string frames_kept =
+      a.no_frames          ? std::string("no frames (--no-frames)")
+      : frames_complete == 0 ? std::string("no frames")
+                             : "frames " + (frames_complete == 1 ? std::string("0") : "0 to " + std::to_string(frames_complete - 1)) +
+                                   " in " + out.frames().string();
+
+  if (!out.failures.empty()) {
+    std::string kept = frames_kept;
+    if (energy_written) kept += ", energy.csv (" + count_of(r.energy.size(), "row") + ")";
+    if (summary_written) kept += ", summary.json (status output_failed)";
+    std::fprintf(stderr, "weft: error: could not write %s: %s.\nStopped at t = %.4f s. Kept: %s.\n",
+                 out.failures.front().path.c_str(), out.failures.front().reason.c_str(), sim.state().t, kept.c_str());
+    for (size_t k = 1; k < out.failures.size(); ++k)
+      std::fprintf(stderr, "weft: could not write %s either: %s\n", out.failures[k].path.c_str(),
+                   out.failures[k].reason.c_str());
+    if (checkpoint_frame >= 0 && fs::exists(out.checkpoint()))
+      std::fprintf(stderr, "The checkpoint %s holds frame %ld: once there is room, `weft run --resume %s` continues "
+                           "from there.\n", out.checkpoint().c_str(), checkpoint_frame, a.out.c_str());
+    return app::kExitOutputFailed;
+  }
+  if (interrupted) {
+    std::fprintf(stderr, "weft: interrupted at t = %.4f s. Kept: %s, energy.csv, summary.json (status interrupted) "
+                         "and %s. Continue with `weft run --resume %s`.\n",
+                 sim.state().t, frames_kept.c_str(), out.checkpoint().c_str(), a.out.c_str());
+    return app::kExitInterrupted;
+  }
   if (!a.quiet) {
     std::fprintf(stderr, "%s: %ld steps in %.2f s (%.3f ms/step), CG %.1f iterations/step, kappa %.3g..%.3g, damping %.3g\n",
-                 r.status.c_str(), r.steps.steps, r.wall_seconds, 1e3 * r.wall_seconds / std::max(1L, r.steps.steps),
-                 summary["solver_iterations_mean"].get<double>(), r.damping.membrane_kappa.min(),
-                 r.damping.membrane_kappa.max(), r.damping_ratio);
-    std::fprintf(stderr, "results in %s (frames/, energy.csv, summary.json)\n", a.out.c_str());
+                 summary["status"].get<std::string>().c_str(), r.steps.steps, r.wall_seconds,
+                 1e3 * r.wall_seconds / std::max(1L, r.steps.steps), summary["solver_iterations_mean"].get<double>(),
+                 r.damping.membrane_kappa.min(), r.damping.membrane_kappa.max(), r.damping_ratio);
+    std::fprintf(stderr, "results in %s (%senergy.csv, summary.json)\n", a.out.c_str(), a.no_frames ? "" : "frames/, ");
   }
-  if (r.status != "ok") {
+  if (r.steps.cg_failures > 0)
     std::fprintf(stderr,
-                 "weft: simulation became unstable at t = %.4f s: %s.\n"
-                 "Kept %zu frames. Try a smaller --dt, a more implicit method (--method backward-euler) or more damping "
-                 "(--damping-ratio 0.05).\n",
-                 r.unstable_time, r.message.c_str(), r.energy.size());
+                 "weft: warning: %ld of %ld linear solves stopped at the iteration cap of %d (the scene's "
+                 "integrator.max_iterations) before reaching the tolerance %g: the motion is less accurate than asked. "
+                 "summary.json's status is %s.\n",
+                 r.steps.cg_failures, r.steps.cg_solves, scene.integrator.cg_max_iterations,
+                 scene.integrator.cg_tolerance, summary["status"].get<std::string>().c_str());
+  if (r.status == "unstable") {
+    std::fprintf(stderr, "weft: simulation became unstable at t = %.4f s: %s.\nKept %zu frames. %s\n", r.unstable_time,
+                 r.message.c_str(), r.energy.size(), stability_advice(scene).c_str());
     return app::kExitUnstable;
   }
   return app::kExitOk;
@@ -110,8 +398,13 @@ int run(const RunArgs& a) {
 weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write frames, energy.csv and summary.json",
   [](CLI::App& sub) {
     auto a = std::make_shared<RunArgs>();
-    sub.add_option("scene", a->scene, "Scene file (JSON, see docs/scene-format.md)")->required();
-    sub.add_option("--out,-o", a->out, "Output folder (created; frames/, energy.csv, summary.json)")->required();
+    sub.add_option("scene", a->scene, "Scene file (JSON, see docs/scene-format.md)");
+    sub.add_option("--out,-o", a->out, "Output folder (created; frames/, energy.csv, summary.json)");
+    sub.add_option("--resume", a->resume,
+                   "Continue the interrupted run in this folder from its checkpoint, with its settings");
+    sub.add_option("--checkpoint-every", a->checkpoint_every,
+                   "Write DIR/checkpoint.weft at the first frame boundary after every SECONDS of wall-clock time "
+                   "(0: every frame)");
     sub.add_option("--method,-m", a->method,
                    "Integrator: " + weft::method_names() + " (default: the scene's)");
     sub.add_option("--alpha", a->alpha, "Implicitness in [0, 1] for methods 'alpha' and 'bdf2-alpha'");
@@ -133,9 +426,16 @@ weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write fram
     sub.add_flag("--quiet,-q", a->quiet, "No progress bar or summary line");
     sub.footer(
         "Writes DIR/frames/frame_00000.obj ... (one per output frame, the first at time 0), DIR/energy.csv\n"
-        "(time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,total in J) and DIR/summary.json.\n"
-        "Exit status: 0 ok, 2 bad input (nothing written), 3 unstable (frames so far kept).");
-    return std::function<int()>([a] { return run(*a); });
+        "(time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,total in J) and DIR/summary.json,\n"
+        "after removing those of an earlier run in DIR. Ctrl-C stops at the next frame boundary and writes\n"
+        "DIR/checkpoint.weft; `weft run --resume DIR` continues with the same result as an uninterrupted run.\n"
+        "Exit status: 0 ok (also when solves hit the iteration cap: a warning, summary status solver_capped),\n"
+        "2 bad input (nothing written), 3 unstable (frames so far kept), 4 an output could not be written\n"
+        "(the message says what was kept), 130 interrupted (checkpoint written).");
+    CLI::App* app = &sub;
+    return std::function<int()>([a, app] {
+      return run(*a, [app](const char* name) { return app->count(name) > 0; });
+    });
   }, 10}};
 
 }  // namespace

@@ -1,7 +1,9 @@
 #pragma once
 // Subcommands register themselves here, so each lives in its own file under app/.
 // A command's run function returns the process exit status:
-//   0 success, 2 bad input (nothing written), 3 the simulation became unstable.
+//   0 success, 1 internal error (a bug), 2 bad input (nothing written), 3 the simulation
+//   became unstable, 4 an output could not be written (the message names it and says what
+//   was kept), 130 interrupted by Ctrl-C or SIGTERM (outputs so far and a checkpoint kept).
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <string>
@@ -12,6 +14,8 @@ namespace weft::app {
 constexpr int kExitOk = 0;
 constexpr int kExitBadInput = 2;
 constexpr int kExitUnstable = 3;
+constexpr int kExitOutputFailed = 4;
+constexpr int kExitInterrupted = 130;  ///< 128 + SIGINT, as shells report a Ctrl-C
 
 struct CommandSpec {
   std::string parent;  ///< "" for top level, e.g. "experiment" for `weft experiment NAME`

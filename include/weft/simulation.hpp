@@ -1,6 +1,7 @@
 #pragma once
 // Running a scene: the library entry point behind `weft run`, the experiments and the
 // benchmarks. The core never touches files; writing frames is the caller's callback.
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -11,6 +12,9 @@
 #include "weft/scene.hpp"
 
 namespace weft {
+
+class BinaryWriter;
+class BinaryReader;
 
 /// Energies at one output frame (METHOD.md 6), in joules.
 struct EnergyRow {
@@ -45,6 +49,19 @@ class Simulation {
   EnergyRow energies();
   /// A scale of the scene's energy (J): initial kinetic + elastic + weight times size.
   double energy_scale() const { return energy_scale_; }
+  /// Mechanical energy (kinetic + elastic + gravity) of the reference state (J).
+  double initial_total_energy() const { return total0_; }
+
+  /// Writes everything later steps and the run's statistics depend on, bit for bit: the
+  /// State, the step statistics, the energy reference and the system's and integrator's
+  /// dynamic state, after a fingerprint of the model and settings.
+  void save(BinaryWriter& out) const;
+  /// Reads what save wrote into a Simulation built from the same scene and settings; throws
+  /// InputError (through `in`) when the fingerprint or a size does not match.
+  void restore(BinaryReader& in);
+  /// A hash of what a step's result depends on in the model and settings: the mesh's
+  /// positions, masses, pins and pattern, the integrator settings and the damping.
+  std::uint64_t fingerprint() const;
 
  private:
   Scene scene_;
@@ -59,13 +76,14 @@ class Simulation {
 };
 
 struct RunResult {
-  std::string status = "ok";        ///< "ok" or "unstable"
+  /// "ok", "unstable", or "interrupted" (RunCallbacks::after_frame asked to stop).
+  std::string status = "ok";
   std::string message;              ///< why it became unstable
   double unstable_time = 0;
   std::vector<EnergyRow> energy;    ///< one row per output frame
   StepStatistics steps;
   DampingStatistics damping;
-  double wall_seconds = 0;
+  double wall_seconds = 0;          ///< including the wall time before a checkpoint
   double damping_ratio = 0;
   long vertices = 0, triangles = 0;
 };
@@ -75,14 +93,32 @@ struct RunCallbacks {
   std::function<void(int frame, const Simulation& sim)> on_frame;
   /// Called after every frame with the fraction done.
   std::function<void(double fraction)> on_progress;
+  /// Called at every frame boundary after on_frame, with the result so far (the energy rows
+  /// and wall time); returning true stops the run there with status "interrupted".
+  std::function<bool(const RunResult& so_far)> after_frame;
 };
 
 /// Runs the scene to its duration, stopping early when it becomes unstable (a non-finite
 /// value, or mechanical energy rising above its initial value by more than the scene's
 /// energy scale: with static pins nothing can add energy).
-RunResult run_simulation(Simulation& sim, const RunCallbacks& callbacks = {});
+/// `resumed`: the result so far of the run `sim` was restored from (read_checkpoint); the
+/// run goes on from the frame after its last.
+RunResult run_simulation(Simulation& sim, const RunCallbacks& callbacks = {}, const RunResult* resumed = nullptr);
 
-/// The summary as JSON (the fields of summary.json).
+/// A checkpoint (sim/checkpoint.hpp) of a run at a frame boundary: `header` (what the
+/// caller needs to rebuild the Simulation), sim's state and the run so far. The bytes to
+/// write to a file.
+std::string checkpoint_bytes(const nlohmann::json& header, const Simulation& sim, const RunResult& so_far);
+/// The header of the checkpoint in `bytes` read from `file`; throws InputError naming the
+/// file for anything other than an undamaged checkpoint of this format version.
+nlohmann::json checkpoint_header(const std::string& bytes, const std::string& file);
+/// Restores sim (built from what the header describes) from the checkpoint and returns the
+/// run so far; throws InputError naming the file when it does not fit the simulation.
+RunResult restore_checkpoint(const std::string& bytes, const std::string& file, Simulation& sim);
+
+/// The summary as JSON (the fields of summary.json). Its status is the result's, except
+/// "solver_capped" for a run otherwise ok in which a linear solve stopped at the iteration
+/// cap before reaching the tolerance.
 nlohmann::json summary_json(const Simulation& sim, const RunResult& result);
 /// energy.csv text: header row then one row per frame.
 std::string energy_csv(const std::vector<EnergyRow>& rows);

@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 namespace weft {
 
@@ -83,6 +85,26 @@ void LogStatistics::merge(const LogStatistics& o) {
   max_ = std::max(max_, o.max_);
   sum_ += o.sum_;
   count_ += o.count_;
+}
+
+LogStatistics::Snapshot LogStatistics::snapshot() const {
+  Snapshot s{{}, count_, min_, max_, sum_};
+  for (int i = 0; i < kBins; ++i)
+    if (bins_[i]) s.bins.emplace_back(i, bins_[i]);
+  return s;
+}
+
+LogStatistics LogStatistics::from_snapshot(const Snapshot& s) {
+  LogStatistics r;
+  for (const auto& [bin, n] : s.bins) {
+    if (bin < 0 || bin >= kBins) throw std::invalid_argument("statistics bin " + std::to_string(bin) + " out of range");
+    r.bins_[bin] = n;
+  }
+  r.count_ = s.count;
+  r.min_ = s.min;
+  r.max_ = s.max;
+  r.sum_ = s.sum;
+  return r;
 }
 
 double LogStatistics::median() const {

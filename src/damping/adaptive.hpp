@@ -4,6 +4,7 @@
 // damping ratio is lambda / (2 sqrt(kappa)). Adaptive damping raises each element's
 // strain-rate viscosity so that its damping ratio is at least a target zeta.
 #include <array>
+#include <utility>
 #include <vector>
 
 #include "weft/types.hpp"
@@ -42,6 +43,16 @@ class LogStatistics {
   double mean() const { return count_ ? sum_ / count_ : 0.0; }
   /// Median to within half a bin: bins are 1/128 of an octave wide (0.8% relative).
   double median() const;
+
+  /// The exact contents (checkpoints): the non-empty bins as (bin, count) and the running
+  /// values; from_snapshot throws std::invalid_argument for a bin out of range.
+  struct Snapshot {
+    std::vector<std::pair<int, long>> bins;
+    long count = 0;
+    double min = 0, max = 0, sum = 0;
+  };
+  Snapshot snapshot() const;
+  static LogStatistics from_snapshot(const Snapshot& s);
 
  private:
   // A positive double's bit pattern shifted right by 52 - kMantissaBits is monotone in the

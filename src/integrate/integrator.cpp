@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 
 namespace weft {
 
@@ -82,6 +83,39 @@ std::string preconditioner_name(Preconditioner p) {
       break;
   }
   return "block-jacobi";
+}
+
+PcgSettings Integrator::pcg_settings() const {
+  PcgSettings ps{settings_.cg_tolerance, settings_.cg_max_iterations, preconditioner_};
+  ps.node_order = system_.solver_order();
+  ps.ssor_omega = settings_.ssor_relaxation;
+  ps.ssor_single_precision = settings_.ssor_single_precision;
+  return ps;
+}
+
+Integrator::DynamicState Integrator::dynamic_state() const {
+  return {history_.snapshot(), history_alpha_,           history_beta_,          history_dt_b_,
+          history_t_,          pcg_.ssor_residual_ratio, pcg_.ssor_single_fallbacks, multigrid_setup_blocks_};
+}
+
+void Integrator::restore(const DynamicState& d) {
+  const BlockPattern& P = system_.pattern();
+  if (!d.multigrid_setup_blocks.empty()) {
+    if (preconditioner_ != Preconditioner::kMultigrid || d.multigrid_setup_blocks.size() != static_cast<size_t>(P.num_blocks()))
+      throw std::invalid_argument("the multigrid matrix does not fit this system and preconditioner");
+    BlockMatrix m;
+    m.reset(P);
+    m.block = d.multigrid_setup_blocks;
+    pcg_.multigrid.setup(m, system_.fixed(), pcg_settings().multigrid);
+  }
+  history_.restore(d.history);
+  history_alpha_ = d.history_alpha;
+  history_beta_ = d.history_beta;
+  history_dt_b_ = d.history_dt_b;
+  history_t_ = d.history_t;
+  pcg_.ssor_residual_ratio = d.ssor_residual_ratio;
+  pcg_.ssor_single_fallbacks = d.ssor_single_fallbacks;
+  multigrid_setup_blocks_ = d.multigrid_setup_blocks;
 }
 
 void Integrator::advance(State& s, double t_end, StepStatistics& stats) {
@@ -184,10 +218,12 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   if (!history_.guess(rhs_, dv_)) {
     if (s.dv_prev.size() == 3 * n) dv_ = s.dv_prev; else dv_ = VecX::Zero(3 * n);
   }
-  PcgSettings ps{settings_.cg_tolerance, settings_.cg_max_iterations, preconditioner_};
-  ps.node_order = system_.solver_order();
-  ps.ssor_omega = settings_.ssor_relaxation;
-  ps.ssor_single_precision = settings_.ssor_single_precision;
+  const PcgSettings ps = pcg_settings();
+  if (preconditioner_ == Preconditioner::kMultigrid && !pcg_.multigrid.matches(P, system_.fixed(), ps.multigrid)) {
+    // Built here rather than inside the solve, to keep the matrix it was built from.
+    pcg_.multigrid.setup(step_.matrix, system_.fixed(), ps.multigrid);
+    multigrid_setup_blocks_ = step_.matrix.block;
+  }
   PcgResult r = solve_pcg(step_.matrix, rhs_, system_.fixed(), ps, dv_, pcg_);
   stats.cg_iterations += r.iterations;
   ++stats.cg_solves;

@@ -93,7 +93,26 @@ class Integrator {
   /// The SSOR relaxation the solves use (the setting, or the automatic one for this system).
   double ssor_relaxation() const;
 
+  /// What later steps depend on beyond the State and the system (checkpoints): the warm-start
+  /// history and the linear step it belongs to, the SSOR residual ratio the next solve
+  /// starts from, and the matrix the multigrid hierarchy was built from (its aggregates
+  /// follow that matrix's strong couplings, so a hierarchy built from a later matrix would
+  /// solve differently). The rest of the integrator is scratch, rewritten by every step.
+  struct DynamicState {
+    SolutionHistory::Snapshot history;
+    double history_alpha = -1, history_beta = 0, history_dt_b = 0, history_t = 0;
+    double ssor_residual_ratio = 0;
+    long ssor_single_fallbacks = 0;
+    std::vector<Mat3> multigrid_setup_blocks;  ///< empty: no hierarchy built yet
+  };
+  DynamicState dynamic_state() const;
+  /// Restores a dynamic state taken from an integrator of the same system and settings
+  /// (rebuilding the multigrid hierarchy from its matrix); throws std::invalid_argument
+  /// for one that does not fit.
+  void restore(const DynamicState& d);
+
  private:
+  PcgSettings pcg_settings() const;
   void linear_step(State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
   void rk4_step(State& s, double dt, StepStatistics& stats);
   bool rk45_try(State& s, double h, double& error_norm, StepStatistics& stats);
@@ -111,6 +130,7 @@ class Integrator {
   /// reached: another step size or a state from elsewhere starts the history afresh.
   double history_alpha_ = -1, history_beta_ = 0, history_dt_b_ = 0, history_t_ = 0;
   VecX mass3_;  ///< mass per coordinate
+  std::vector<Mat3> multigrid_setup_blocks_;  ///< DynamicState::multigrid_setup_blocks
 };
 
 }  // namespace weft

@@ -49,4 +49,20 @@ void SolutionHistory::record(const VecX& b, const std::vector<char>& fixed, cons
   for (int i = 0; i < size_; ++i) gram_(s, i) = gram_(i, s) = row(i);
 }
 
+SolutionHistory::Snapshot SolutionHistory::snapshot() const { return {size_, next_, b_, x_, gram_}; }
+
+void SolutionHistory::restore(const Snapshot& s) {
+  const bool fits = s.size >= 0 && s.size <= capacity_ && s.next >= 0 && (s.next < capacity_ || capacity_ == 0) &&
+                    s.gram.rows() == capacity_ && s.gram.cols() == capacity_ && s.b.rows() == s.x.rows() &&
+                    (s.b.rows() == 0 || (s.b.cols() == capacity_ && s.x.cols() == capacity_));
+  if (!fits)
+    throw std::invalid_argument("solution history snapshot does not fit a history of capacity " +
+                                std::to_string(capacity_));
+  size_ = s.size;
+  next_ = s.next;
+  b_ = s.b;
+  x_ = s.x;
+  gram_ = s.gram;
+}
+
 }  // namespace weft

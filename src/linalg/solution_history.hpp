@@ -25,6 +25,17 @@ class SolutionHistory {
   /// `fixed` (three rows each) are left out of the fits that use this b.
   void record(const VecX& b, const std::vector<char>& fixed, const VecX& x);
 
+  /// Everything a later guess depends on, exactly (checkpoints): the pairs by slot, the
+  /// Gram matrix as accumulated (recomputing it could round differently), the fill state.
+  struct Snapshot {
+    int size = 0, next = 0;
+    MatX b, x, gram;
+  };
+  Snapshot snapshot() const;
+  /// Restores a snapshot taken from a history of the same capacity; throws
+  /// std::invalid_argument for one that does not fit.
+  void restore(const Snapshot& s);
+
  private:
   int capacity_ = 0, size_ = 0, next_ = 0;  ///< next_: the slot the next record fills
   MatX b_, x_;                              ///< one pair per column; b_ with the fixed rows zeroed

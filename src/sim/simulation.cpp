@@ -1,10 +1,12 @@
 #include "weft/simulation.hpp"
 
+#include "sim/checkpoint.hpp"
 #include "weft/error.hpp"
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <sstream>
 
 namespace weft {
@@ -57,6 +59,170 @@ void Simulation::set_energy_reference() {
   energy_scale_ = e0.kinetic + e0.elastic + model_->mass.sum() * scene_.gravity.norm() * (hi - lo).norm() + 1e-12;
 }
 
+namespace {
+void put(BinaryWriter& out, const LogStatistics& s) {
+  const LogStatistics::Snapshot snap = s.snapshot();
+  out.u64(snap.bins.size());
+  for (const auto& [bin, n] : snap.bins) {
+    out.i64(bin);
+    out.i64(n);
+  }
+  out.i64(snap.count);
+  out.f64(snap.min);
+  out.f64(snap.max);
+  out.f64(snap.sum);
+}
+
+LogStatistics get_statistics(BinaryReader& in) {
+  LogStatistics::Snapshot snap;
+  const std::uint64_t bins = in.u64();
+  for (std::uint64_t k = 0; k < bins; ++k) {
+    const std::int64_t bin = in.i64();
+    snap.bins.emplace_back(static_cast<int>(std::clamp<std::int64_t>(bin, -1, 1 << 30)), in.i64());
+  }
+  snap.count = in.i64();
+  snap.min = in.f64();
+  snap.max = in.f64();
+  snap.sum = in.f64();
+  try {
+    return LogStatistics::from_snapshot(snap);
+  } catch (const std::invalid_argument& e) {
+    in.fail(std::string("checkpoint is damaged: ") + e.what());
+  }
+}
+
+// Vectors of the State are empty or 3n long.
+VecX get_state_vector(BinaryReader& in, Eigen::Index size, const char* name, bool may_be_empty) {
+  VecX v = in.vec();
+  if (v.size() != size && !(may_be_empty && v.size() == 0))
+    in.fail(std::string("checkpoint's ") + name + " has " + std::to_string(v.size()) + " values, the cloth " +
+            std::to_string(size));
+  return v;
+}
+}  // namespace
+
+std::uint64_t Simulation::fingerprint() const {
+  BinaryWriter w;
+  const VecX x0 = model_->initial_positions();
+  w.vec(x0);
+  w.vec(model_->mass);
+  w.raw(model_->fixed.data(), model_->fixed.size());
+  w.u64(model_->mesh.triangles.size());
+  w.u64(model_->bending.size());
+  w.u64(static_cast<std::uint64_t>(model_->pattern.num_blocks()));
+  const IntegratorSettings& is = integrator_->settings();
+  w.i64(static_cast<int>(is.method));
+  for (double d : {is.alpha, is.dt, is.cg_tolerance, is.error_tolerance, is.ssor_relaxation}) w.f64(d);
+  w.i64(is.cg_max_iterations);
+  w.i64(static_cast<int>(integrator_->preconditioner()));
+  w.i64(is.ssor_single_precision);
+  w.i64(is.warm_start_history);
+  w.f64(system_->damping_settings().damping_ratio);
+  w.f64(system_->damping_settings().reference_dt);
+  const Material& m = model_->material;
+  for (double d : {m.viscosity_Ns_m, m.surface_density_kg_m2, m.bending_rigidity_weft_Nm, m.bending_rigidity_warp_Nm})
+    w.f64(d);
+  for (double d : {scene_.duration, scene_.frame_interval}) w.f64(d);
+  w.raw(scene_.gravity.data(), 3 * sizeof(double));
+  return fnv1a(w.bytes().data(), w.bytes().size());
+}
+
+void Simulation::save(BinaryWriter& out) const {
+  out.u64(fingerprint());
+  const State& s = state_;
+  out.vec(s.x);
+  out.vec(s.v);
+  out.f64(s.t);
+  out.vec(s.dx_prev);
+  out.vec(s.dv_prev);
+  out.i64(s.has_history);
+  out.f64(s.viscous_dissipated);
+  out.f64(s.rk45_step);
+  for (long c : {stats_.steps, stats_.rejected_steps, stats_.cg_iterations, stats_.cg_solves, stats_.cg_failures})
+    out.i64(c);
+  out.f64(stats_.assembly_seconds);
+  out.f64(stats_.solve_seconds);
+  out.f64(gravity0_);
+  out.f64(total0_);
+  out.f64(energy_scale_);
+
+  const ClothSystem::DynamicState sys = system_->dynamic_state();
+  out.doubles(sys.membrane_viscosity.front().data(), 3 * sys.membrane_viscosity.size());
+  for (const LogStatistics* l : {&sys.statistics.membrane_kappa, &sys.statistics.membrane_lambda,
+                                 &sys.statistics.bending_kappa, &sys.statistics.added_viscosity})
+    put(out, *l);
+  out.i64(sys.statistics.element_steps);
+  out.i64(sys.statistics.raised_element_steps);
+
+  const Integrator::DynamicState in = integrator_->dynamic_state();
+  out.i64(in.history.size);
+  out.i64(in.history.next);
+  out.mat(in.history.b);
+  out.mat(in.history.x);
+  out.mat(in.history.gram);
+  for (double d : {in.history_alpha, in.history_beta, in.history_dt_b, in.history_t, in.ssor_residual_ratio}) out.f64(d);
+  out.i64(in.ssor_single_fallbacks);
+  out.doubles(in.multigrid_setup_blocks.empty() ? nullptr : in.multigrid_setup_blocks.front().data(),
+              9 * in.multigrid_setup_blocks.size());
+}
+
+void Simulation::restore(BinaryReader& in) {
+  if (in.u64() != fingerprint())
+    in.fail("checkpoint belongs to another cloth or other settings (the mesh, pins, material, integrator or "
+            "timing differ from the scene's)");
+  const Eigen::Index size = 3 * model_->num_vertices();
+  State s;
+  s.x = get_state_vector(in, size, "positions", false);
+  s.v = get_state_vector(in, size, "velocities", false);
+  s.t = in.f64();
+  s.dx_prev = get_state_vector(in, size, "previous change of positions", true);
+  s.dv_prev = get_state_vector(in, size, "previous change of velocities", true);
+  s.has_history = in.i64() != 0;
+  s.viscous_dissipated = in.f64();
+  s.rk45_step = in.f64();
+  StepStatistics st;
+  for (long* c : {&st.steps, &st.rejected_steps, &st.cg_iterations, &st.cg_solves, &st.cg_failures}) *c = in.i64();
+  st.assembly_seconds = in.f64();
+  st.solve_seconds = in.f64();
+  const double gravity0 = in.f64(), total0 = in.f64(), energy_scale = in.f64();
+
+  ClothSystem::DynamicState sys;
+  const std::vector<double> eta = in.doubles();
+  if (eta.size() != 3 * model_->mesh.triangles.size())
+    in.fail("checkpoint's viscosities are for " + std::to_string(eta.size() / 3) + " triangles, the cloth has " +
+            std::to_string(model_->mesh.triangles.size()));
+  for (size_t t = 0; 3 * t < eta.size(); ++t) sys.membrane_viscosity.emplace_back(eta[3 * t], eta[3 * t + 1], eta[3 * t + 2]);
+  for (LogStatistics* l : {&sys.statistics.membrane_kappa, &sys.statistics.membrane_lambda,
+                           &sys.statistics.bending_kappa, &sys.statistics.added_viscosity})
+    *l = get_statistics(in);
+  sys.statistics.element_steps = in.i64();
+  sys.statistics.raised_element_steps = in.i64();
+
+  Integrator::DynamicState id;
+  id.history.size = static_cast<int>(in.i64());
+  id.history.next = static_cast<int>(in.i64());
+  id.history.b = in.mat();
+  id.history.x = in.mat();
+  id.history.gram = in.mat();
+  for (double* d : {&id.history_alpha, &id.history_beta, &id.history_dt_b, &id.history_t, &id.ssor_residual_ratio})
+    *d = in.f64();
+  id.ssor_single_fallbacks = in.i64();
+  const std::vector<double> blocks = in.doubles();
+  if (blocks.size() % 9) in.fail("checkpoint is damaged (multigrid matrix of " + std::to_string(blocks.size()) + " values)");
+  for (size_t b = 0; b < blocks.size(); b += 9) id.multigrid_setup_blocks.push_back(Eigen::Map<const Mat3>(&blocks[b]));
+  try {
+    system_->restore(sys);
+    integrator_->restore(id);
+  } catch (const std::invalid_argument& e) {
+    in.fail(std::string("checkpoint does not fit the scene: ") + e.what());
+  }
+  state_ = std::move(s);
+  stats_ = st;
+  gravity0_ = gravity0;
+  total0_ = total0;
+  energy_scale_ = energy_scale;
+}
+
 EnergyRow Simulation::energies() {
   system_->evaluate(state_.x, state_.v, false, eval_);
   EnergyRow r;
@@ -70,17 +236,23 @@ EnergyRow Simulation::energies() {
   return r;
 }
 
-RunResult run_simulation(Simulation& sim, const RunCallbacks& cb) {
+RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResult* resumed) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   RunResult res;
+  if (resumed) {
+    res.energy = resumed->energy;
+    res.wall_seconds = resumed->wall_seconds;
+  }
+  const double wall_before = res.wall_seconds;
   const Scene& sc = sim.scene();
   res.damping_ratio = sc.effective_damping_ratio();
   res.vertices = sim.model().num_vertices();
   res.triangles = static_cast<long>(sim.model().mesh.triangles.size());
   const long frames = std::lround(std::floor(sc.duration / sc.frame_interval + 1e-9));
-  const double total0 = [&] { return sim.energies().total(); }();
-  for (long f = 0; f <= frames; ++f) {
+  // The reference state's energy: a resumed run compares with the energy its first part did.
+  const double total0 = sim.initial_total_energy();
+  for (long f = static_cast<long>(res.energy.size()); f <= frames; ++f) {
     if (f > 0) sim.advance_to(std::min(sc.duration, f * sc.frame_interval));
     const EnergyRow e = sim.energies();
     const State& s = sim.state();
@@ -102,10 +274,16 @@ RunResult run_simulation(Simulation& sim, const RunCallbacks& cb) {
     res.energy.push_back(e);
     if (cb.on_frame) cb.on_frame(static_cast<int>(f), sim);
     if (cb.on_progress) cb.on_progress(frames ? static_cast<double>(f) / frames : 1.0);
+    res.wall_seconds = wall_before + std::chrono::duration<double>(Clock::now() - start).count();
+    if (f < frames && cb.after_frame && cb.after_frame(res)) {
+      res.status = "interrupted";
+      res.message = "stopped at t = " + std::to_string(s.t) + " s on request";
+      break;
+    }
   }
   res.steps = sim.statistics();
   res.damping = sim.system().statistics();
-  res.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  res.wall_seconds = wall_before + std::chrono::duration<double>(Clock::now() - start).count();
   return res;
 }
 
@@ -141,9 +319,16 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
     j["ssor_relaxation"] = sim.integrator().ssor_relaxation();
     j["ssor_precision"] = sc.integrator.ssor_single_precision ? "single" : "double";
   }
-  j["status"] = r.status;
-  if (r.status != "ok") {
+  const bool capped = r.status == "ok" && r.steps.cg_failures > 0;
+  j["status"] = capped ? "solver_capped" : r.status;
+  if (capped) {
+    j["message"] = std::to_string(r.steps.cg_failures) + " of " + std::to_string(r.steps.cg_solves) +
+                   " linear solves stopped at the iteration cap (" + std::to_string(sc.integrator.cg_max_iterations) +
+                   ") before reaching the tolerance";
+  } else if (r.status == "unstable") {
     j["unstable_time"] = r.unstable_time;
+    j["message"] = r.message;
+  } else if (r.status != "ok") {
     j["message"] = r.message;
   }
   j["frames"] = r.energy.size();
@@ -164,6 +349,66 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
                          {"numerical_dissipated", last.numerical_dissipated}};
   }
   return j;
+}
+
+namespace {
+constexpr char kCheckpointMagic[8] = {'W', 'E', 'F', 'T', 'C', 'K', 'P', 'T'};
+constexpr size_t kCheckpointPrefix = sizeof kCheckpointMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
+}  // namespace
+
+std::string checkpoint_bytes(const nlohmann::json& header, const Simulation& sim, const RunResult& so_far) {
+  BinaryWriter w;
+  w.raw(kCheckpointMagic, sizeof kCheckpointMagic);
+  const std::uint32_t version = kCheckpointFormatVersion;
+  w.raw(&version, sizeof version);
+  w.text(header.dump());
+  sim.save(w);
+  w.u64(so_far.energy.size());
+  for (const EnergyRow& e : so_far.energy)
+    for (double d : {e.time, e.kinetic, e.elastic, e.gravity, e.viscous_dissipated, e.numerical_dissipated}) w.f64(d);
+  w.f64(so_far.wall_seconds);
+  w.u64(fnv1a(w.bytes().data(), w.bytes().size()));
+  return w.bytes();
+}
+
+nlohmann::json checkpoint_header(const std::string& bytes, const std::string& file) {
+  BinaryReader in(bytes, file);
+  char magic[sizeof kCheckpointMagic] = {};
+  if (bytes.size() < kCheckpointPrefix || (in.raw(magic, sizeof magic), std::memcmp(magic, kCheckpointMagic, sizeof magic)))
+    in.fail("not a weft checkpoint");
+  std::uint32_t version = 0;
+  in.raw(&version, sizeof version);
+  if (version != kCheckpointFormatVersion)
+    in.fail("checkpoint format version " + std::to_string(version) + ", this weft reads version " +
+            std::to_string(kCheckpointFormatVersion));
+  std::uint64_t stored = 0;
+  std::memcpy(&stored, bytes.data() + bytes.size() - sizeof stored, sizeof stored);
+  if (bytes.size() < kCheckpointPrefix + sizeof stored || fnv1a(bytes.data(), bytes.size() - sizeof stored) != stored)
+    in.fail("checkpoint is damaged (its checksum does not match its contents)");
+  try {
+    return nlohmann::json::parse(in.text());
+  } catch (const nlohmann::json::exception& e) {
+    in.fail(std::string("checkpoint header is damaged: ") + e.what());
+  }
+}
+
+RunResult restore_checkpoint(const std::string& bytes, const std::string& file, Simulation& sim) {
+  checkpoint_header(bytes, file);  // checks the format and checksum
+  BinaryReader in(bytes, file, sizeof kCheckpointMagic + sizeof(std::uint32_t), bytes.size() - sizeof(std::uint64_t));
+  in.text();
+  sim.restore(in);
+  RunResult r;
+  const std::uint64_t rows = in.u64();
+  if (rows > bytes.size() / (6 * sizeof(double))) in.fail("checkpoint is damaged (" + std::to_string(rows) + " energy rows)");
+  for (std::uint64_t k = 0; k < rows; ++k) {
+    EnergyRow e;
+    for (double* d : {&e.time, &e.kinetic, &e.elastic, &e.gravity, &e.viscous_dissipated, &e.numerical_dissipated})
+      *d = in.f64();
+    r.energy.push_back(e);
+  }
+  r.wall_seconds = in.f64();
+  if (!in.at_end()) in.fail("checkpoint is damaged (" + std::to_string(bytes.size()) + " bytes, more than it describes)");
+  return r;
 }
 
 std::string energy_csv(const std::vector<EnergyRow>& rows) {

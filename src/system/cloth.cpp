@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstring>
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 #include "weft/error.hpp"
@@ -260,6 +261,14 @@ void ClothSystem::begin_step(const VecX& x, const VecX&, double step_dt) {
     bending_kappa_dt_ = dt;
   }
   stats_.bending_kappa.merge(bending_kappa_step_);
+}
+
+void ClothSystem::restore(const DynamicState& d) {
+  if (d.membrane_viscosity.size() != membrane_viscosity_.size())
+    throw std::invalid_argument("the damping state has " + std::to_string(d.membrane_viscosity.size()) +
+                                " triangles, the cloth " + std::to_string(membrane_viscosity_.size()));
+  membrane_viscosity_ = d.membrane_viscosity;
+  stats_ = d.statistics;
 }
 
 VecX ClothSystem::added_viscosity_per_vertex() const {

@@ -98,6 +98,16 @@ class ClothSystem : public System {
   /// addition), for colouring frames.
   VecX added_viscosity_per_vertex() const;
   const DampingStatistics& statistics() const { return stats_; }
+  /// What outlives a step (checkpoints): the viscosity in use (the last step's) and the
+  /// run's statistics. The other members are constants of the model and settings, or caches
+  /// keyed on the step's dt, ck and cd that rebuild to the same values.
+  struct DynamicState {
+    std::vector<Vec3> membrane_viscosity;
+    DampingStatistics statistics;
+  };
+  DynamicState dynamic_state() const { return {membrane_viscosity_, stats_}; }
+  /// Throws std::invalid_argument for a state of another mesh.
+  void restore(const DynamicState& d);
   /// Per-element stiffness factors kappa (largest mode) at a state, for analysis.
   std::vector<double> membrane_kappa_max(const VecX& x, double dt) const;
 

@@ -1,5 +1,6 @@
 // `weft run` end to end: the files it promises, exit statuses, and error messages that name
 // the problem for bad scene files.
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -231,4 +232,97 @@ TEST_F(RunCommand, BodyCollidersAreValidatedAndAnimatedAlongsideTheCloth) {
   r = weft("run '" + k.string() + "' --out '" + (folder_ / "bad_key").string() + "'");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.error_output.find("sped"), std::string::npos) << r.error_output;
+}
+
+TEST_F(RunCommand, SolvesStoppedAtTheIterationCapAreReportedOnStderrAndInTheSummary) {
+  // One conjugate-gradient iteration cannot reach a relative residual of 1e-10 on a cloth.
+  const auto s = write("scene.json", scene(R"({"method": "implicit-midpoint", "dt": 0.01, "max_iterations": 1,
+                                               "tolerance": 1e-10})"));
+  const auto out = folder_ / "out";
+  const auto r = weft("run '" + s.string() + "' --out '" + out.string() + "' --quiet");
+  EXPECT_EQ(r.exit_code, 0) << r.error_output;
+  EXPECT_NE(r.error_output.find("linear solves stopped at the iteration cap of 1"), std::string::npos) << r.error_output;
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(summary["status"], "solver_capped");
+  EXPECT_EQ(summary["solver_failures"], summary["steps"]) << "every solve hit the cap";
+  // The default cap leaves the same run ok and quiet.
+  const auto fine = write("fine.json", scene());
+  const auto ok = weft("run '" + fine.string() + "' --out '" + out.string() + "' --quiet");
+  EXPECT_EQ(ok.exit_code, 0);
+  EXPECT_EQ(ok.error_output, "");
+  EXPECT_EQ(nlohmann::json::parse(read_text(out / "summary.json"))["status"], "ok");
+}
+
+TEST_F(RunCommand, StabilityAdviceNamesOnlyChangesFromTheSettingsInForce) {
+  // scenes/swing-21x21.json blows up under Implicit Midpoint at dt = 20 ms with the default
+  // 5% damping (docs/results.md).
+  const std::string sc = std::string(WEFT_SOURCE_DIR) + "/scenes/swing-21x21.json";
+  const auto r = weft("run '" + sc + "' --out '" + (folder_ / "out").string() + "' --quiet --no-frames");
+  ASSERT_EQ(r.exit_code, 3) << r.error_output;
+  const std::string& e = r.error_output;
+  EXPECT_EQ(e.find("--damping-ratio 0.05"), std::string::npos) << e;
+  EXPECT_NE(e.find("more damping than the current ratio of 0.05 (e.g. --damping-ratio 0.1)"), std::string::npos) << e;
+  EXPECT_NE(e.find("a smaller time step than the current 0.02 s (e.g. --dt 0.01)"), std::string::npos) << e;
+  EXPECT_NE(e.find("--method backward-euler"), std::string::npos) << e;
+  // Forward Euler without damping: adaptive damping is off, so turning it on is the advice.
+  const auto s = write("scene.json", scene(R"({"method": "forward-euler", "dt": 0.02})",
+                                           R"({"grid": {"size": [0.2, 0.2], "vertices": [9, 9]}})", "2.0"));
+  const auto fe = weft("run '" + s.string() + "' --out '" + (folder_ / "fe").string() + "' --quiet");
+  ASSERT_EQ(fe.exit_code, 3);
+  EXPECT_NE(fe.error_output.find("adaptive damping, off now (e.g. --damping-ratio 0.05)"), std::string::npos)
+      << fe.error_output;
+}
+
+TEST_F(RunCommand, AnOutputFolderNeverMixesTwoRuns) {
+  const auto s = write("scene.json", scene());
+  const auto out = folder_ / "out";
+  ASSERT_EQ(weft("run '" + s.string() + "' --out '" + out.string() + "' --quiet").exit_code, 0);
+  ASSERT_TRUE(std::filesystem::exists(out / "frames" / "frame_00005.obj"));
+  // Files weft did not write stay.
+  write("out/notes.txt", "mine");
+  write("out/frames/frame_notes.txt", "mine too");
+  ASSERT_EQ(weft("run '" + s.string() + "' --out '" + out.string() + "' --quiet --no-frames").exit_code, 0);
+  std::vector<std::string> left;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(out))
+    left.push_back(std::filesystem::relative(e.path(), out).string());
+  std::sort(left.begin(), left.end());
+  EXPECT_EQ(left, (std::vector<std::string>{"energy.csv", "frames", "frames/frame_notes.txt", "notes.txt", "summary.json"}));
+  // A shorter run with frames leaves none of the longer run's later frames.
+  ASSERT_EQ(weft("run '" + s.string() + "' --out '" + out.string() + "' --quiet").exit_code, 0);
+  ASSERT_EQ(weft("run '" + s.string() + "' --out '" + out.string() + "' --quiet --duration 0.04").exit_code, 0);
+  EXPECT_TRUE(std::filesystem::exists(out / "frames" / "frame_00002.obj"));
+  EXPECT_FALSE(std::filesystem::exists(out / "frames" / "frame_00003.obj"));
+}
+
+TEST_F(RunCommand, AnOutputThatCannotBeWrittenExitsFourAndSaysWhatWasKept) {
+  // A file-size limit (ulimit -f, in 512-byte blocks; it binds root too) makes writes fail
+  // part-way as a full disk does: a 21 x 21 frame (about 25 kB) fits under 64 blocks, the
+  // checkpoint of the same cloth (positions, velocities and the solution history: over
+  // 100 kB) does not.
+  const auto s = write("scene.json", scene(R"({"method": "implicit-midpoint", "dt": 0.01})",
+                                           R"({"grid": {"size": [0.2, 0.2], "vertices": [21, 21]}})"));
+  const auto out = folder_ / "out";
+  auto r = weft("run '" + s.string() + "' --out '" + out.string() + "' --quiet --checkpoint-every 0", "ulimit -f 64;");
+  EXPECT_EQ(r.exit_code, 4) << r.error_output;
+  const std::string checkpoint = (out / "checkpoint.weft").string();
+  EXPECT_NE(r.error_output.find("could not write " + checkpoint), std::string::npos) << r.error_output;
+  EXPECT_NE(r.error_output.find("Kept: frames 0 in " + (out / "frames").string() +
+                                ", energy.csv (1 row), summary.json (status output_failed)"),
+            std::string::npos) << r.error_output;
+  auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(summary["status"], "output_failed");
+  EXPECT_NE(summary["message"].get<std::string>().find(checkpoint), std::string::npos);
+  EXPECT_TRUE(std::filesystem::exists(out / "frames" / "frame_00000.obj"));
+  EXPECT_FALSE(std::filesystem::exists(out / "frames" / "frame_00001.obj"));
+  for (const auto& e : std::filesystem::recursive_directory_iterator(out))
+    EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+
+  // A limit below a frame's size: the first frame fails, energy.csv and summary.json are kept.
+  r = weft("run '" + s.string() + "' --out '" + out.string() + "' --quiet", "ulimit -f 16;");
+  EXPECT_EQ(r.exit_code, 4) << r.error_output;
+  EXPECT_NE(r.error_output.find("could not write " + (out / "frames" / "frame_00000.obj").string()), std::string::npos)
+      << r.error_output;
+  EXPECT_NE(r.error_output.find("Kept: no frames, energy.csv (1 row), summary.json"), std::string::npos) << r.error_output;
+  summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(summary["status"], "output_failed");
 }

@@ -128,5 +128,24 @@ TEST(SolutionHistory, NegativeCapacityIsRejected) {
   }
 }
 
+TEST(SolutionHistory, SnapshotRestoresTheSameGuesses) {
+  std::mt19937 rng(7);
+  SolutionHistory h(2), copy(2);
+  const std::vector<char> fixed(2, 0);
+  for (int k = 0; k < 3; ++k) h.record(random_vector(6, rng), fixed, random_vector(6, rng));
+  copy.restore(h.snapshot());
+  const VecX b = random_vector(6, rng);
+  VecX x1, x2;
+  ASSERT_TRUE(h.guess(b, x1));
+  ASSERT_TRUE(copy.guess(b, x2));
+  EXPECT_EQ(x1, x2);
+  // The same next slot: both drop the same pair on the next record.
+  h.record(b, fixed, x1);
+  copy.record(b, fixed, x2);
+  EXPECT_EQ(h.snapshot().b, copy.snapshot().b);
+  SolutionHistory smaller(1);
+  EXPECT_THROW(smaller.restore(h.snapshot()), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace weft

@@ -1,0 +1,74 @@
+// Simulation::save/restore and the checkpoint file: a simulation restored from a checkpoint
+// steps to the same bits as the one it was taken from (the same binary repeats its
+// arithmetic exactly), and a checkpoint of another scene or a damaged one is refused.
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "sim/checkpoint.hpp"
+#include "weft/error.hpp"
+#include "weft/simulation.hpp"
+
+using namespace weft;
+
+namespace {
+
+Scene swing(const char* method) {
+  Scene scene = load_scene(std::string(WEFT_SOURCE_DIR) + "/scenes/swing.json");
+  set_method(scene, method, std::nullopt, "test");
+  scene.integrator.dt = 0.005;
+  scene.duration = 0.2;
+  return scene;
+}
+
+bool same_bits(const VecX& a, const VecX& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), sizeof(double) * a.size()) == 0;
+}
+
+}  // namespace
+
+TEST(CheckpointState, RestoredSimulationStepsToTheSameBits) {
+  for (const char* method : {"implicit-midpoint", "bdf2", "rk45"}) {
+    SCOPED_TRACE(method);
+    const Scene scene = swing(method);
+    Simulation a(scene);
+    a.advance_to(0.1);
+    RunResult so_far;
+    so_far.energy.push_back(a.energies());
+    const std::string bytes = checkpoint_bytes({{"note", "test"}}, a, so_far);
+    EXPECT_EQ(checkpoint_header(bytes, "mem")["note"], "test");
+    Simulation b(scene);
+    const RunResult restored = restore_checkpoint(bytes, "mem", b);
+    ASSERT_EQ(restored.energy.size(), 1u);
+    EXPECT_EQ(std::memcmp(&restored.energy[0], &so_far.energy[0], sizeof(EnergyRow)), 0);
+    a.advance_to(0.2);
+    b.advance_to(0.2);
+    EXPECT_TRUE(same_bits(a.state().x, b.state().x));
+    EXPECT_TRUE(same_bits(a.state().v, b.state().v));
+    EXPECT_EQ(a.statistics().cg_iterations, b.statistics().cg_iterations);
+    EXPECT_EQ(a.system().statistics().membrane_kappa.count(), b.system().statistics().membrane_kappa.count());
+    EXPECT_EQ(a.system().statistics().membrane_lambda.median(), b.system().statistics().membrane_lambda.median());
+  }
+}
+
+TEST(CheckpointState, AnotherSceneOrADamagedFileIsRefusedNamingTheFile) {
+  Simulation a(swing("implicit-midpoint"));
+  a.advance_to(0.05);
+  const std::string bytes = checkpoint_bytes(nlohmann::json::object(), a, RunResult{});
+  Scene other = swing("implicit-midpoint");
+  other.integrator.dt = 0.01;
+  Simulation b(other);
+  try {
+    restore_checkpoint(bytes, "ckpt.weft", b);
+    FAIL() << "a checkpoint of another dt was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("ckpt.weft: checkpoint belongs to another cloth or other settings"),
+              std::string::npos) << e.what();
+  }
+  Simulation c(swing("implicit-midpoint"));
+  EXPECT_THROW(restore_checkpoint(bytes.substr(0, bytes.size() - 1), "ckpt.weft", c), InputError);
+  std::string flipped = bytes;
+  flipped[100] ^= 4;
+  EXPECT_THROW(restore_checkpoint(flipped, "ckpt.weft", c), InputError);
+  EXPECT_THROW(checkpoint_header("not a checkpoint", "ckpt.weft"), InputError);
+}
