@@ -263,11 +263,23 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     throw InputError("command line: give a scene and --out DIR, or --resume DIR");
   }
   const Scene scene = build_scene(a);
-  Simulation sim(scene);  // validates the mesh, material and pins before anything is written
+  // Set-up is usually a fraction of a second; large meshes and bodies show its stages.
+  app::Progress setup_progress("weft run set-up", !a.quiet);
+  setup_progress.quiet_for(0.5);
+  const double body_share = scene.bodies.empty() ? 0.0 : 0.3;
+  // Validates the mesh, material and pins before anything is written.
+  Simulation sim(scene, [&](const std::string& stage, double fraction) {
+    if (stage != "done") setup_progress.update((1 - body_share) * fraction, stage);
+  });
   RunResult so_far;
   if (resume) so_far = restore_checkpoint(checkpoint_bytes_in, (fs::path(a.resume) / kCheckpointName).string(), sim);
   std::vector<std::unique_ptr<WalkingBody>> bodies;
-  for (const auto& b : scene.bodies) bodies.push_back(std::make_unique<WalkingBody>(b));
+  for (size_t k = 0; k < scene.bodies.size(); ++k) {
+    setup_progress.update(1 - body_share * (1 - static_cast<double>(k) / scene.bodies.size()),
+                          "body " + std::to_string(k) + " (rig, motion, skinning)");
+    bodies.push_back(std::make_unique<WalkingBody>(scene.bodies[k]));
+  }
+  setup_progress.update(1.0, "done");
   if (!bodies.empty() && !a.quiet)
     std::fprintf(stderr, "note: the scene's body colliders are animated and written as frames/body<k>_NNNNN.obj; "
                          "the cloth does not collide with them in this version\n");

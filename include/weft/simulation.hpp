@@ -30,7 +30,10 @@ struct EnergyRow {
 /// Everything needed to step a scene: the model, the system and the integrator.
 class Simulation {
  public:
-  explicit Simulation(const Scene& scene);
+  /// Called while the constructor works: the stage starting ("cloth mesh", "model", ...) and
+  /// the fraction of the set-up done before it (1 with stage "done" at the end).
+  using SetupProgress = std::function<void(const std::string& stage, double fraction)>;
+  explicit Simulation(const Scene& scene, const SetupProgress& on_setup = {});
   const Scene& scene() const { return scene_; }
   const ClothModel& model() const { return *model_; }
   ClothSystem& system() { return *system_; }

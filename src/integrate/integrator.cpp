@@ -123,7 +123,10 @@ void Integrator::advance(State& s, double t_end, StepStatistics& stats) {
   if (settings_.method != Method::Rk45) {
     const long steps = std::lround((t_end - s.t) / dt);
     for (long k = 0; k < steps; ++k) step(s, dt, stats);
-    s.t = t_end;  // no drift from summing dt
+    // No drift from summing dt. The warm-start history stays valid across the snap: it was
+    // recorded at this very state, only its time is rounded differently.
+    if (history_t_ == s.t) history_t_ = t_end;
+    s.t = t_end;
     return;
   }
   if (!(s.rk45_step > 0)) s.rk45_step = dt;

@@ -11,7 +11,17 @@
 
 namespace weft {
 
-Simulation::Simulation(const Scene& scene) : scene_(scene) {
+namespace {
+// Shares of the set-up time by stage (the integrator and the energy reference take the rest).
+constexpr double kSetupShareMesh = 0.1, kSetupShareModel = 0.4, kSetupShareSystem = 0.4;
+}  // namespace
+
+Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scene_(scene) {
+  // The fractions are the stages' shares of a large grid's set-up, measured (a 701x701 grid).
+  auto stage = [&](const char* name, double fraction) {
+    if (on_setup) on_setup(name, fraction);
+  };
+  stage("cloth mesh", 0.0);
   TriMesh mesh = build_cloth_mesh(scene.cloth);
   // Problems found while building the model (a degenerate triangle, a bad pin) name the
   // scene and the mesh they come from.
@@ -19,6 +29,7 @@ Simulation::Simulation(const Scene& scene) : scene_(scene) {
                             (scene.cloth.obj_path.empty() ? std::string(" grid") : " mesh " + scene.cloth.obj_path);
   try {
     const std::vector<int> pins = resolve_pins(scene.cloth, mesh);
+    stage("model", kSetupShareMesh);
     model_ = std::make_unique<ClothModel>(build_cloth_model(std::move(mesh), scene.cloth.material, scene.gravity, pins,
                                                             parse_bending_model(scene.cloth.bending_model, "cloth.bending_model")));
   } catch (const InputError& e) {
@@ -27,7 +38,9 @@ Simulation::Simulation(const Scene& scene) : scene_(scene) {
   // RK45 steps adaptively: report its stiffness factors at the scene's (largest) step.
   DampingSettings damping{scene.effective_damping_ratio()};
   if (scene.integrator.method == Method::Rk45) damping.reference_dt = scene.integrator.dt;
+  stage("element system", kSetupShareMesh + kSetupShareModel);
   system_ = std::make_unique<ClothSystem>(*model_, damping);
+  stage("integrator", kSetupShareMesh + kSetupShareModel + kSetupShareSystem);
   integrator_ = std::make_unique<Integrator>(*system_, scene.integrator);
   state_.x = model_->initial_positions();
   state_.v = VecX::Zero(state_.x.size());
@@ -35,6 +48,7 @@ Simulation::Simulation(const Scene& scene) : scene_(scene) {
     if (!model_->fixed[i]) node(state_.v, i) = scene.cloth.initial_velocity;
   state_.t = 0;
   set_energy_reference();
+  stage("done", 1.0);
 }
 
 void Simulation::reset_state(const VecX& x, const VecX& v) {

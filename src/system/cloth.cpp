@@ -602,11 +602,14 @@ struct TriangleBatch {
   /// deformation gradient, velocities its rate).
   void gradient(const double* y, D4* U, D4* V) const {
     for (int c = 0; c < 3; ++c) {
-      D4 yk[3];
-      for (int k = 0; k < 3; ++k) yk[k] = D4{y[o[k][0] + c], y[o[k][1] + c], y[o[k][2] + c], y[o[k][3] + c]};
-      U[c] = ru[0] * yk[0] + ru[1] * yk[1] + ru[2] * yk[2];
-      V[c] = rv[0] * yk[0] + rv[1] * yk[1] + rv[2] * yk[2];
+      const D4 y0 = gather(y, 0, c), y1 = gather(y, 1, c), y2 = gather(y, 2, c);
+      U[c] = ru[0] * y0 + ru[1] * y1 + ru[2] * y2;
+      V[c] = rv[0] * y0 + rv[1] * y1 + rv[2] * y2;
     }
+  }
+  /// Component c of the batch's k-th vertices in a vertex field y.
+  D4 gather(const double* y, int k, int c) const {
+    return D4{y[o[k][0] + c], y[o[k][1] + c], y[o[k][2] + c], y[o[k][3] + c]};
   }
   /// The viscosities of the four triangles, mode m (weft, warp, shear).
   static D4 viscosity(const Vec3* eta, size_t t0, int m) {
