@@ -16,8 +16,8 @@
 // the new direction, the lower solve with the curvature, the residual update). With
 // `Assemble` (bench_assembly.cpp) they give a floor for a step: what it would take if every
 // part ran as fast as it does alone.
-//   build/weft_bench --benchmark_filter='Solve/' --benchmark_repetitions=3
-//   build/weft_bench --benchmark_filter='StepPart|Assemble' --benchmark_repetitions=5
+//   build-native/weft_bench --benchmark_filter='Solve/' --benchmark_repetitions=3
+//   build-native/weft_bench --benchmark_filter='StepPart|Assemble' --benchmark_repetitions=5
 #include <benchmark/benchmark.h>
 
 #include <chrono>

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""Turns the JSON output of build/weft_bench (Google Benchmark, with repetitions) into the
+"""Turns the JSON output of build-native/weft_bench (Google Benchmark, with repetitions) into the
 Markdown table of docs/performance.md: medians of time per step and of the counters.
 
-    build/weft_bench --benchmark_filter=Step --benchmark_repetitions=5 \
+    build-native/weft_bench --benchmark_filter=Step --benchmark_repetitions=5 \
         --benchmark_format=json > bench.json
     tools/bench_table.py bench.json
 """
