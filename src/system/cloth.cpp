@@ -748,6 +748,10 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, cons
 }
 
 void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) {
+  assemble_step_kernel(x, v, w, out);
+}
+
+WEFT_HOT_KERNEL void ClothSystem::assemble_step_kernel(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) {
   const int n = num_nodes();
   const bool jacobians = out.ck != 0.0 || out.cd != 0.0;
   out.force.resize(3 * n);

@@ -115,6 +115,9 @@ class ClothSystem : public System {
   /// The viscous power at (x, v); the batched triangles' deformation gradients U, V from
   /// `frames` (assemble_membranes_batched's StepAssembly::element_data) when not null.
   double viscous_power_with(const VecX& x, const VecX& v, const double* frames) const;
+  /// assemble_step's work, in a non-virtual function so that it can be compiled per
+  /// instruction set (linalg/dispatch.hpp).
+  void assemble_step_kernel(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out);
   /// Sets the energies and adds gravity and the membrane forces to `force`; with `jacobians`
   /// calls `add_jacobians` per triangle with its result (9x9 blocks when `expand`).
   template <class AddJacobians>
