@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "integrate/integrator.hpp"
@@ -14,6 +15,20 @@
 namespace weft {
 
 constexpr int kSceneFormatVersion = 1;
+
+// Bounds on scene values (docs/scene-format.md): beyond them a value is a mistake, not a
+// cloth, and is refused as bad input rather than left to blow up a run.
+constexpr double kMaxLength_m = 1e4;        ///< grid sizes, translations, cloth OBJ coordinates
+constexpr double kMaxRotation_deg = 3600;   ///< placement rotation angles (ten turns)
+constexpr double kMaxSpeed_m_s = 1e3;       ///< initial velocity components
+constexpr double kMaxGravity_m_s2 = 1e3;    ///< gravity components (about 100 g)
+constexpr long kMaxGridVertices = 4'000'000;  ///< vertices of a grid, both sides together
+
+// The memory a run needs, estimated from its mesh (measured: peak resident size of
+// `weft run` on grids, docs/scene-format.md), and the most a run may need.
+constexpr double kRunBytesPerVertex = 4000;
+constexpr double kRunBytesPerTriangle = 0;
+constexpr double kMaxRunBytes = 64e9;
 
 struct GridSpec {
   double size_u = 1, size_v = 1;  ///< metres
@@ -60,6 +75,9 @@ double default_damping_ratio(Method method, double alpha);
 
 /// Reads and validates a scene file. Throws InputError naming the file, key and value.
 Scene load_scene(const std::string& path);
+/// Reads a scene from its JSON text; `file` names it in messages, relative paths in it are
+/// relative to `base_dir`.
+Scene parse_scene_text(std::string_view text, const std::string& file, const std::string& base_dir);
 Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::string& base_dir);
 
 /// Sets method and alpha by name (alpha only where the method takes one); validates.
@@ -67,6 +85,12 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
 void set_method(Scene& scene, const std::string& name, std::optional<double> alpha, const std::string& where);
 /// Re-checks the timing fields after overrides (dt > 0, frame interval a multiple of dt...).
 void validate_timing(const Scene& scene, const std::string& where);
+
+/// Bytes a run of a mesh with these counts needs (estimate).
+double estimated_run_bytes(long vertices, long triangles);
+/// Throws InputError "WHAT (N vertices, M triangles) needs about X GB ..." when the estimate
+/// exceeds kMaxRunBytes or the machine's physical memory.
+void check_memory_estimate(long vertices, long triangles, const std::string& what);
 
 /// The cloth mesh placed in the world (grid generated or OBJ read) and the pinned vertices.
 TriMesh build_cloth_mesh(const ClothSpec& spec);
