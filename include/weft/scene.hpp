@@ -24,11 +24,12 @@ constexpr double kMaxSpeed_m_s = 1e3;       ///< initial velocity components
 constexpr double kMaxGravity_m_s2 = 1e3;    ///< gravity components (about 100 g)
 constexpr long kMaxGridVertices = 4'000'000;  ///< vertices of a grid, both sides together
 
-// The memory a run needs, estimated from its mesh (measured: peak resident size of
-// `weft run` on grids, docs/scene-format.md), and the most a run may need.
-constexpr double kRunBytesPerVertex = 4000;
-constexpr double kRunBytesPerTriangle = 0;
-constexpr double kMaxRunBytes = 64e9;
+// The memory a run needs per vertex of its mesh: the peak resident size of `weft run` on grids
+// of 200 x 200 to 700 x 700 vertices is 5.15-5.35 kB per vertex (two triangles per vertex,
+// as on any large mesh of a surface), docs/scene-format.md. And the most a run may need: about
+// 2.9 million vertices, which take hours per simulated second on a workstation.
+constexpr double kRunBytesPerVertex = 5500;
+constexpr double kMaxRunBytes = 16e9;
 
 struct GridSpec {
   double size_u = 1, size_v = 1;  ///< metres
@@ -86,11 +87,11 @@ void set_method(Scene& scene, const std::string& name, std::optional<double> alp
 /// Re-checks the timing fields after overrides (dt > 0, frame interval a multiple of dt...).
 void validate_timing(const Scene& scene, const std::string& where);
 
-/// Bytes a run of a mesh with these counts needs (estimate).
-double estimated_run_bytes(long vertices, long triangles);
-/// Throws InputError "WHAT (N vertices, M triangles) needs about X GB ..." when the estimate
-/// exceeds kMaxRunBytes or the machine's physical memory.
-void check_memory_estimate(long vertices, long triangles, const std::string& what);
+/// Bytes a run of a mesh with this many vertices needs (estimate).
+double estimated_run_bytes(long vertices);
+/// Throws InputError "WHAT (N vertices) needs about X GB to simulate, more than ..." when the
+/// estimate exceeds kMaxRunBytes or the machine's physical memory.
+void check_memory_estimate(long vertices, const std::string& what);
 
 /// The cloth mesh placed in the world (grid generated or OBJ read) and the pinned vertices.
 TriMesh build_cloth_mesh(const ClothSpec& spec);

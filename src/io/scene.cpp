@@ -110,9 +110,7 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
       g.fail("vertices", "need at least 2 per side and at most " + std::to_string(kMaxGridVertices) +
                              " in all, got " + json_util::describe(verts));
     GridSpec gs{size_u, size_v, static_cast<int>(*count_u), static_cast<int>(*count_v)};
-    check_memory_estimate(static_cast<long>(gs.vertices_u) * gs.vertices_v,
-                          2L * (gs.vertices_u - 1) * (gs.vertices_v - 1),
-                          g.where("vertices") + ": a " + std::to_string(gs.vertices_u) + " x " +
+    check_memory_estimate(static_cast<long>(gs.vertices_u) * gs.vertices_v, g.where("vertices") + ": a " + std::to_string(gs.vertices_u) + " x " +
                               std::to_string(gs.vertices_v) + " grid");
     if (g.has("pattern")) {
       const std::string pat = g.string("pattern");
@@ -257,12 +255,10 @@ Scene load_scene(const std::string& path) {
   return parse_scene_text(read_input_file(path, "scene file"), path, base.empty() ? "." : base);
 }
 
-double estimated_run_bytes(long vertices, long triangles) {
-  return kRunBytesPerVertex * static_cast<double>(vertices) + kRunBytesPerTriangle * static_cast<double>(triangles);
-}
+double estimated_run_bytes(long vertices) { return kRunBytesPerVertex * static_cast<double>(vertices); }
 
-void check_memory_estimate(long vertices, long triangles, const std::string& what) {
-  const double need = estimated_run_bytes(vertices, triangles);
+void check_memory_estimate(long vertices, const std::string& what) {
+  const double need = estimated_run_bytes(vertices);
   const double pages = static_cast<double>(::sysconf(_SC_PHYS_PAGES)), page = static_cast<double>(::sysconf(_SC_PAGE_SIZE));
   const double physical = pages > 0 && page > 0 ? pages * page : 0.0;
   auto gb = [](double bytes) {
@@ -270,8 +266,7 @@ void check_memory_estimate(long vertices, long triangles, const std::string& wha
     std::snprintf(text, sizeof text, "%.1f GB", bytes / 1e9);
     return std::string(text);
   };
-  const std::string size = " (" + std::to_string(vertices) + " vertices, " + std::to_string(triangles) +
-                           " triangles) needs about " + gb(need) + " to simulate";
+  const std::string size = " (" + std::to_string(vertices) + " vertices) needs about " + gb(need) + " to simulate";
   if (need > kMaxRunBytes)
     throw InputError(what + size + ", more than the " + gb(kMaxRunBytes) + " weft allows a run");
   if (physical > 0 && need > physical)
@@ -283,7 +278,7 @@ TriMesh build_cloth_mesh(const ClothSpec& spec) {
                                     spec.grid->pattern)
                         : load_obj(spec.obj_path, spec.uv_scale);
   if (!spec.grid)
-    check_memory_estimate(m.num_vertices(), static_cast<long>(m.triangles.size()), spec.obj_path + ": the mesh");
+    check_memory_estimate(m.num_vertices(), spec.obj_path + ": the mesh");
   const Vec3 r = spec.rotation_deg * (M_PI / 180.0);
   const Mat3 R = (Eigen::AngleAxisd(r.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(r.y(), Vec3::UnitY()) *
                   Eigen::AngleAxisd(r.x(), Vec3::UnitX())).toRotationMatrix();
