@@ -6,6 +6,7 @@
 
 #include "body/body_fixture.hpp"
 #include "weft/body.hpp"
+#include "weft/error.hpp"
 
 namespace weft {
 namespace {
