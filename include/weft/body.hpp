@@ -26,10 +26,10 @@ struct ObjMesh {
   std::vector<std::vector<int>> group_vertices;  ///< sorted, unique, per group
 };
 
-/// Reads vertices, faces (polygons split into triangles) and groups with tinyobjloader; texture
+/// Reads vertices, faces (polygons split into triangles) and groups (io/obj_file.hpp); texture
 /// and normal indices are ignored, faces before the first `g` line belong to no group. Throws
-/// InputError naming the file for an unreadable or malformed file, a non-finite coordinate or a
-/// face index out of range.
+/// InputError naming the file and line for an unreadable or malformed file, a coordinate that
+/// is not a finite number within 1e6, or a face index out of range.
 ObjMesh read_obj(const std::string& path);
 
 /// Writes positions and triangles as OBJ, atomically (temporary file, then rename).
@@ -80,6 +80,8 @@ Rig build_rig(const nlohmann::json& rig_json, const ObjMesh& joint_cubes_dm, con
 /// Blender defines it (Y along the bone, rolled by roll_rad; Blender axes are (x, -z, y) of
 /// ours). Sets head_bind, tail_bind and rest_to_bind. Bones not named keep their parent's pose.
 void apply_bind_pose(Rig& rig, const nlohmann::json& bone_rotations, const std::string& where);
+/// apply_bind_pose with the "bone_rotations" of a bind-pose file's JSON (`where` names it).
+void apply_bind_pose_file(Rig& rig, const nlohmann::json& pose_json, const std::string& where);
 
 /// Keeps the 4 largest weights per vertex (of the bones the rig has) and renormalises them.
 /// Weights of vertices >= vertex_count (helper geometry) are ignored.

@@ -3,6 +3,7 @@
 // curves, weft/warp bending rigidity and strain-rate viscosity, all in SI units.
 #include <nlohmann/json_fwd.hpp>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -89,6 +90,9 @@ Material parse_material(const nlohmann::json& j, const std::string& where,
                         const std::string& base_dir = ".");
 /// Reads a material file; it must carry "weft_material": 1.
 Material load_material_file(const std::string& path);
+/// A material file's JSON text; `file` names it in messages and relative "file" references
+/// are relative to its folder.
+Material parse_material_text(std::string_view text, const std::string& file);
 /// A preset from data/materials/NAME.json.
 Material material_preset(const std::string& name);
 /// Names of the shipped presets.

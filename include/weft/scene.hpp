@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "integrate/integrator.hpp"
@@ -14,6 +15,21 @@
 namespace weft {
 
 constexpr int kSceneFormatVersion = 1;
+
+// Bounds on scene values (docs/scene-format.md): beyond them a value is a mistake, not a
+// cloth, and is refused as bad input rather than left to blow up a run.
+constexpr double kMaxLength_m = 1e4;        ///< grid sizes, translations, cloth OBJ coordinates
+constexpr double kMaxRotation_deg = 3600;   ///< placement rotation angles (ten turns)
+constexpr double kMaxSpeed_m_s = 1e3;       ///< initial velocity components
+constexpr double kMaxGravity_m_s2 = 1e3;    ///< gravity components (about 100 g)
+constexpr long kMaxGridVertices = 4'000'000;  ///< vertices of a grid, both sides together
+
+// The memory a run needs per vertex of its mesh: the peak resident size of `weft run` on grids
+// of 200 x 200 to 700 x 700 vertices is 5.15-5.35 kB per vertex (two triangles per vertex,
+// as on any large mesh of a surface), docs/scene-format.md. And the most a run may need: about
+// 2.9 million vertices, which take hours per simulated second on a workstation.
+constexpr double kRunBytesPerVertex = 5500;
+constexpr double kMaxRunBytes = 16e9;
 
 struct GridSpec {
   double size_u = 1, size_v = 1;  ///< metres
@@ -60,6 +76,9 @@ double default_damping_ratio(Method method, double alpha);
 
 /// Reads and validates a scene file. Throws InputError naming the file, key and value.
 Scene load_scene(const std::string& path);
+/// Reads a scene from its JSON text; `file` names it in messages, relative paths in it are
+/// relative to `base_dir`.
+Scene parse_scene_text(std::string_view text, const std::string& file, const std::string& base_dir);
 Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::string& base_dir);
 
 /// Sets method and alpha by name (alpha only where the method takes one); validates.
@@ -67,6 +86,12 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
 void set_method(Scene& scene, const std::string& name, std::optional<double> alpha, const std::string& where);
 /// Re-checks the timing fields after overrides (dt > 0, frame interval a multiple of dt...).
 void validate_timing(const Scene& scene, const std::string& where);
+
+/// Bytes a run of a mesh with this many vertices needs (estimate).
+double estimated_run_bytes(long vertices);
+/// Throws InputError "WHAT (N vertices) needs about X GB to simulate, more than ..." when the
+/// estimate exceeds kMaxRunBytes or the machine's physical memory.
+void check_memory_estimate(long vertices, const std::string& what);
 
 /// The cloth mesh placed in the world (grid generated or OBJ read) and the pinned vertices.
 TriMesh build_cloth_mesh(const ClothSpec& spec);

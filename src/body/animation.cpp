@@ -108,6 +108,12 @@ Animation::Animation(const Rig& rig, const BvhMotion& motion, const AnimationOpt
   const double rig_hip = height_above_lowest(rig_points, root);
   if (!(bvh_hip > 0)) throw InputError("motion's reference pose has its root at the lowest point");
   length_scale_ = rig_hip / bvh_hip;
+  // A motion in millimetres has a scale of 1e-3 m per unit, one in inches 0.025; far outside
+  // these the offsets are not a human skeleton, and the retargeted root would leave the scene.
+  if (!(length_scale_ >= 1e-4 && length_scale_ <= 1e4))
+    throw InputError("motion's reference-pose hip height " + std::to_string(bvh_hip) +
+                     " (file units) gives a scale of " + std::to_string(length_scale_) +
+                     " m per unit, outside [1e-4, 1e4]");
 
   // Grounding: the rig's legs are not the performer's, so scaling the root alone lets the feet
   // sink or float. The performer's floor is the lowest its lowest joint gets during the motion;

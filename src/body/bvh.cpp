@@ -1,16 +1,25 @@
 // BVH (Biovision hierarchy) reader: HIERARCHY with ROOT/JOINT/End Site blocks, OFFSET and
 // CHANNELS lines, then MOTION with "Frames:", "Frame Time:" and one line of values per frame.
 #include <cmath>
-#include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
+#include <vector>
 
 #include "body/text.hpp"
+#include "io/input_file.hpp"
 #include "weft/body.hpp"
 #include "weft/error.hpp"
 
 namespace weft {
 
 namespace {
+
+/// Largest magnitude of an offset, a position or an angle (file units, degrees).
+constexpr double kMaxBvhValue = 1e6;
+/// Deepest joint hierarchy read (a human skeleton needs about 10 levels).
+constexpr int kMaxBvhDepth = 256;
+/// Frame time bounds (s): 100 kHz to 0.1 Hz.
+constexpr double kMinFrameTime_s = 1e-5, kMaxFrameTime_s = 10;
 
 // Splits the input into whitespace-separated tokens, remembering each token's line.
 class Tokenizer {
@@ -37,6 +46,14 @@ class Tokenizer {
     if (token != word) fail("expected '" + word + "', got '" + token + "'");
   }
   double number(const std::string& what) { return text::parse_double(expect_any(what), where()); }
+  /// A number within [-kMaxBvhValue, kMaxBvhValue].
+  double bounded(const std::string& what) {
+    const std::string token = expect_any(what);
+    const double value = text::parse_double(token, where());
+    if (!(std::abs(value) <= kMaxBvhValue))
+      fail(what + " " + token + " is out of range (expected a magnitude of at most 1e6)");
+    return value;
+  }
   /// Reads the rest of the current line.
   std::string rest_of_line() {
     std::string rest;
@@ -73,13 +90,14 @@ int channel_kind(const std::string& name) {
 
 // Reads the body of a ROOT/JOINT block after its name; the opening brace comes next.
 void read_joint(Tokenizer& tok, BvhMotion& motion, const std::string& name, int parent,
-                int& channel_count) {
+                int& channel_count, int depth) {
+  if (depth > kMaxBvhDepth) tok.fail("joints nested deeper than " + std::to_string(kMaxBvhDepth) + " levels");
   BvhJoint joint;
   joint.name = name;
   joint.parent = parent;
   tok.expect("{");
   tok.expect("OFFSET");
-  for (int k = 0; k < 3; ++k) joint.offset[k] = tok.number("an OFFSET coordinate");
+  for (int k = 0; k < 3; ++k) joint.offset[k] = tok.bounded("OFFSET coordinate");
   tok.expect("CHANNELS");
   const std::string count_token = tok.expect_any("a channel count");
   const int count = text::parse_int(count_token, tok.where());
@@ -99,13 +117,13 @@ void read_joint(Tokenizer& tok, BvhMotion& motion, const std::string& name, int 
     if (token == "}") return;
     if (token == "JOINT") {
       const std::string child = tok.expect_any("a joint name");
-      read_joint(tok, motion, child, self, channel_count);
+      read_joint(tok, motion, child, self, channel_count, depth + 1);
     } else if (token == "End") {
       tok.expect("Site");
       tok.expect("{");
       tok.expect("OFFSET");
       Vec3 end;
-      for (int k = 0; k < 3; ++k) end[k] = tok.number("an OFFSET coordinate");
+      for (int k = 0; k < 3; ++k) end[k] = tok.bounded("OFFSET coordinate");
       tok.expect("}");
       motion.joints[self].has_end_site = true;
       motion.joints[self].end_site = end;
@@ -149,7 +167,7 @@ BvhMotion parse_bvh(std::istream& in, const std::string& name) {
   tok.expect("HIERARCHY");
   tok.expect("ROOT");
   int channel_count = 0;
-  read_joint(tok, motion, tok.expect_any("the root joint name"), -1, channel_count);
+  read_joint(tok, motion, tok.expect_any("the root joint name"), -1, channel_count, 0);
   tok.expect("MOTION");
   tok.expect("Frames:");
   const std::string frames_token = tok.expect_any("a frame count");
@@ -158,12 +176,13 @@ BvhMotion parse_bvh(std::istream& in, const std::string& name) {
   tok.expect("Frame");
   tok.expect("Time:");
   motion.frame_time_s = tok.number("the frame time");
-  if (!(motion.frame_time_s > 0) || !std::isfinite(motion.frame_time_s))
-    tok.fail("frame time must be positive");
+  if (!(motion.frame_time_s >= kMinFrameTime_s && motion.frame_time_s <= kMaxFrameTime_s))
+    tok.fail("frame time " + nlohmann::json(motion.frame_time_s).dump() + " s is out of range [1e-05, 10] s");
   const std::string trailing = tok.rest_of_line();
   if (trailing.find_first_not_of(" \t\r") != std::string::npos)
     tok.fail("unexpected text after the frame time");
-  motion.frames.resize(frame_count, channel_count);
+  // The frames are stored as they are read: the count in the header may exceed the file.
+  std::vector<double> values_read;
   std::string line;
   for (int f = 0; f < frame_count; ++f) {
     do {
@@ -178,8 +197,10 @@ BvhMotion parse_bvh(std::istream& in, const std::string& name) {
       if (c == channel_count)
         tok.fail("frame " + std::to_string(f) + " has more than " +
                  std::to_string(channel_count) + " values");
-      motion.frames(f, c) = text::parse_double(value, tok.where());
-      if (!std::isfinite(motion.frames(f, c))) tok.fail("value is not finite: " + value);
+      const double x = text::parse_double(value, tok.where());
+      if (!(std::abs(x) <= kMaxBvhValue))
+        tok.fail("value " + value + " is out of range (expected a finite number of magnitude at most 1e6)");
+      values_read.push_back(x);
       ++c;
     }
     if (c != channel_count)
@@ -189,12 +210,13 @@ BvhMotion parse_bvh(std::istream& in, const std::string& name) {
   while (tok.next_line(line))
     if (line.find_first_not_of(" \t\r") != std::string::npos)
       tok.fail("unexpected text after the last frame");
+  motion.frames = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+      values_read.data(), frame_count, channel_count);
   return motion;
 }
 
 BvhMotion read_bvh(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path + ": cannot open BVH file");
+  std::istringstream in(read_input_file(path, "BVH file"));
   return parse_bvh(in, path);
 }
 

@@ -1,5 +1,4 @@
-// OBJ reading (vertices, faces, groups; tinyobjloader) and atomic OBJ writing for the body.
-#include <cmath>
+// OBJ reading (vertices, faces, groups) and atomic OBJ writing for the body.
 #include <cstdio>
 #include <filesystem>
 #include <set>
@@ -11,41 +10,24 @@
 namespace weft {
 
 ObjMesh read_obj(const std::string& path) {
-  const tinyobj::ObjReader reader = parse_obj_file(path, "file");
-  const auto& coordinates = reader.GetAttrib().vertices;
-  const Eigen::Index nv = static_cast<Eigen::Index>(coordinates.size() / 3);
+  const ObjData obj = read_obj_file(path);
+  const Eigen::Index nv = obj.vertex_count();
   ObjMesh mesh;
   mesh.positions.resize(nv, 3);
   for (Eigen::Index i = 0; i < nv; ++i)
-    for (int k = 0; k < 3; ++k) {
-      mesh.positions(i, k) = coordinates[3 * i + k];
-      if (!std::isfinite(mesh.positions(i, k)))
-        throw InputError(path + ": vertex " + std::to_string(i + 1) + " has a non-finite coordinate");
-    }
-  std::vector<Eigen::Vector3i> triangles;
-  for (const auto& shape : reader.GetShapes()) {
-    // Faces before the first `g` line (an unnamed shape) belong to no group.
-    const bool grouped = !shape.name.empty();
+    for (int k = 0; k < 3; ++k) mesh.positions(i, k) = obj.positions[3 * i + k];
+  mesh.triangles.resize(static_cast<Eigen::Index>(obj.triangles.size()), 3);
+  for (size_t t = 0; t < obj.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) mesh.triangles(static_cast<Eigen::Index>(t), k) = obj.triangles[t][k].vertex;
+  // Faces before the first `g` line belong to no group.
+  for (const auto& group : obj.groups) {
+    if (group.name.empty()) continue;
     std::set<int> vertices;
-    const auto& idx = shape.mesh.indices;
-    for (size_t f = 0; f + 2 < idx.size(); f += 3) {
-      Eigen::Vector3i t;
-      for (int k = 0; k < 3; ++k) {
-        t[k] = idx[f + k].vertex_index;
-        if (t[k] < 0 || t[k] >= nv)
-          throw InputError(path + ": face " + std::to_string(triangles.size() + 1) + " refers to vertex " +
-                           std::to_string(t[k] + 1) + ", out of range (" + std::to_string(nv) + " vertices)");
-        if (grouped) vertices.insert(t[k]);
-      }
-      triangles.push_back(t);
-    }
-    if (grouped) {
-      mesh.group_names.push_back(shape.name);
-      mesh.group_vertices.emplace_back(vertices.begin(), vertices.end());
-    }
+    for (size_t t = group.first_triangle; t < group.end_triangle; ++t)
+      for (const auto& corner : obj.triangles[t]) vertices.insert(corner.vertex);
+    mesh.group_names.push_back(group.name);
+    mesh.group_vertices.emplace_back(vertices.begin(), vertices.end());
   }
-  mesh.triangles.resize(static_cast<Eigen::Index>(triangles.size()), 3);
-  for (size_t i = 0; i < triangles.size(); ++i) mesh.triangles.row(static_cast<Eigen::Index>(i)) = triangles[i].transpose();
   return mesh;
 }
 

@@ -3,8 +3,10 @@
 #include <cmath>
 #include <functional>
 #include <map>
+#include <optional>
 #include <nlohmann/json.hpp>
 
+#include "io/json_util.hpp"
 #include "weft/body.hpp"
 #include "weft/error.hpp"
 
@@ -45,11 +47,35 @@ Mat3 blender_bone_frame(const Vec3& direction, double roll_rad) {
   return Eigen::AngleAxisd(roll_rad, n).toRotationMatrix() * b;
 }
 
+/// Most bones a rig may have (the CMU rig has 31).
+constexpr size_t kMaxBones = 1000;
+/// Largest magnitude of a bind-pose Euler angle or a bone roll (rad).
+constexpr double kMaxAngle_rad = 2 * M_PI;
+
+/// `key` of the object `j` as a string, or `fallback` when absent.
+std::string string_field(const nlohmann::json& j, const char* key, const std::string& where,
+                         const std::string& fallback) {
+  if (!j.contains(key)) return fallback;
+  const auto& v = j[key];
+  if (!v.is_string()) throw InputError(where + ": key " + key + ": expected a string, got " + json_util::describe(v));
+  return v.get<std::string>();
+}
+
+/// A number within [-limit, limit] (`what` and `unit` for messages).
+double bounded_number(const nlohmann::json& v, double limit, const std::string& where, const std::string& unit) {
+  if (!v.is_number()) throw InputError(where + ": expected a number, got " + json_util::describe(v));
+  const double x = v.get<double>();
+  if (!(std::abs(x) <= limit))
+    throw InputError(where + ": value " + v.dump() + " is out of range " + json_util::range_text(-limit, limit, unit));
+  return x;
+}
+
 Vec3 joint_position(const nlohmann::json& end, const std::map<std::string, Vec3>& cubes,
                     const Points& body_m, const std::string& where) {
-  const std::string strategy = end.value("strategy", "");
+  if (!end.is_object()) throw InputError(where + ": expected an object, got " + json_util::describe(end));
+  const std::string strategy = string_field(end, "strategy", where, "");
   if (strategy == "CUBE") {
-    const std::string name = end.value("cube_name", "");
+    const std::string name = string_field(end, "cube_name", where, "");
     auto it = cubes.find(name);
     if (it == cubes.end()) throw InputError(where + ": joint cube '" + name + "' not found");
     return it->second;
@@ -60,14 +86,15 @@ Vec3 joint_position(const nlohmann::json& end, const std::map<std::string, Vec3>
       throw InputError(where + ": MEAN needs a non-empty vertex_indices list");
     Vec3 sum = Vec3::Zero();
     for (const auto& v : end["vertex_indices"]) {
-      const int i = v.get<int>();
-      if (i < 0 || i >= body_m.rows())
-        throw InputError(where + ": vertex index " + std::to_string(i) + " out of range");
-      sum += body_m.row(i).transpose();
+      const std::optional<long> i = json_util::integer_value(v);
+      if (!i || *i < 0 || *i >= body_m.rows())
+        throw InputError(where + ": vertex index " + json_util::describe(v) + " out of range (expected an integer in [0, " +
+                         std::to_string(body_m.rows() - 1) + "])");
+      sum += body_m.row(*i).transpose();
     }
     return sum / static_cast<double>(end["vertex_indices"].size());
   }
-  throw InputError(where + ": unknown joint strategy '" + strategy + "'");
+  throw InputError(where + ": unknown joint strategy '" + strategy + "' (expected CUBE or MEAN)");
 }
 
 }  // namespace
@@ -81,6 +108,9 @@ Rig build_rig(const nlohmann::json& rig_json, const ObjMesh& joint_cubes_dm, con
               const std::string& where) {
   if (!rig_json.is_object() || rig_json.empty())
     throw InputError(where + ": expected an object of bones");
+  if (rig_json.size() > kMaxBones)
+    throw InputError(where + ": " + std::to_string(rig_json.size()) + " bones, more than the " +
+                     std::to_string(kMaxBones) + " a rig may have");
   std::map<std::string, Vec3> cubes;
   for (size_t g = 0; g < joint_cubes_dm.group_names.size(); ++g) {
     const auto& vertices = joint_cubes_dm.group_vertices[g];
@@ -94,7 +124,9 @@ Rig build_rig(const nlohmann::json& rig_json, const ObjMesh& joint_cubes_dm, con
   std::map<std::string, std::vector<std::string>> children;
   std::vector<std::string> roots;
   for (const auto& [name, bone] : rig_json.items()) {
-    const std::string parent = bone.value("parent", "");
+    if (!bone.is_object())
+      throw InputError(where + ": bone " + name + ": expected an object, got " + json_util::describe(bone));
+    const std::string parent = string_field(bone, "parent", where + ": bone " + name, "");
     if (parent.empty()) {
       roots.push_back(name);
     } else {
@@ -110,9 +142,13 @@ Rig build_rig(const nlohmann::json& rig_json, const ObjMesh& joint_cubes_dm, con
     const std::string bone_where = where + ": bone " + name;
     rig.bone_names.push_back(name);
     rig.parent.push_back(parent);
-    rig.roll_rad.push_back(bone.value("roll", 0.0));
-    rig.head_rest.push_back(joint_position(bone.at("head"), cubes, body_m, bone_where + " head"));
-    rig.tail_rest.push_back(joint_position(bone.at("tail"), cubes, body_m, bone_where + " tail"));
+    rig.roll_rad.push_back(bone.contains("roll") ? bounded_number(bone["roll"], kMaxAngle_rad, bone_where + " roll", "rad") : 0.0);
+    for (const char* end : {"head", "tail"})
+      if (!bone.contains(end)) throw InputError(bone_where + ": key " + end + " missing");
+    rig.head_rest.push_back(joint_position(bone["head"], cubes, body_m, bone_where + " head"));
+    rig.tail_rest.push_back(joint_position(bone["tail"], cubes, body_m, bone_where + " tail"));
+    if (rig.head_rest.back() == rig.tail_rest.back())
+      throw InputError(bone_where + ": head and tail are at the same place (a bone needs a length)");
     const int self = rig.bone_count() - 1;
     for (const auto& child : children[name]) visit(child, self);
   };
@@ -133,11 +169,13 @@ void apply_bind_pose(Rig& rig, const nlohmann::json& bone_rotations, const std::
     const int b = rig.find(name);
     if (b < 0) throw InputError(where + ": unknown bone '" + name + "'");
     if (!angles.is_array() || angles.size() != 3)
-      throw InputError(where + ": " + name + " needs 3 Euler angles");
+      throw InputError(where + ": " + name + " needs 3 Euler angles, got " + json_util::describe(angles));
+    Vec3 a;
+    for (int k = 0; k < 3; ++k)
+      a[k] = bounded_number(angles[k], kMaxAngle_rad, where + ": " + name + "[" + std::to_string(k) + "]", "rad");
     // Blender's XYZ Euler order: X applied first, so R = Rz Ry Rx.
-    local[b] = (Eigen::AngleAxisd(angles[2].get<double>(), Vec3::UnitZ()) *
-                Eigen::AngleAxisd(angles[1].get<double>(), Vec3::UnitY()) *
-                Eigen::AngleAxisd(angles[0].get<double>(), Vec3::UnitX()))
+    local[b] = (Eigen::AngleAxisd(a[2], Vec3::UnitZ()) * Eigen::AngleAxisd(a[1], Vec3::UnitY()) *
+                Eigen::AngleAxisd(a[0], Vec3::UnitX()))
                    .toRotationMatrix();
   }
   // World rotation of bone b: D_b = D_parent C_b P_b C_b^T (C_b the rest frame, P_b the local
@@ -159,6 +197,12 @@ void apply_bind_pose(Rig& rig, const nlohmann::json& bone_rotations, const std::
   }
 }
 
+void apply_bind_pose_file(Rig& rig, const nlohmann::json& pose_json, const std::string& where) {
+  if (!pose_json.is_object() || !pose_json.contains("bone_rotations"))
+    throw InputError(where + ": expected an object with \"bone_rotations\", got " + json_util::describe(pose_json));
+  apply_bind_pose(rig, pose_json["bone_rotations"], where);
+}
+
 SkinWeights reduce_weights(const nlohmann::json& weights_json, const Rig& rig, int vertex_count,
                            const std::string& where) {
   const nlohmann::json& table =
@@ -168,13 +212,20 @@ SkinWeights reduce_weights(const nlohmann::json& weights_json, const Rig& rig, i
   for (const auto& [name, list] : table.items()) {
     const int b = rig.find(name);
     if (b < 0) throw InputError(where + ": weights for unknown bone '" + name + "'");
+    if (!list.is_array())
+      throw InputError(where + ": " + name + ": expected an array of [vertex, weight] pairs, got " +
+                       json_util::describe(list));
     for (const auto& entry : list) {
       if (!entry.is_array() || entry.size() != 2)
-        throw InputError(where + ": " + name + ": expected [vertex, weight] pairs");
-      const int v = entry[0].get<int>();
+        throw InputError(where + ": " + name + ": expected [vertex, weight] pairs, got " + json_util::describe(entry));
+      const std::optional<long> v = json_util::integer_value(entry[0]);
+      if (!v || *v < 0)
+        throw InputError(where + ": " + name + ": vertex index " + json_util::describe(entry[0]) +
+                         " is not a non-negative integer");
+      if (!entry[1].is_number() || !(entry[1].get<double>() >= 0 && entry[1].get<double>() <= 1))
+        throw InputError(where + ": " + name + ": weight " + json_util::describe(entry[1]) + " is not a number in [0, 1]");
       const double w = entry[1].get<double>();
-      if (v < 0) throw InputError(where + ": " + name + ": negative vertex index");
-      if (v < vertex_count && w > 0) influences[v].emplace_back(w, b);
+      if (*v < vertex_count && w > 0) influences[*v].emplace_back(w, b);
     }
   }
   SkinWeights out;

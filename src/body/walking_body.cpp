@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "io/json_util.hpp"
 #include "weft/body.hpp"
 #include "weft/error.hpp"
 #include "weft/material.hpp"
@@ -14,15 +14,11 @@ namespace weft {
 
 namespace {
 
-nlohmann::json read_json(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path + ": cannot open");
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path + ": " + e.what());
-  }
-}
+nlohmann::json read_json(const std::string& path) { return json_util::load_json_file(path, "body data file"); }
+
+/// Bounds on a body collider's playback (docs/scene-format.md).
+constexpr double kMaxBodySpeed = 100;
+constexpr double kMaxBodyStartTime_s = 1e7;
 
 }  // namespace
 
@@ -47,7 +43,8 @@ BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string&
     } else if (key == "speed") {
       if (!value.is_number()) throw InputError(at + ": expected a number");
       spec.speed = value.get<double>();
-      if (!(spec.speed > 0)) throw InputError(at + ": must be positive, got " + value.dump());
+      if (!(spec.speed > 0 && spec.speed <= kMaxBodySpeed))
+        throw InputError(at + ": must be in (0, 100], got " + value.dump());
     } else if (key == "skinning") {
       if (!value.is_string()) throw InputError(at + ": expected \"lbs\" or \"dqs\"");
       spec.skinning = value.get<std::string>();
@@ -55,7 +52,8 @@ BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string&
     } else if (key == "start_time") {
       if (!value.is_number()) throw InputError(at + ": expected a number (seconds)");
       spec.start_time = value.get<double>();
-      if (!(spec.start_time >= 0)) throw InputError(at + ": must be >= 0, got " + value.dump());
+      if (!(spec.start_time >= 0 && spec.start_time <= kMaxBodyStartTime_s))
+        throw InputError(at + ": must be in [0, 1e7] s, got " + value.dump());
     } else {
       throw InputError(where + ": unknown key \"" + key +
                        "\" (expected type, motion, speed, skinning, start_time)");
@@ -73,7 +71,7 @@ WalkingBody::WalkingBody(const BodyColliderSpec& spec)
   rig_ = build_rig(read_json(dir + "rig.cmu_mb.json"), read_obj(dir + "joint_cubes.obj"), rest_,
                    dir + "rig.cmu_mb.json");
   const std::string tpose = dir + "t-pose.cmu_mb.json";
-  apply_bind_pose(rig_, read_json(tpose).at("bone_rotations"), tpose);
+  apply_bind_pose_file(rig_, read_json(tpose), tpose);
   weights_ = reduce_weights(read_json(dir + "weights.cmu_mb.json"), rig_,
                             static_cast<int>(rest_.rows()), dir + "weights.cmu_mb.json");
   skin_lbs(rest_, weights_, rig_.rest_to_bind, bind_);

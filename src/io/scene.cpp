@@ -1,11 +1,15 @@
 #include "weft/scene.hpp"
 
-#include <cmath>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
+#include <unistd.h>
 
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+
+#include "io/input_file.hpp"
 #include "io/json_util.hpp"
+#include "io/obj_file.hpp"
 #include "system/cloth.hpp"
 #include "weft/error.hpp"
 
@@ -92,13 +96,22 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
     const auto& verts = g.raw("vertices");
     if (!size.is_array() || size.size() != 2 || !size[0].is_number() || !size[1].is_number())
       g.fail("size", "expected [size_u, size_v] in metres, got " + json_util::describe(size));
-    if (!verts.is_array() || verts.size() != 2 || !verts[0].is_number_integer() || !verts[1].is_number_integer())
+    const std::optional<long> count_u = verts.is_array() && verts.size() == 2 ? json_util::integer_value(verts[0]) : std::nullopt;
+    const std::optional<long> count_v = verts.is_array() && verts.size() == 2 ? json_util::integer_value(verts[1]) : std::nullopt;
+    if (!count_u || !count_v)
       g.fail("vertices", "expected [count_u, count_v] integers, got " + json_util::describe(verts));
-    GridSpec gs{size[0].get<double>(), size[1].get<double>(), verts[0].get<int>(), verts[1].get<int>()};
-    if (!(gs.size_u > 0 && gs.size_v > 0 && std::isfinite(gs.size_u) && std::isfinite(gs.size_v) && gs.size_u < 1e4 && gs.size_v < 1e4))
-      g.fail("size", "sizes must be positive and below 10 km, got " + json_util::describe(size));
-    if (gs.vertices_u < 2 || gs.vertices_v < 2 || static_cast<long>(gs.vertices_u) * gs.vertices_v > 4'000'000)
-      g.fail("vertices", "need at least 2 per side and at most 4 million in all, got " + json_util::describe(verts));
+    const double size_u = size[0].get<double>(), size_v = size[1].get<double>();
+    if (!(size_u > 0 && size_v > 0 && size_u <= kMaxLength_m && size_v <= kMaxLength_m))
+      g.fail("size", "sizes must be positive and at most " + nlohmann::json(kMaxLength_m).dump() + " m, got " +
+                         json_util::describe(size));
+    // Checked before narrowing to int: [4294967307, 11] must not wrap round to 11 x 11.
+    if (*count_u < 2 || *count_v < 2 || *count_u > kMaxGridVertices || *count_v > kMaxGridVertices ||
+        *count_u * *count_v > kMaxGridVertices)
+      g.fail("vertices", "need at least 2 per side and at most " + std::to_string(kMaxGridVertices) +
+                             " in all, got " + json_util::describe(verts));
+    GridSpec gs{size_u, size_v, static_cast<int>(*count_u), static_cast<int>(*count_v)};
+    check_memory_estimate(static_cast<long>(gs.vertices_u) * gs.vertices_v, g.where("vertices") + ": a " + std::to_string(gs.vertices_u) + " x " +
+                              std::to_string(gs.vertices_v) + " grid");
     if (g.has("pattern")) {
       const std::string pat = g.string("pattern");
       if (pat == "alternating-diagonals") {
@@ -120,10 +133,10 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
   if (r.has("placement")) {
     const Reader p = r.object("placement");
     p.allow_only({"rotation_deg", "translation"});
-    if (p.has("rotation_deg")) c.rotation_deg = p.vec3("rotation_deg");
-    if (p.has("translation")) c.translation = p.vec3("translation");
+    if (p.has("rotation_deg")) c.rotation_deg = p.vec3_within("rotation_deg", kMaxRotation_deg, "degrees");
+    if (p.has("translation")) c.translation = p.vec3_within("translation", kMaxLength_m, "m");
   }
-  if (r.has("initial_velocity")) c.initial_velocity = r.vec3("initial_velocity");
+  if (r.has("initial_velocity")) c.initial_velocity = r.vec3_within("initial_velocity", kMaxSpeed_m_s, "m/s");
   if (r.has("material")) {
     c.material = parse_material(r.raw("material"), r.where("material"), base_dir);
   }
@@ -134,9 +147,11 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
       const auto& v = p.raw("vertices");
       if (!v.is_array()) p.fail("vertices", "expected an array of vertex indices, got " + json_util::describe(v));
       for (const auto& e : v) {
-        if (!e.is_number_integer() || e.get<long>() < 0)
-          p.fail("vertices", "expected non-negative integer vertex indices, got " + json_util::describe(e));
-        c.pin_vertices.push_back(e.get<int>());
+        const std::optional<long> i = json_util::integer_value(e);
+        if (!i || *i < 0 || *i > std::numeric_limits<int>::max())
+          p.fail("vertices", "expected vertex indices, integers in [0, " +
+                                 std::to_string(std::numeric_limits<int>::max()) + "], got " + json_util::describe(e));
+        c.pin_vertices.push_back(static_cast<int>(*i));
       }
     }
     if (p.has("grid")) {
@@ -144,13 +159,14 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
       if (!c.grid) p.fail("grid", "grid pins need a grid mesh");
       if (!v.is_array()) p.fail("grid", "expected an array of [i, j] pairs, got " + json_util::describe(v));
       for (const auto& e : v) {
-        if (!e.is_array() || e.size() != 2 || !e[0].is_number_integer() || !e[1].is_number_integer())
-          p.fail("grid", "expected [i, j] integer pairs, got " + json_util::describe(e));
-        const int i = e[0].get<int>(), j = e[1].get<int>();
+        const std::optional<long> ni = e.is_array() && e.size() == 2 ? json_util::integer_value(e[0]) : std::nullopt;
+        const std::optional<long> nj = e.is_array() && e.size() == 2 ? json_util::integer_value(e[1]) : std::nullopt;
+        if (!ni || !nj) p.fail("grid", "expected [i, j] integer pairs, got " + json_util::describe(e));
+        const long i = *ni, j = *nj;
         if (i >= c.grid->vertices_u || i < -c.grid->vertices_u || j >= c.grid->vertices_v || j < -c.grid->vertices_v)
           p.fail("grid", "node " + e.dump() + " is outside the " + std::to_string(c.grid->vertices_u) + " x " +
                              std::to_string(c.grid->vertices_v) + " grid");
-        c.pin_grid_nodes.emplace_back(i, j);
+        c.pin_grid_nodes.emplace_back(static_cast<int>(i), static_cast<int>(j));
       }
     }
   }
@@ -171,7 +187,7 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
   if (r.has("description")) s.description = r.string("description");
   s.duration = r.number_in("duration", 0, 1e7, true);
   s.frame_interval = r.number_in("frame_interval", 0, 1e7, true);
-  if (r.has("gravity")) s.gravity = r.vec3("gravity");
+  if (r.has("gravity")) s.gravity = r.vec3_within("gravity", kMaxGravity_m_s2, "m/s^2");
 
   const Reader in = r.object("integrator");
   in.allow_only({"method", "alpha", "dt", "tolerance", "max_iterations", "preconditioner", "ssor_relaxation",
@@ -185,9 +201,7 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
     (s.integrator.method == Method::Rk45 ? s.integrator.error_tolerance : s.integrator.cg_tolerance) = tol;
   }
   if (in.has("max_iterations")) {
-    const long it = in.integer("max_iterations");
-    if (it < 1 || it > 1'000'000) in.fail("max_iterations", "must be in [1, 1000000], got " + std::to_string(it));
-    s.integrator.cg_max_iterations = static_cast<int>(it);
+    s.integrator.cg_max_iterations = static_cast<int>(in.integer_in("max_iterations", 1, 1'000'000));
   }
   if (in.has("preconditioner")) {
     const std::string name = in.string("preconditioner");
@@ -232,30 +246,39 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
   return s;
 }
 
+Scene parse_scene_text(std::string_view text, const std::string& file, const std::string& base_dir) {
+  return parse_scene(json_util::parse_json(text, file), file, base_dir);
+}
+
 Scene load_scene(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path + ": cannot open scene file");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    // e.byte gives the position; turn it into a line number.
-    std::ifstream again(path);
-    std::string text((std::istreambuf_iterator<char>(again)), std::istreambuf_iterator<char>());
-    const size_t upto = std::min<size_t>(e.byte, text.size());
-    const long line = 1 + std::count(text.begin(), text.begin() + static_cast<long>(upto), '\n');
-    std::string msg = e.what();
-    const auto pos = msg.find("parse error");
-    throw InputError(path + ":" + std::to_string(line) + ": malformed JSON: " + (pos == std::string::npos ? msg : msg.substr(pos)));
-  }
   const std::string base = fs::path(path).parent_path().string();
-  return parse_scene(j, path, base.empty() ? "." : base);
+  return parse_scene_text(read_input_file(path, "scene file"), path, base.empty() ? "." : base);
+}
+
+double estimated_run_bytes(long vertices) { return kRunBytesPerVertex * static_cast<double>(vertices); }
+
+void check_memory_estimate(long vertices, const std::string& what) {
+  const double need = estimated_run_bytes(vertices);
+  const double pages = static_cast<double>(::sysconf(_SC_PHYS_PAGES)), page = static_cast<double>(::sysconf(_SC_PAGE_SIZE));
+  const double physical = pages > 0 && page > 0 ? pages * page : 0.0;
+  auto gb = [](double bytes) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.1f GB", bytes / 1e9);
+    return std::string(text);
+  };
+  const std::string size = " (" + std::to_string(vertices) + " vertices) needs about " + gb(need) + " to simulate";
+  if (need > kMaxRunBytes)
+    throw InputError(what + size + ", more than the " + gb(kMaxRunBytes) + " weft allows a run");
+  if (physical > 0 && need > physical)
+    throw InputError(what + size + ", more than this machine's " + gb(physical) + " of memory");
 }
 
 TriMesh build_cloth_mesh(const ClothSpec& spec) {
   TriMesh m = spec.grid ? make_grid(spec.grid->size_u, spec.grid->size_v, spec.grid->vertices_u, spec.grid->vertices_v,
                                     spec.grid->pattern)
                         : load_obj(spec.obj_path, spec.uv_scale);
+  if (!spec.grid)
+    check_memory_estimate(m.num_vertices(), spec.obj_path + ": the mesh");
   const Vec3 r = spec.rotation_deg * (M_PI / 180.0);
   const Mat3 R = (Eigen::AngleAxisd(r.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(r.y(), Vec3::UnitY()) *
                   Eigen::AngleAxisd(r.x(), Vec3::UnitX())).toRotationMatrix();

@@ -5,13 +5,14 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
 #include <tuple>
 
+#include "io/input_file.hpp"
+#include "io/json_util.hpp"
 #include "weft/error.hpp"
 
 namespace weft {
@@ -25,6 +26,15 @@ using nlohmann::json;
 constexpr int kFormatVersion = 1;
 /// Limit on chains of {"file": ...} / {"preset": ...} references (guards against cycles).
 constexpr int kMaxReferenceDepth = 8;
+
+// Bounds on material values (docs/materials.md): far beyond any fabric (a 1 mm steel sheet has
+// a membrane modulus of 2e8 N/m and a bending rigidity of about 20 N m); a value outside them
+// is a mistake in the file.
+constexpr double kMaxSurfaceDensity_kg_m2 = 100;
+constexpr double kMaxStress_N_m = 1e9;       ///< moduli and tabulated stresses
+constexpr double kMaxStrain = 10;            ///< tabulated Green strains
+constexpr double kMaxBendingRigidity_Nm = 1e3;
+constexpr double kMaxViscosity_Ns_m = 1e6;
 
 using UnitTable = std::map<std::string, double>;  // unit name -> factor to SI
 
@@ -82,6 +92,14 @@ double number(const Ctx& c, const std::string& field, const json& v) {
   const double x = v.get<double>();
   if (!std::isfinite(x)) c.fail(field, "not a finite number");
   return x;
+}
+
+/// Refuses `x` outside [lo, hi] (or (lo, hi] when `open_low`), in `unit`.
+void check_range(const Ctx& c, const std::string& field, double x, double lo, double hi, bool open_low,
+                 const std::string& unit) {
+  if ((open_low ? x > lo : x >= lo) && x <= hi) return;
+  c.fail(field, "value " + num(x) + " " + unit + " is out of range " + (open_low ? "(" : "[") + num(lo) + ", " +
+                    num(hi) + "] " + unit);
 }
 
 std::string text(const Ctx& c, const std::string& field, const json& v) {
@@ -163,6 +181,8 @@ std::pair<std::vector<double>, std::vector<double>> branch(const Ctx& c, const s
       s /= 1.0 + e;
       e += 0.5 * e * e;
     }
+    check_range(c, field + ".strain[" + std::to_string(i) + "]", e, -kMaxStrain, kMaxStrain, false, "(Green strain)");
+    check_range(c, field + ".stress[" + std::to_string(i) + "]", s, -kMaxStress_N_m, kMaxStress_N_m, false, "N/m");
     x[i] = e;
     y[i] = s;
   }
@@ -173,6 +193,7 @@ StressCurve curve(const Ctx& c, const std::string& field, const json& v, bool sh
   if (v.is_number()) {
     const double k = number(c, field, v);
     if (!(k > 0.0)) c.fail(field, "linear modulus must be positive, got " + num(k));
+    check_range(c, field, k, 0, kMaxStress_N_m, true, "N/m");
     return StressCurve::linear(k);
   }
   if (!v.is_object()) {
@@ -185,6 +206,7 @@ StressCurve curve(const Ctx& c, const std::string& field, const json& v, bool sh
         v.contains("unit") ? unit_factor(c, field + ".unit", v["unit"], kStressUnits) : 1.0;
     const double k = number(c, field + ".linear", v["linear"]) * factor;
     if (!(k > 0.0)) c.fail(field + ".linear", "modulus must be positive, got " + num(k));
+    check_range(c, field + ".linear", k, 0, kMaxStress_N_m, true, "N/m");
     return StressCurve::linear(k);
   }
   check_keys(c, field, v, {"strain", "stress", "unit", "strain_unit", "strain_measure", "unload"});
@@ -301,6 +323,7 @@ void parse_into(Material& m, const json& j, const Ctx& c) {
   if (j.contains("surface_density")) {
     const double rho = quantity(c, "surface_density", j["surface_density"], kDensityUnits);
     if (!(rho > 0.0)) c.fail("surface_density", "must be positive, got " + num(rho) + " kg/m2");
+    check_range(c, "surface_density", rho, 0, kMaxSurfaceDensity_kg_m2, true, "kg/m2");
     m.surface_density_kg_m2 = rho;
   }
   if (j.contains("weft")) m.weft = curve(c, "weft", j["weft"], false);
@@ -339,25 +362,21 @@ void parse_into(Material& m, const json& j, const Ctx& c) {
     }
     if (weft < 0.0) c.fail(f + ".weft", "must not be negative, got " + num(weft) + " N m");
     if (warp < 0.0) c.fail(f + ".warp", "must not be negative, got " + num(warp) + " N m");
+    check_range(c, f + ".weft", weft, 0, kMaxBendingRigidity_Nm, false, "N m");
+    check_range(c, f + ".warp", warp, 0, kMaxBendingRigidity_Nm, false, "N m");
     m.bending_rigidity_weft_Nm = weft;
     m.bending_rigidity_warp_Nm = warp;
   }
   if (j.contains("viscosity")) {
     const double eta = quantity(c, "viscosity", j["viscosity"], kViscosityUnits);
     if (eta < 0.0) c.fail("viscosity", "must not be negative, got " + num(eta) + " N s/m");
+    check_range(c, "viscosity", eta, 0, kMaxViscosity_Ns_m, false, "N s/m");
     m.viscosity_Ns_m = eta;
   }
 }
 
-Material load_file(const std::string& path, int depth) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path + ": cannot open material file");
-  json j;
-  try {
-    j = json::parse(in);
-  } catch (const json::parse_error& e) {
-    throw InputError(path + ": invalid JSON: " + e.what());
-  }
+Material parse_text(std::string_view text, const std::string& path, int depth) {
+  const json j = json_util::parse_json(text, path);
   Ctx c{path, fs::path(path).parent_path().string(), depth};
   if (c.base_dir.empty()) c.base_dir = ".";
   if (!j.is_object()) throw InputError(path + ": expected a JSON object");
@@ -368,6 +387,10 @@ Material load_file(const std::string& path, int depth) {
   Material m;
   parse_into(m, j, c);
   return m;
+}
+
+Material load_file(const std::string& path, int depth) {
+  return parse_text(read_input_file(path, "material file"), path, depth);
 }
 
 }  // namespace
@@ -389,6 +412,8 @@ Material parse_material(const nlohmann::json& j, const std::string& where,
 }
 
 Material load_material_file(const std::string& path) { return load_file(path, 0); }
+
+Material parse_material_text(std::string_view text, const std::string& file) { return parse_text(text, file, 0); }
 
 Material material_preset(const std::string& name) { return load_file(preset_path(name, ""), 0); }
 

@@ -6,7 +6,6 @@
 #include <map>
 #include <numeric>
 
-#include "io/obj_file.hpp"
 #include "weft/atomic_file.hpp"
 #include "weft/error.hpp"
 
@@ -43,66 +42,6 @@ TriMesh make_grid(double size_u, double size_v, int nu, int nv, GridPattern patt
         m.triangles.push_back({b, d, c});
       }
     }
-  return m;
-}
-
-TriMesh load_obj(const std::string& path, double uv_scale) {
-  const tinyobj::ObjReader reader = parse_obj_file(path, "mesh");
-  const auto& attrib = reader.GetAttrib();
-  const int nv = static_cast<int>(attrib.vertices.size() / 3);
-  if (nv < 3) throw InputError(path + ": OBJ mesh has " + std::to_string(nv) + " vertices, needs at least 3");
-  TriMesh m;
-  m.positions.resize(nv, 3);
-  for (int i = 0; i < nv; ++i)
-    m.positions.row(i) = Vec3(attrib.vertices[3 * i], attrib.vertices[3 * i + 1], attrib.vertices[3 * i + 2]).transpose();
-  if (!m.positions.allFinite()) throw InputError(path + ": OBJ mesh has a non-finite vertex coordinate");
-  std::vector<int> uv_of(nv, -1);
-  bool has_uv = !attrib.texcoords.empty();
-  for (const auto& shape : reader.GetShapes()) {
-    const auto& idx = shape.mesh.indices;
-    for (size_t f = 0; f + 2 < idx.size(); f += 3) {
-      std::array<int, 3> t{idx[f].vertex_index, idx[f + 1].vertex_index, idx[f + 2].vertex_index};
-      for (int k = 0; k < 3; ++k) {
-        if (has_uv) {
-          const int ti = idx[f + k].texcoord_index;
-          if (ti < 0) {
-            has_uv = false;
-          } else if (uv_of[t[k]] >= 0 && uv_of[t[k]] != ti &&
-                     (attrib.texcoords[2 * uv_of[t[k]]] != attrib.texcoords[2 * ti] ||
-                      attrib.texcoords[2 * uv_of[t[k]] + 1] != attrib.texcoords[2 * ti + 1])) {
-            throw InputError(path + ": vertex " + std::to_string(t[k] + 1) +
-                             " has two different texture coordinates (split it into two vertices)");
-          } else {
-            uv_of[t[k]] = ti;
-          }
-        }
-      }
-      m.triangles.push_back(t);
-    }
-  }
-  if (m.triangles.empty()) throw InputError(path + ": OBJ mesh has no faces");
-  m.pattern.resize(nv);
-  if (has_uv) {
-    for (int i = 0; i < nv; ++i) {
-      if (uv_of[i] < 0) throw InputError(path + ": vertex " + std::to_string(i + 1) + " is used by no face");
-      m.pattern[i] = uv_scale * Vec2(attrib.texcoords[2 * uv_of[i]], attrib.texcoords[2 * uv_of[i] + 1]);
-    }
-  } else {
-    // Project onto the best-fit plane: the pattern of a flat piece is its own shape.
-    const Vec3 c = m.positions.colwise().mean().transpose();
-    const MatX centred = m.positions.rowwise() - c.transpose();
-    Eigen::JacobiSVD<MatX> svd(centred, Eigen::ComputeThinV);
-    const Vec3 e1 = svd.matrixV().col(0), e2 = svd.matrixV().col(1);
-    for (int i = 0; i < nv; ++i) {
-      const Vec3 p = m.positions.row(i).transpose() - c;
-      m.pattern[i] = Vec2(p.dot(e1), p.dot(e2));
-    }
-  }
-  // Orient every triangle counter-clockwise in the pattern.
-  for (auto& t : m.triangles) {
-    const Vec2 e1 = m.pattern[t[1]] - m.pattern[t[0]], e2 = m.pattern[t[2]] - m.pattern[t[0]];
-    if (e1.x() * e2.y() - e1.y() * e2.x() < 0) std::swap(t[1], t[2]);
-  }
   return m;
 }
 

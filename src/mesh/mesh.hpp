@@ -29,11 +29,6 @@ enum class GridPattern {
 TriMesh make_grid(double size_u, double size_v, int nu, int nv,
                   GridPattern pattern = GridPattern::kAlternatingDiagonals);
 
-/// Reads an OBJ file (tinyobjloader). Pattern coordinates come from the texture coordinates
-/// times `uv_scale` (metres per texture unit) when present, otherwise from the positions
-/// projected onto their best-fit plane. Throws InputError naming the file.
-TriMesh load_obj(const std::string& path, double uv_scale = 1.0);
-
 /// Bending stencils: for every interior edge CD shared by triangles (C, D, A) and (D, C, B),
 /// the vertex indices (A, B, C, D).
 std::vector<std::array<int, 4>> interior_edge_stencils(const TriMesh& mesh);

@@ -120,7 +120,18 @@ TEST(BvhReader, RejectsMalformedFilesNamingTheLine) {
        "unknown channel 'Wrotation'"},
       {"no_brace.bvh", replace_line(good, 7, ""), 7, "expected '{'"},
       {"bad_frames.bvh", replace_line(good, 17, "Frames: two"), 17, "'two'"},
-      {"bad_frame_time.bvh", replace_line(good, 18, "Frame Time: -1"), 18, "positive"},
+      {"bad_frame_time.bvh", replace_line(good, 18, "Frame Time: -1"), 18, "frame time -1.0 s is out of range [1e-05, 10] s"},
+      {"huge_frame_time.bvh", replace_line(good, 18, "Frame Time: 1e300"), 18, "out of range [1e-05, 10] s"},
+      {"nan_frame_time.bvh", replace_line(good, 18, "Frame Time: nan"), 18, "out of range [1e-05, 10] s"},
+      // The frame count is not trusted to size anything: a count far beyond the file ends in
+      // an error naming how many frames there were, not in an allocation of 2e9 rows.
+      {"many_frames.bvh", replace_line(good, 17, "Frames: 2000000000"), 20, "file ends after 2 of 2000000000 frames"},
+      {"overflow_frames.bvh", replace_line(good, 17, "Frames: 99999999999"), 17, "expected an integer, got '99999999999'"},
+      {"huge_offset.bvh", replace_line(good, 8, "    OFFSET 1 1e300 0"), 8,
+       "OFFSET coordinate 1e300 is out of range (expected a magnitude of at most 1e6)"},
+      {"huge_value.bvh", replace_line(good, 19, "0 10 0 0 0 0 30 1e308 10"), 19,
+       "value 1e308 is out of range (expected a finite number of magnitude at most 1e6)"},
+      {"nan_value.bvh", replace_line(good, 19, "0 10 0 0 0 0 30 nan 10"), 19, "value nan is out of range"},
       {"trailing.bvh", good + "1 2 3\n", 21, "after the last frame"},
       {"no_motion.bvh", good.substr(0, good.find("MOTION")), 15, "end of file"},
   };
@@ -131,6 +142,14 @@ TEST(BvhReader, RejectsMalformedFilesNamingTheLine) {
     EXPECT_NE(message.find(c.says), std::string::npos) << c.name << ": " << message;
   }
   EXPECT_NE(read_error("", "empty.bvh").find("empty.bvh"), std::string::npos);
+}
+
+TEST(BvhReader, RefusesHierarchiesNestedTooDeeply) {
+  std::string text = "HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 0\n";
+  for (int k = 0; k < 300; ++k) text += "JOINT j" + std::to_string(k) + "\n{\nOFFSET 0 1 0\nCHANNELS 0\n";
+  // Five header lines, then four per joint: joint j256 (257 levels deep) starts on line 6 + 4 * 256.
+  EXPECT_NE(read_error(text, "deep.bvh").find("deep.bvh:1030: joints nested deeper than 256 levels"), std::string::npos)
+      << read_error(text, "deep.bvh");
 }
 
 }  // namespace

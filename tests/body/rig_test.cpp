@@ -147,3 +147,52 @@ TEST(RigWeights, FourLargestRenormalised) {
 
 }  // namespace
 }  // namespace weft
+
+namespace weft {
+namespace {
+
+template <class F>
+std::string input_error_of(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no InputError)";
+}
+
+TEST(RigInput, WrongTypesAreInputErrorsNotJsonExceptions) {
+  // Before, nlohmann's type_error escaped from these and `weft` said "internal error".
+  const Points& x = test::shipped_body().rest_positions();
+  const nlohmann::json parent_number = {{"Root", {{"parent", 7}}}};
+  EXPECT_EQ(input_error_of([&] { build_rig(parent_number, ObjMesh{}, x, "r.json"); }),
+            "r.json: bone Root: key parent: expected a string, got 7 (number)");
+  const nlohmann::json far_vertex = {{"Root", {{"head", {{"strategy", "MEAN"}, {"vertex_indices", {1e300}}}},
+                                               {"tail", {{"strategy", "MEAN"}, {"vertex_indices", {1}}}}}}};
+  EXPECT_EQ(input_error_of([&] { build_rig(far_vertex, ObjMesh{}, x, "r.json"); }),
+            "r.json: bone Root head: vertex index 1e+300 (number) out of range (expected an integer in [0, " +
+                std::to_string(x.rows() - 1) + "])");
+  Rig rig;
+  rig.bone_names = {"a"};
+  rig.parent = {-1};
+  EXPECT_EQ(input_error_of([&] { reduce_weights(nlohmann::json{{"weights", {{"a", {{4294967296.5, 1}}}}}}, rig, 1, "w.json"); }),
+            "w.json: a: vertex index 4294967296.5 (number) is not a non-negative integer");
+  EXPECT_EQ(input_error_of([&] { reduce_weights(nlohmann::json{{"weights", {{"a", {{0, "heavy"}}}}}}, rig, 1, "w.json"); }),
+            "w.json: a: weight \"heavy\" (string) is not a number in [0, 1]");
+  EXPECT_EQ(input_error_of([&] { reduce_weights(nlohmann::json{{"weights", {{"a", 3}}}}, rig, 1, "w.json"); }),
+            "w.json: a: expected an array of [vertex, weight] pairs, got 3 (number)");
+  Rig bind = test::shipped_body().rig();
+  EXPECT_EQ(input_error_of([&] { apply_bind_pose_file(bind, nlohmann::json{{"rotations", {}}}, "t.json"); }),
+            "t.json: expected an object with \"bone_rotations\", got {\"rotations\":null} (object)");
+  EXPECT_EQ(input_error_of([&] {
+              apply_bind_pose_file(bind, nlohmann::json{{"bone_rotations", {{"LeftArm", {0, "x", 0}}}}}, "t.json");
+            }),
+            "t.json: LeftArm[1]: expected a number, got \"x\" (string)");
+  EXPECT_EQ(input_error_of([&] {
+              apply_bind_pose_file(bind, nlohmann::json{{"bone_rotations", {{"LeftArm", {0, 1e300, 0}}}}}, "t.json");
+            }),
+            "t.json: LeftArm[1]: value 1e+300 is out of range [-6.283185307179586, 6.283185307179586] rad");
+}
+
+}  // namespace
+}  // namespace weft

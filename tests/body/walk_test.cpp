@@ -2,9 +2,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <sstream>
 
 #include "body/body_fixture.hpp"
 #include "weft/body.hpp"
+#include "weft/error.hpp"
 
 namespace weft {
 namespace {
@@ -163,6 +165,29 @@ TEST(BodyWalk, DualQuaternionSkinningWalksToo) {
   EXPECT_TRUE(x.allFinite());
   EXPECT_GT((x - y).rowwise().norm().maxCoeff(), 1e-5);  // really a different method
   EXPECT_LT((x - y).rowwise().norm().maxCoeff(), 0.05);  // of the same pose
+}
+
+}  // namespace
+}  // namespace weft
+
+namespace weft {
+namespace {
+
+TEST(BodyWalk, MotionAtAnAbsurdScaleIsRefused) {
+  // A skeleton a nanometre tall would scale the root's travel by about 1e9 and carry the body
+  // out of any scene: refused as bad input, naming the scale.
+  const char* text =
+      "HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\n"
+      "JOINT LeftUpLeg\n{\nOFFSET 0 -1e-9 0\nCHANNELS 0\nEnd Site\n{\nOFFSET 0 -1e-9 0\n}\n}\n}\n"
+      "MOTION\nFrames: 3\nFrame Time: 0.1\n0 0 0 0 0 0\n0 0 0 0 0 0\n1 0 0 0 0 0\n";
+  std::istringstream in(text);
+  const BvhMotion motion = parse_bvh(in, "tiny.bvh");
+  try {
+    Animation animation(test::shipped_body().rig(), motion, {});
+    FAIL() << "accepted a skeleton 2e-9 units tall";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("m per unit, outside [1e-4, 1e4]"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

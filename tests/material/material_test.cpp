@@ -223,7 +223,7 @@ TEST(MaterialFile, NeedsVersionAndValidJson) {
   EXPECT_NE(error_of([&] { load_material_file(no_version); }).find("field weft_material"),
             std::string::npos);
   const std::string broken = write_text(dir / "broken.json", "{ \"weft_material\": 1, ");
-  EXPECT_NE(error_of([&] { load_material_file(broken); }).find(broken + ": invalid JSON"),
+  EXPECT_NE(error_of([&] { load_material_file(broken); }).find(broken + ":1: malformed JSON"),
             std::string::npos);
   EXPECT_NE(error_of([&] { load_material_file((dir / "missing.json").string()); }).find("cannot open"),
             std::string::npos);
