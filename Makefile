@@ -2,7 +2,7 @@
 BUILD ?= build
 JOBS ?= $(shell nproc)
 PACKAGES := cmake ninja-build g++ libeigen3-dev nlohmann-json3-dev libcli11-dev \
-            libgtest-dev libbenchmark-dev libpng-dev libtinyobjloader-dev gnuplot-nox \
+            libgtest-dev libbenchmark-dev libpng-dev gnuplot-nox \
             clang libclang-rt-14-dev
 
 .PHONY: all deps build demo test sanitize fuzz bench results clean
@@ -35,15 +35,23 @@ test: deps $(BUILD)/build.ninja
 	cmake --build $(BUILD) -j $(JOBS) --target weft weft_tests
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
-# The test suite under AddressSanitizer and UndefinedBehaviorSanitizer, in its own folder.
+# The test suite under AddressSanitizer and UndefinedBehaviorSanitizer, in its own folder, built
+# by clang at -O1 with assertions on (Eigen's index checks included); the same folder holds the
+# readers' libFuzzer harnesses (fuzz/), which `make fuzz` runs for FUZZ_SECONDS each.
 SAN_BUILD ?= build-san
-# Built by clang at -O1 with assertions on (Eigen's index checks included).
-sanitize: deps
+FUZZ_SECONDS ?= 10
+$(SAN_BUILD)/build.ninja: | deps
 	cmake -S . -B $(SAN_BUILD) -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Release \
-	  -DCMAKE_CXX_FLAGS_RELEASE=-O1 -DWEFT_SANITIZE=address,undefined -DWEFT_BUILD_BENCH=OFF
+	  -DCMAKE_CXX_FLAGS_RELEASE=-O1 -DWEFT_SANITIZE=address,undefined -DWEFT_FUZZ=ON -DWEFT_BUILD_BENCH=OFF
+
+sanitize: deps $(SAN_BUILD)/build.ninja
 	cmake --build $(SAN_BUILD) -j $(JOBS) --target weft weft_tests
 	cd $(SAN_BUILD) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-	  ctest --output-on-failure -j $(JOBS) $(SAN_CTEST_ARGS)
+	  ctest --output-on-failure -j $(JOBS)
+
+fuzz: deps $(SAN_BUILD)/build.ninja
+	cmake --build $(SAN_BUILD) -j $(JOBS) --target weft_fuzz
+	FUZZ_BUILD=$(SAN_BUILD)/fuzz sh fuzz/run.sh $(FUZZ_SECONDS)
 
 # Benchmarks are built for the building machine's CPU (-march=native) in their own folder;
 # the figures in docs/performance.md say which build gave them.

@@ -1,8 +1,8 @@
 #!/bin/sh
-# Runs every harness built by fuzz/build.sh for SECONDS each, one after another on one core,
-# on a corpus seeded from the shipped files. Prints each harness's executions and their total;
-# exits 1 if any harness found a crash, a leak, a timeout or an undefined behaviour (the
-# reproducer is left in build-fuzz/artifacts/).
+# Runs every harness (built by `make fuzz` into build-san/fuzz/, or the folder FUZZ_BUILD) for
+# SECONDS each, one after another on one core, on a corpus seeded from the shipped files.
+# Prints each harness's executions and their total; exits 1 if any harness found a crash, a
+# leak, a timeout or an undefined behaviour (the reproducer is left in FUZZ_BUILD/artifacts/).
 # Inputs are capped at 4096 bytes (larger seeds are truncated): the shipped body files are up
 # to 870 kB, and mutating whole copies of them runs a hundred times fewer inputs a second.
 # Usage: fuzz/run.sh SECONDS [HARNESS...]
@@ -10,7 +10,7 @@ set -u
 root=$(cd "$(dirname "$0")/.." && pwd)
 seconds=${1:?usage: fuzz/run.sh SECONDS [HARNESS...]}
 shift
-build="$root/build-fuzz"
+build=${FUZZ_BUILD:-"$root/build-san/fuzz"}
 harnesses=${*:-"scene material obj bvh rig weights tpose"}
 
 seeds() {
@@ -31,7 +31,7 @@ mkdir -p "$build/artifacts"
 for h in $harnesses; do
   exe="$build/fuzz_$h"
   if [ ! -x "$exe" ]; then
-    echo "fuzz/run.sh: $exe is missing (run fuzz/build.sh)" >&2
+    echo "fuzz/run.sh: $exe is missing (run make fuzz)" >&2
     exit 2
   fi
   corpus="$build/corpus/$h"

@@ -1,3 +1,8 @@
+// weft's own OBJ reader. The packaged tinyobjloader (Debian's libtinyobjloader) is built with
+// single-precision coordinates and reads leniently ("0.1x" as 0.1, "nan" accepted, face
+// indices unchecked), so it cannot give the double-precision, line-numbered refusals that
+// every weft reader owes its user (docs/reliability.md); the subset of OBJ weft needs (v, vt,
+// vn, f, and statements it may ignore) is small enough to read strictly here.
 #include "io/obj_file.hpp"
 
 #include <algorithm>
