@@ -180,7 +180,7 @@ View<T> view_of(const Rows& r) {
 // The group's row of the lower triangle times x, except the couplings inside the group. The
 // scalar blocks are summed apart from the whole ones, so the sums' chains are short.
 template <class T>
-inline V3<T> row_times(const View<T>& r, int g, const T* x) {
+__attribute__((always_inline)) inline V3<T> row_times(const View<T>& r, int g, const T* x) {
   constexpr int L = Simd<T>::kLanes;
   V3<T> a = zero3<T>(), b = zero3<T>();
   for (int e = r.s_start[g], end = r.s_start[g + 1]; e < end; ++e) {
@@ -203,7 +203,7 @@ inline V3<T> row_times(const View<T>& r, int g, const T* x) {
 // The transpose of the group's row of the lower triangle times the group's y, added to the
 // source groups' sums: acc_src += M^T y (rotated back to the source's lanes).
 template <class T>
-inline void add_column_times(const View<T>& r, int g, const V3<T>& y, T* acc) {
+__attribute__((always_inline)) inline void add_column_times(const View<T>& r, int g, const V3<T>& y, T* acc) {
   constexpr int L = Simd<T>::kLanes;
   for (int e = r.s_start[g], end = r.s_start[g + 1]; e < end; ++e) {
     const V<T> s = load(r.s_val + static_cast<long>(L) * e);

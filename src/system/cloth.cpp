@@ -397,17 +397,26 @@ inline void write_triangle_blocks(const Triangle& tr, const double* ru, const do
     out_block[8] = diagonal;
   }
   const unsigned first = tr.first_writer;
-  const auto put = [&](int bit, double cuu, double cuv, double cvu, double cvv) {
+  // Four doubles as one vector of the instruction set the caller is compiled for (Eigen's
+  // arrays take their width from the build's flags, not from a kernel's clone).
+  typedef double V4 __attribute__((vector_size(32), aligned(8), may_alias));
+  const auto load = [](const double* p) { return *reinterpret_cast<const V4*>(p); };
+  const V4 uu_lo = load(M.uu_lo.data()), uu_hi = load(M.uu_hi.data()), uv_lo = load(M.uv_lo.data()),
+           uv_hi = load(M.uv_hi.data()), vu_lo = load(M.vu_lo.data()), vu_hi = load(M.vu_hi.data()),
+           vv_lo = load(M.vv_lo.data()), vv_hi = load(M.vv_hi.data());
+  const V4 first_lane = {1.0, 0.0, 0.0, 0.0};
+  const auto put = [&](int bit, double cuu, double cuv, double cvu, double cvv) __attribute__((always_inline)) {
     const int slot = tr.slot[bit];
     double* out_block = blocks[slot].data();
-    const A4 lo = cuu * M.uu_lo + cuv * M.uv_lo + cvu * M.vu_lo + cvv * M.vv_lo;
-    const A4 hi = cuu * M.uu_hi + cuv * M.uv_hi + cvu * M.vu_hi + cvv * M.vv_hi;
+    const V4 lo = cuu * uu_lo + cuv * uv_lo + cvu * vu_lo + cvv * vv_lo;
+    const V4 hi = cuu * uu_hi + cuv * uv_hi + cvu * vu_hi + cvv * vv_hi;
     const double last = cuu * M.uu_8 + (cuv + cvu) * M.x_8 + cvv * M.vv_8;
-    Eigen::Map<A4> out_lo(out_block), out_hi(out_block + 4);
+    V4& out_lo = *reinterpret_cast<V4*>(out_block);
+    V4& out_hi = *reinterpret_cast<V4*>(out_block + 4);
     if (first & (1u << bit)) {
       const double bending = ck * q[slot] + cd * qd[slot];
-      out_lo = lo + bending * first_entry;
-      out_hi = hi + bending * first_entry;
+      out_lo = lo + bending * first_lane;
+      out_hi = hi + bending * first_lane;
       out_block[8] = last + bending;
     } else {
       out_lo += lo;
