@@ -1,0 +1,191 @@
+// Scene keys that are accepted must have their documented effect (docs/scene-format.md):
+// initial_velocity, placement, uv_scale, the best-fit-plane pattern of an OBJ without
+// texture coordinates, and the ranges of pins and the damping ratio at their edges.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "support/command.hpp"
+#include "weft/error.hpp"
+#include "weft/simulation.hpp"
+
+using namespace weft;
+
+namespace {
+
+nlohmann::json base_scene() {
+  return nlohmann::json::parse(R"({
+    "weft_scene": 1, "duration": 0.05, "frame_interval": 0.01,
+    "integrator": {"method": "implicit-midpoint", "dt": 0.01},
+    "cloth": {"mesh": {"grid": {"size": [1.0, 0.5], "vertices": [5, 3]}}}
+  })");
+}
+
+Scene parse(const nlohmann::json& j, const std::string& base_dir = ".") { return parse_scene(j, "scene.json", base_dir); }
+
+/// The message of the InputError that parsing `j` throws ("" if it does not throw).
+std::string parse_error(const nlohmann::json& j) {
+  try {
+    parse(j);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+class SceneKeys : public weft::test::CommandTest {};
+
+}  // namespace
+
+TEST_F(SceneKeys, InitialVelocityGivesTheFreeVerticesThatVelocityAndTheClothThatMomentum) {
+  nlohmann::json j = base_scene();
+  j["gravity"] = {0, 0, 0};
+  j["cloth"]["initial_velocity"] = {0.3, -0.2, 1.5};
+  const Vec3 v0(0.3, -0.2, 1.5);
+  {
+    j["cloth"]["pins"] = {{"vertices", {0}}};
+    Simulation sim(parse(j));
+    EXPECT_EQ(node(sim.state().v, 0), Vec3::Zero()) << "a pinned vertex does not move";
+    for (int i = 1; i < sim.model().num_vertices(); ++i) EXPECT_EQ(node(sim.state().v, i), v0) << "vertex " << i;
+  }
+  j["cloth"].erase("pins");
+  Simulation sim(parse(j));
+  const double mass = sim.model().mass.sum();
+  EXPECT_NEAR(mass, 0.5 * sim.scene().cloth.material.surface_density_kg_m2, 1e-12);
+  const auto momentum = [&] {
+    Vec3 p = Vec3::Zero();
+    for (int i = 0; i < sim.model().num_vertices(); ++i) p += sim.model().mass[i] * node(sim.state().v, i);
+    return p;
+  };
+  EXPECT_LT((momentum() - mass * v0).norm(), 1e-12 * mass * v0.norm());
+  // Without gravity or pins nothing acts on the cloth from outside: it keeps that momentum.
+  sim.advance_to(0.05);
+  EXPECT_LT((momentum() - mass * v0).norm(), 1e-9 * mass * v0.norm());
+  EXPECT_NEAR(sim.energies().kinetic, 0.5 * mass * v0.squaredNorm(), 1e-9 * mass * v0.squaredNorm());
+}
+
+TEST_F(SceneKeys, PlacementRotatesThenTranslatesByExactlyTheGivenAmounts) {
+  nlohmann::json j = base_scene();
+  const TriMesh flat = build_cloth_mesh(parse(j).cloth);
+  j["cloth"]["placement"] = {{"translation", {0.25, -1.5, 3.0}}};
+  const TriMesh moved = build_cloth_mesh(parse(j).cloth);
+  // Rotating the z = 0 grid by 90 degrees about x takes (x, y, 0) to (x, 0, y).
+  j["cloth"]["placement"]["rotation_deg"] = {90, 0, 0};
+  const TriMesh turned = build_cloth_mesh(parse(j).cloth);
+  ASSERT_EQ(flat.num_vertices(), 15);
+  for (int i = 0; i < flat.num_vertices(); ++i) {
+    const Vec3 p = flat.positions.row(i).transpose();
+    const Vec3 t(0.25, -1.5, 3.0);
+    EXPECT_LT((Vec3(moved.positions.row(i).transpose()) - (p + t)).norm(), 1e-12) << "vertex " << i;
+    EXPECT_LT((Vec3(turned.positions.row(i).transpose()) - (Vec3(p.x(), 0, p.y()) + t)).norm(), 1e-12) << "vertex " << i;
+    // Placement moves the cloth, not its rest shape.
+    EXPECT_EQ(moved.pattern[i], flat.pattern[i]);
+    EXPECT_EQ(turned.pattern[i], flat.pattern[i]);
+  }
+}
+
+TEST_F(SceneKeys, UvScaleIsMetresPerTextureUnitOfTheRestPattern) {
+  // A 0.4 m square in two triangles, texture coordinates 0..1.
+  write("square.obj",
+        "v 0 0 0\nv 0.4 0 0\nv 0.4 0.4 0\nv 0 0.4 0\n"
+        "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+        "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n");
+  nlohmann::json j = base_scene();
+  j["cloth"]["mesh"] = {{"obj", "square.obj"}};
+  for (double scale : {1.0, 0.4, 2.5}) {
+    if (scale != 1.0) j["cloth"]["mesh"]["uv_scale"] = scale;
+    Simulation sim(parse(j, folder_.string()));
+    const ClothModel& m = sim.model();
+    const Vec2 uv[4] = {Vec2(0, 0), Vec2(1, 0), Vec2(1, 1), Vec2(0, 1)};
+    for (int i = 0; i < 4; ++i) EXPECT_LT((m.mesh.pattern[i] - scale * uv[i]).norm(), 1e-15) << "scale " << scale;
+    // The rest area, hence the mass, follows the pattern; the cloth is unstrained only when
+    // the pattern is the shape (0.4 m per unit).
+    EXPECT_NEAR(m.mass.sum(), scale * scale * m.material.surface_density_kg_m2, 1e-12) << "scale " << scale;
+    const double elastic = sim.energies().elastic;
+    if (scale == 0.4) {
+      EXPECT_LT(elastic, 1e-20);
+    } else {
+      EXPECT_GT(elastic, 1e-3) << "scale " << scale;
+    }
+  }
+}
+
+TEST_F(SceneKeys, AnObjWithoutTextureCoordinatesGetsItsShapeAsThePattern) {
+  // A flat, irregular 3 x 3 vertex piece in a tilted plane: projected on its best-fit plane,
+  // the pattern keeps every distance, so the cloth starts unstrained.
+  const Vec3 e1 = Vec3(1, 0.2, 0.5).normalized();
+  const Vec3 e2 = e1.cross(Vec3(0.1, 1, -0.3)).normalized();
+  const double u[3] = {0, 0.13, 0.31}, v[3] = {0, 0.17, 0.29};
+  std::string obj;
+  std::vector<Vec3> points;
+  for (int b = 0; b < 3; ++b)
+    for (int a = 0; a < 3; ++a) {
+      const Vec3 p = Vec3(0.2, 1.0, -0.4) + (u[a] + 0.02 * b) * e1 + v[b] * e2;
+      points.push_back(p);
+      char line[120];
+      std::snprintf(line, sizeof line, "v %.17g %.17g %.17g\n", p.x(), p.y(), p.z());
+      obj += line;
+    }
+  for (int b = 0; b < 2; ++b)
+    for (int a = 0; a < 2; ++a) {
+      const int k = 3 * b + a + 1;
+      obj += "f " + std::to_string(k) + " " + std::to_string(k + 1) + " " + std::to_string(k + 4) + "\n";
+      obj += "f " + std::to_string(k) + " " + std::to_string(k + 4) + " " + std::to_string(k + 3) + "\n";
+    }
+  write("tilted.obj", obj);
+  nlohmann::json j = base_scene();
+  j["cloth"]["mesh"] = {{"obj", "tilted.obj"}};
+  Simulation sim(parse(j, folder_.string()));
+  const TriMesh& mesh = sim.model().mesh;
+  ASSERT_EQ(mesh.num_vertices(), 9);
+  for (int a = 0; a < 9; ++a)
+    for (int b = a + 1; b < 9; ++b)
+      EXPECT_NEAR((mesh.pattern[a] - mesh.pattern[b]).norm(), (points[a] - points[b]).norm(), 1e-12) << a << "-" << b;
+  EXPECT_LT(sim.energies().elastic, 1e-20);
+}
+
+TEST_F(SceneKeys, GridPinsReachEveryNodeAndNoFurther) {
+  nlohmann::json j = base_scene();  // 5 x 3 vertices; vertex (i, j) is j * 5 + i
+  j["cloth"]["pins"] = {{"grid", {{4, 2}, {-5, -3}, {-1, 0}}}};
+  const Scene s = parse(j);
+  const std::vector<int> pins = resolve_pins(s.cloth, build_cloth_mesh(s.cloth));
+  EXPECT_EQ(pins, (std::vector<int>{14, 0, 4}));
+  for (const char* node : {"[5, 0]", "[0, 3]", "[-6, 0]", "[0, -4]"}) {
+    j["cloth"]["pins"] = {{"grid", {nlohmann::json::parse(node)}}};
+    const std::string message = parse_error(j);
+    EXPECT_NE(message.find("cloth.pins.grid"), std::string::npos) << node << ": " << message;
+    EXPECT_NE(message.find("outside the 5 x 3 grid"), std::string::npos) << node << ": " << message;
+  }
+}
+
+TEST_F(SceneKeys, VertexPinsReachTheLastVertexAndNoFurther) {
+  nlohmann::json j = base_scene();
+  j["cloth"]["pins"] = {{"vertices", {14}}};
+  Scene s = parse(j);
+  EXPECT_EQ(resolve_pins(s.cloth, build_cloth_mesh(s.cloth)), std::vector<int>{14});
+  j["cloth"]["pins"] = {{"vertices", {15}}};
+  s = parse(j);
+  try {
+    resolve_pins(s.cloth, build_cloth_mesh(s.cloth));
+    ADD_FAILURE() << "vertex 15 of 15 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("vertex 15 does not exist (the mesh has 15 vertices)"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST_F(SceneKeys, DampingRatioIsAcceptedUpToTenAndNoFurther) {
+  nlohmann::json j = base_scene();
+  j["damping"] = {{"ratio", 10}};
+  EXPECT_EQ(parse(j).effective_damping_ratio(), 10.0);
+  j["damping"]["ratio"] = 10.5;
+  const std::string message = parse_error(j);
+  EXPECT_NE(message.find("key damping.ratio: value 10.5 is out of range [0, 10]"), std::string::npos) << message;
+  // An override (weft run --damping) is checked against the same range.
+  j["damping"]["ratio"] = 0.05;
+  Scene s = parse(j);
+  s.damping_ratio = 10.5;
+  EXPECT_THROW(validate_timing(s, "override"), InputError);
+  s.damping_ratio = 10.0;
+  EXPECT_NO_THROW(validate_timing(s, "override"));
+}
