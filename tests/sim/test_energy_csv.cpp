@@ -1,8 +1,11 @@
-// energy.csv (docs/outputs): a header naming the columns, then one row per frame whose values
-// sit under their names.
+// energy.csv (README.md, docs/scene-format.md): a header naming the columns, then one row
+// per frame whose values sit under their names.
 #include <gtest/gtest.h>
 
+#include <map>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "weft/simulation.hpp"
 
