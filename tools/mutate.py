@@ -305,11 +305,13 @@ def main():
     if args.prepare:
         return 0
     if not args.skip_baseline:
+        started = time.time()
         hints = ":".join(sorted({h for m in chosen for h in m.hint.split(":") if h}))
         verdict, detail = run_tests(build_dir, hints, args.jobs, args.suite_timeout, args.test_timeout) \
             if args.only else run_tests(build_dir, "", args.jobs, args.suite_timeout, args.test_timeout)
         if verdict != "missed":
             raise SystemExit(f"the unmutated tree fails its tests ({verdict}: {detail}); fix that first")
+        print(f"baseline: the unmutated tree passes ({time.time() - started:.0f} s)", file=sys.stderr, flush=True)
 
     rows = []
     for k, m in enumerate(chosen, 1):
