@@ -20,6 +20,7 @@ Usage:
   tools/mutate.py --jobs 2        build and test parallelism
   tools/mutate.py --scratch DIR   where the copy and its build folder live
   tools/mutate.py --prepare       copy the tree and build it, nothing else
+  tools/mutate.py --in-place      mutate the working tree and its build/ (no copy; files restored)
 Exit status: 0 when every mutation run was caught, 1 when some were missed or failed to
 build, 2 for a mutation that no longer applies (its fragment is missing or not unique).
 """
@@ -28,6 +29,7 @@ import datetime
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -276,6 +278,9 @@ def main():
                     help="folder for the tree's copy and its build (default: build-mutate/)")
     ap.add_argument("--suite-timeout", type=int, default=1800, help="seconds a test run may take")
     ap.add_argument("--test-timeout", type=int, default=600, help="seconds one ctest test may take")
+    ap.add_argument("--in-place", action="store_true",
+                    help="mutate the working tree itself and use its build/ folder (no copy, no second full "
+                         "build); refuses files with uncommitted changes, restores each file after its run")
     ap.add_argument("--prepare", action="store_true", help="only copy the tree and build it (ahead of a run)")
     ap.add_argument("--skip-baseline", action="store_true", help="do not check that the unmutated tree passes")
     args = ap.parse_args()
@@ -295,9 +300,18 @@ def main():
         print(f"{len(chosen)} mutations")
         return 0
 
-    tree, build_dir = os.path.join(args.scratch, "tree"), os.path.join(args.scratch, "build")
-    os.makedirs(tree, exist_ok=True)
-    sync_tree(ROOT, tree)
+    if args.in_place:
+        tree, build_dir = ROOT, os.path.join(ROOT, "build")
+        dirty = subprocess.run(["git", "status", "--porcelain", "--"] + sorted({m.path for m in chosen}), cwd=ROOT,
+                               stdout=subprocess.PIPE, text=True, check=True).stdout
+        if dirty:
+            raise SystemExit("--in-place needs the mutated files committed:\n" + dirty)
+        # A terminated run still restores the file it mutated (the finally clause below).
+        signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
+    else:
+        tree, build_dir = os.path.join(args.scratch, "tree"), os.path.join(args.scratch, "build")
+        os.makedirs(tree, exist_ok=True)
+        sync_tree(ROOT, tree)
     configure(tree, build_dir)
     rc, out = build(build_dir, args.jobs)
     if rc != 0:
