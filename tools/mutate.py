@@ -125,10 +125,11 @@ MUTATIONS = [
     # Solvers
     M("single-precision-restart", "solvers", "src/linalg/pcg.cpp",
       "if (breakdown || !(rnorm < 0.5 * run_start)) {", "if (breakdown) {",
-      "single-precision SSOR never falls back to double when a restart stalls", "Ssor.*"),
+      "single-precision SSOR never falls back to double when a restart stalls", "Ssor*"),
     M("single-precision-run-target", "solvers", "src/linalg/pcg.cpp",
       "const double run_target = std::max(target, kRunReduction * run_start);", "const double run_target = target;",
-      "single-precision runs aim straight for the target (no restart from the true residual)", "Ssor.*"),
+      "single-precision runs aim straight for the target (no restart from the true residual)",
+      "Ssor*:RunCommand.Preconditioner*"),
     M("warm-start-off", "solvers", "src/integrate/integrator.cpp",
       "if (!history_.guess(rhs_, dv_)) {", "if (true) {",
       "warm start from the solution history switched off", "WarmStart.*"),
