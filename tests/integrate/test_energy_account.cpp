@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <string>
 #include <vector>
 
 #include "integrate/integrator.hpp"
@@ -61,6 +63,12 @@ double viscous_work(const VecX& dx, const VecX& va) {
     w += sp.viscosity * d.dot(u);
   }
   return w;
+}
+
+std::string sci(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
 }
 
 IntegratorSettings tight(Method method, double alpha, double dt) {
@@ -133,8 +141,8 @@ TEST(EnergyAccount, Rk4BalanceClosesAtTheMethodsOrder) {
   // Halving the step must shrink the gap by about 16 once the step is small against the
   // fastest period (here about 0.3 s); 8 leaves room for the higher-order terms.
   const double coarse = closure_gap(Method::Rk4, 0.0025), fine = closure_gap(Method::Rk4, 0.00125);
-  RecordProperty("gap_coarse", std::to_string(coarse));
-  RecordProperty("gap_fine", std::to_string(fine));
+  RecordProperty("gap_coarse", sci(coarse));
+  RecordProperty("gap_fine", sci(fine));
   EXPECT_GT(coarse / fine, 8.0) << coarse << " then " << fine;
 }
 
@@ -197,6 +205,7 @@ TEST(Rk45ErrorEstimate, ScalesAsTheFourthOrderSolutionsLocalErrorAndBoundsTheTru
     EXPECT_LT(true_error, r.error_estimate) << "h = " << h;
     if (previous > 0) {
       const double order = std::log2(previous / r.error_estimate);
+      RecordProperty("order_at_h_" + sci(h), sci(order));
       EXPECT_GT(order, 4.5) << "h = " << h;
       EXPECT_LT(order, 5.5) << "h = " << h;
     }
@@ -219,6 +228,6 @@ TEST(EnergyAccount, Rk45StepClosesTheBalanceToItsFifthOrder) {
     ASSERT_GT(r.state.viscous_dissipated, 0) << "h = " << h;
     gaps.push_back(std::abs(energy(r.state) + r.state.viscous_dissipated - energy(start)));
   }
-  RecordProperty("gaps", std::to_string(gaps[0]) + " " + std::to_string(gaps[1]));
+  RecordProperty("gaps", sci(gaps[0]) + " " + sci(gaps[1]));
   EXPECT_GT(std::log2(gaps[0] / gaps[1]), 5.5) << gaps[0] << " then " << gaps[1];
 }

@@ -96,8 +96,8 @@ TEST(EnergyAccount, ImplicitMidpointClosesTheBalanceOfALinearCloth) {
   }
   ASSERT_EQ(sim.statistics().cg_failures, 0);
   const Account a = account(sim, x0);
-  RecordProperty("viscous_work_J", std::to_string(work));
-  RecordProperty("bending_J", std::to_string(a.bending));
+  RecordProperty("viscous_work_J", testing::PrintToString(work));
+  RecordProperty("bending_J", testing::PrintToString(a.bending));
   ASSERT_GT(a.bending, 0);
   ASSERT_GT(work, 0.1 * a.bending) << "the bending damping should matter here";
   EXPECT_NEAR(sim.state().viscous_dissipated, work, 1e-9 * work);
