@@ -190,3 +190,54 @@ TEST_F(SceneKeys, DampingRatioIsAcceptedUpToTenAndNoFurther) {
   s.damping_ratio = 10.0;
   EXPECT_NO_THROW(validate_timing(s, "override"));
 }
+
+TEST_F(SceneKeys, IntegratorKeysReachTheIntegrator) {
+  nlohmann::json j = base_scene();
+  j["description"] = "keys";
+  j["gravity"] = {1.0, -3.0, 0.5};
+  j["integrator"] = {{"method", "bdf2-alpha"}, {"alpha", 0.7},           {"dt", 0.005},
+                     {"tolerance", 1e-7},      {"max_iterations", 321}, {"preconditioner", "block-jacobi"}};
+  Simulation sim(parse(j));
+  const IntegratorSettings& st = sim.integrator().settings();
+  EXPECT_EQ(sim.scene().description, "keys");
+  EXPECT_EQ(sim.model().gravity, Vec3(1.0, -3.0, 0.5));
+  EXPECT_EQ(st.method, Method::Bdf2);
+  EXPECT_EQ(st.alpha, 0.7);
+  EXPECT_EQ(st.dt, 0.005);
+  EXPECT_EQ(st.cg_tolerance, 1e-7);
+  EXPECT_EQ(st.cg_max_iterations, 321);
+  EXPECT_EQ(sim.integrator().preconditioner(), Preconditioner::kBlockJacobi);
+  // RK45's tolerance is its local error tolerance, not the linear solve's (it has none).
+  j["integrator"] = {{"method", "rk45"}, {"dt", 0.01}, {"tolerance", 1e-5}};
+  const Scene rk45 = parse(j);
+  EXPECT_EQ(rk45.integrator.method, Method::Rk45);
+  EXPECT_EQ(rk45.integrator.error_tolerance, 1e-5);
+  EXPECT_EQ(rk45.integrator.cg_tolerance, IntegratorSettings().cg_tolerance);
+}
+
+TEST_F(SceneKeys, ClothKeysChooseTheGridPatternAndTheBendingElement) {
+  nlohmann::json j = base_scene();  // 5 x 3 vertices over 1 m x 0.5 m: cells 0.25 m wide
+  j["patterns"] = nlohmann::json::array();
+  j["cloth"]["mesh"]["grid"]["pattern"] = "shifted-rows";
+  const TriMesh shifted = build_cloth_mesh(parse(j).cloth);
+  EXPECT_EQ(shifted.pattern[5], Vec2(0.125, 0.25)) << "odd rows start half a cell along u";
+  EXPECT_EQ(shifted.pattern[10], Vec2(0.0, 0.5));
+  j["cloth"]["mesh"]["grid"]["pattern"] = "alternating-diagonals";
+  EXPECT_EQ(build_cloth_mesh(parse(j).cloth).pattern[5], Vec2(0.0, 0.25));
+  // The hinge element is one stencil of four vertices per interior edge; the plate element
+  // fits a quadratic per edge over a wider patch.
+  const auto stencils = [&](const char* model) {
+    j["cloth"]["bending_model"] = model;
+    Simulation sim(parse(j));
+    return sim.model().bending;
+  };
+  const auto hinges = stencils("hinge"), plates = stencils("plate");
+  // 4 x 2 cells, two triangles each: 30 edges (12 along u, 10 along v, 8 diagonals), 12 of
+  // them on the boundary.
+  ASSERT_EQ(hinges.size(), 18u);
+  for (const auto& s : hinges) EXPECT_EQ(s.vertices.size(), 4u);
+  ASSERT_FALSE(plates.empty());
+  size_t widest = 0;
+  for (const auto& s : plates) widest = std::max(widest, s.vertices.size());
+  EXPECT_GT(widest, 4u);
+}
