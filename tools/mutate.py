@@ -22,7 +22,8 @@ Usage:
   tools/mutate.py --prepare       copy the tree and build it, nothing else
   tools/mutate.py --in-place      mutate the working tree and its build/ (no copy; files restored)
 Exit status: 0 when every mutation run was caught, 1 when some were missed or failed to
-build, 2 for a mutation that no longer applies (its fragment is missing or not unique).
+build, 2 for a mutation that no longer applies (its fragment is missing or not unique), 3
+when the unmutated tree does not configure, build or pass its tests.
 """
 import argparse
 import datetime
@@ -204,12 +205,17 @@ def sh(cmd, cwd, timeout=None, env=None):
         return "timeout", out
 
 
+def fail(status, message):
+    print(message, file=sys.stderr)
+    sys.exit(status)
+
+
 def check_applies(m, root):
     with open(os.path.join(root, m.path), encoding="utf-8") as f:
         text = f.read()
     n = text.count(m.original)
     if n != 1:
-        raise SystemExit(f"mutation {m.name}: {m.path} holds its fragment {n} times (expected once): {m.original!r}")
+        fail(2, f"mutation {m.name}: {m.path} holds its fragment {n} times (expected once): {m.original!r}")
     return text
 
 
@@ -250,7 +256,7 @@ def configure(tree, build):
         cmd.append("-DCMAKE_CXX_COMPILER_LAUNCHER=ccache")
     rc, out = sh(cmd, tree)
     if rc != 0:
-        raise SystemExit("configuring the scratch build failed:\n" + out)
+        fail(3, "configuring the build failed:\n" + out)
 
 
 def build(build_dir, jobs):
@@ -301,10 +307,10 @@ def main():
 
     names = {m.name for m in MUTATIONS}
     if len(names) != len(MUTATIONS):
-        raise SystemExit("two mutations share a name")
+        fail(2, "two mutations share a name")
     for n in args.only:
         if n not in names:
-            raise SystemExit(f"no mutation named {n!r} (see --list)")
+            fail(2, f"no mutation named {n!r} (see --list)")
     chosen = [m for m in MUTATIONS if not args.only or m.name in args.only]
     for m in chosen:
         check_applies(m, ROOT)
@@ -319,7 +325,7 @@ def main():
         dirty = subprocess.run(["git", "status", "--porcelain", "--"] + sorted({m.path for m in chosen}), cwd=ROOT,
                                stdout=subprocess.PIPE, text=True, check=True).stdout
         if dirty:
-            raise SystemExit("--in-place needs the mutated files committed:\n" + dirty)
+            fail(2, "--in-place needs the mutated files committed:\n" + dirty)
         # A terminated run still restores the file it mutated (the finally clause below).
         signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     else:
@@ -329,7 +335,7 @@ def main():
     configure(tree, build_dir)
     rc, out = build(build_dir, args.jobs)
     if rc != 0:
-        raise SystemExit("the unmutated tree does not build:\n" + out[-4000:])
+        fail(3, "the unmutated tree does not build:\n" + out[-4000:])
     if args.prepare:
         return 0
     if not args.skip_baseline:
@@ -338,7 +344,7 @@ def main():
         verdict, detail = run_tests(build_dir, hints, args.jobs, args.suite_timeout, args.test_timeout) \
             if args.only else run_tests(build_dir, "", args.jobs, args.suite_timeout, args.test_timeout)
         if verdict != "missed":
-            raise SystemExit(f"the unmutated tree fails its tests ({verdict}: {detail}); fix that first")
+            fail(3, f"the unmutated tree fails its tests ({verdict}: {detail}); fix that first")
         print(f"baseline: the unmutated tree passes ({time.time() - started:.0f} s)", file=sys.stderr, flush=True)
 
     rows = []
