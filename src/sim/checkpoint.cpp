@@ -20,6 +20,7 @@ void BinaryReader::fail(const std::string& what) const { throw InputError(source
 void BinaryReader::raw(void* p, size_t n) {
   if (n > end_ - pos_) fail("checkpoint is truncated (needed " + std::to_string(n) + " more bytes at byte " +
                             std::to_string(pos_) + ")");
+  if (n == 0) return;  // p may be an empty vector's null data(), which memcpy must not get
   std::memcpy(p, bytes_.data() + pos_, n);
   pos_ += n;
 }
