@@ -14,6 +14,7 @@
 
 #include <unistd.h>
 
+#include "collision/colliders.hpp"
 #include "command.hpp"
 #include "progress.hpp"
 #include "sim/checkpoint.hpp"
@@ -120,7 +121,7 @@ class OutputFolder {
   /// and body frames from frame `first_frame` on, energy.csv, summary.json and the checkpoint
   /// unless `keep_checkpoint`. Files of other names are left alone.
   void clear(long first_frame, bool keep_checkpoint) const {
-    static const std::regex frame(R"((frame_|body\d+_)(\d{5,})\.(obj|ply)((\.\d+)?\.tmp)?)");
+    static const std::regex frame(R"((frame_|body\d+_|collider\d+_)(\d{5,})\.(obj|ply)((\.\d+)?\.tmp)?)");
     static const std::regex top(R"((energy\.csv|summary\.json|checkpoint\.weft)(\.\d+\.tmp)?)");
     std::error_code ec;
     if (fs::is_directory(frames(), ec)) {
@@ -266,23 +267,13 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   // Set-up is usually a fraction of a second; large meshes and bodies show its stages.
   app::Progress setup_progress("weft run set-up", !a.quiet);
   setup_progress.quiet_for(0.5);
-  const double body_share = scene.bodies.empty() ? 0.0 : 0.3;
-  // Validates the mesh, material and pins before anything is written.
+  // Validates the mesh, material, pins and colliders before anything is written.
   Simulation sim(scene, [&](const std::string& stage, double fraction) {
-    if (stage != "done") setup_progress.update((1 - body_share) * fraction, stage);
+    if (stage != "done") setup_progress.update(fraction, stage);
   });
   RunResult so_far;
   if (resume) so_far = restore_checkpoint(checkpoint_bytes_in, (fs::path(a.resume) / kCheckpointName).string(), sim);
-  std::vector<std::unique_ptr<WalkingBody>> bodies;
-  for (size_t k = 0; k < scene.bodies.size(); ++k) {
-    setup_progress.update(1 - body_share * (1 - static_cast<double>(k) / scene.bodies.size()),
-                          "body " + std::to_string(k) + " (rig, motion, skinning)");
-    bodies.push_back(std::make_unique<WalkingBody>(scene.bodies[k]));
-  }
   setup_progress.update(1.0, "done");
-  if (!bodies.empty() && !a.quiet)
-    std::fprintf(stderr, "note: the scene's body colliders are animated and written as frames/body<k>_NNNNN.obj; "
-                         "the cloth does not collide with them in this version\n");
 
   OutputFolder out(a.out);
   std::error_code ec;
@@ -321,12 +312,22 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     bool ok = frame_format == "ply"
                   ? out.write(path, [&](std::ostream& o) { write_ply(o, s); })
                   : out.attempt(path, [&] { write_obj(path.string(), s.state().x, s.model().mesh.triangles); });
-    Points body_positions;
-    for (size_t k = 0; ok && k < bodies.size(); ++k) {
+    // The colliders' surfaces: body<k> for the k-th walking body, collider<k> for the k-th
+    // collider of another kind.
+    Points surface;
+    Triangles triangles;
+    for (size_t k = 0; ok && k < s.bodies().size(); ++k) {
       std::snprintf(name, sizeof name, "body%zu_%05d.obj", k, f);
-      bodies[k]->positions(s.state().t, body_positions);
+      s.bodies()[k]->positions(s.state().t, surface);
       const fs::path body_path = out.frames() / name;
-      ok = out.attempt(body_path, [&] { write_obj(body_path.string(), body_positions, bodies[k]->triangles()); });
+      ok = out.attempt(body_path, [&] { write_obj(body_path.string(), surface, s.bodies()[k]->triangles()); });
+    }
+    for (size_t k = 0; ok && k < s.colliders().size(); ++k) {
+      if (s.colliders()[k]->spec().shape == ColliderShape::kBody) continue;
+      std::snprintf(name, sizeof name, "collider%zu_%05d.obj", k, f);
+      s.colliders()[k]->surface(s.state().t, surface, triangles);
+      const fs::path collider_path = out.frames() / name;
+      ok = out.attempt(collider_path, [&] { write_obj(collider_path.string(), surface, triangles); });
     }
     if (ok) frames_complete = f + 1;
   };
@@ -438,7 +439,7 @@ weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write fram
     sub.add_flag("--quiet,-q", a->quiet, "No progress bar or summary line");
     sub.footer(
         "Writes DIR/frames/frame_00000.obj ... (one per output frame, the first at time 0), DIR/energy.csv\n"
-        "(time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,total in J) and DIR/summary.json,\n"
+        "(time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total in J) and DIR/summary.json,\n"
         "after removing those of an earlier run in DIR. Ctrl-C stops at the next frame boundary and writes\n"
         "DIR/checkpoint.weft; `weft run --resume DIR` continues with the same result as an uninterrupted run.\n"
         "Exit status: 0 ok (also when solves hit the iteration cap: a warning, summary status solver_capped),\n"

@@ -9,6 +9,7 @@
 #include "integrate/integrator.hpp"
 #include "mesh/mesh.hpp"
 #include "weft/body.hpp"
+#include "weft/collider.hpp"
 #include "weft/material.hpp"
 #include "weft/types.hpp"
 
@@ -48,6 +49,9 @@ struct ClothSpec {
   std::string bending_model = "hinge";  ///< "hinge" or "plate" (docs/scene-format.md)
   std::vector<int> pin_vertices;                  ///< explicit vertex indices
   std::vector<std::pair<int, int>> pin_grid_nodes;///< (i, j) on a grid, negative counts from the end
+  double thickness = 0.003;      ///< m: cloth-cloth separation kept by self-collision
+  double friction = 0.3;         ///< Coulomb coefficient of cloth-cloth contact
+  bool self_collision = true;
 };
 
 struct Scene {
@@ -62,8 +66,9 @@ struct Scene {
   /// BDF-2 variants, 0 otherwise).
   std::optional<double> damping_ratio;
   ClothSpec cloth;
-  /// Colliders of type "body": the walking mannequin (docs/body.md). Described and animated
-  /// alongside the cloth; the cloth does not collide with them yet.
+  /// Colliders in file order (docs/scene-format.md); those of type "body" point into `bodies`.
+  std::vector<ColliderSpec> colliders;
+  /// The body colliders' descriptions: the walking mannequin (docs/body.md).
   std::vector<BodyColliderSpec> bodies;
 
   /// The damping ratio that applies (explicit value or the method's default).

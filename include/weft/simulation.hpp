@@ -15,6 +15,8 @@ namespace weft {
 
 class BinaryWriter;
 class BinaryReader;
+class Collider;
+class ColliderContacts;
 
 /// Energies at one output frame (METHOD.md 6), in joules.
 struct EnergyRow {
@@ -23,7 +25,8 @@ struct EnergyRow {
   double elastic = 0;
   double gravity = 0;             ///< gravitational potential relative to the initial state
   double viscous_dissipated = 0;  ///< cumulative work against viscous forces
-  double numerical_dissipated = 0;///< initial total minus the four above
+  double numerical_dissipated = 0;///< initial total plus contact work minus the four above
+  double contact_work = 0;        ///< cumulative work of contact and friction forces on the cloth
   double total() const { return kinetic + elastic + gravity; }
 };
 
@@ -34,6 +37,7 @@ class Simulation {
   /// the fraction of the set-up done before it (1 with stage "done" at the end).
   using SetupProgress = std::function<void(const std::string& stage, double fraction)>;
   explicit Simulation(const Scene& scene, const SetupProgress& on_setup = {});
+  ~Simulation();
   const Scene& scene() const { return scene_; }
   const ClothModel& model() const { return *model_; }
   ClothSystem& system() { return *system_; }
@@ -43,6 +47,10 @@ class Simulation {
   State& state() { return state_; }
   const State& state() const { return state_; }
   const StepStatistics& statistics() const { return stats_; }
+  /// The scene's colliders in file order (Collider::surface draws one at any time).
+  const std::vector<std::unique_ptr<Collider>>& colliders() const { return colliders_; }
+  /// The walking bodies of the body colliders (Scene::bodies order).
+  const std::vector<std::unique_ptr<WalkingBody>>& bodies() const { return bodies_; }
   /// Replaces positions and velocities (e.g. a perturbed start) and makes it the reference of
   /// the energy accounting: time 0, no dissipation yet, no BDF-2 history.
   void reset_state(const VecX& x, const VecX& v);
@@ -71,6 +79,9 @@ class Simulation {
   std::unique_ptr<ClothModel> model_;
   std::unique_ptr<ClothSystem> system_;
   std::unique_ptr<Integrator> integrator_;
+  std::vector<std::unique_ptr<WalkingBody>> bodies_;
+  std::vector<std::unique_ptr<Collider>> colliders_;
+  std::unique_ptr<ColliderContacts> contacts_;
   State state_;
   StepStatistics stats_;
   Evaluation eval_;

@@ -56,7 +56,7 @@ BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string&
         throw InputError(at + ": must be in [0, 1e7] s, got " + value.dump());
     } else {
       throw InputError(where + ": unknown key \"" + key +
-                       "\" (expected type, motion, speed, skinning, start_time)");
+                       "\" (expected type, motion, speed, skinning, start_time, thickness, friction)");
     }
   }
   return spec;

@@ -95,7 +95,8 @@ PcgSettings Integrator::pcg_settings() const {
 
 Integrator::DynamicState Integrator::dynamic_state() const {
   return {history_.snapshot(), history_alpha_,           history_beta_,          history_dt_b_,
-          history_t_,          pcg_.ssor_residual_ratio, pcg_.ssor_single_fallbacks, multigrid_setup_blocks_};
+          history_t_,          pcg_.ssor_residual_ratio, pcg_.ssor_single_fallbacks, multigrid_setup_blocks_,
+          pulling_};
 }
 
 void Integrator::restore(const DynamicState& d) {
@@ -116,6 +117,9 @@ void Integrator::restore(const DynamicState& d) {
   pcg_.ssor_residual_ratio = d.ssor_residual_ratio;
   pcg_.ssor_single_fallbacks = d.ssor_single_fallbacks;
   multigrid_setup_blocks_ = d.multigrid_setup_blocks;
+  if (!d.contact_pulling.empty() && d.contact_pulling.size() != static_cast<size_t>(system_.num_nodes()))
+    throw std::invalid_argument("the contact flags do not fit this system");
+  pulling_ = d.contact_pulling;
 }
 
 void Integrator::advance(State& s, double t_end, StepStatistics& stats) {
@@ -221,18 +225,99 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   if (!history_.guess(rhs_, dv_)) {
     if (s.dv_prev.size() == 3 * n) dv_ = s.dv_prev; else dv_ = VecX::Zero(3 * n);
   }
+  // Contacts (semi-implicit steps that depend on dv): detected at the step's start, held by
+  // the solve as constraints.
+  contacts_.clear();
+  if (contact_) {
+    const auto td = Clock::now();
+    contact_->detect(s.x, s.v, s.t, dt, contacts_);
+    if (pulling_.size() != static_cast<size_t>(n)) pulling_.assign(n, 0);
+    size_t kept = 0;
+    for (const NodeContact& c : contacts_) {
+      if (pulling_[c.node] && !c.penetrating) {
+        ++stats.released_contacts;
+        continue;
+      }
+      contacts_[kept++] = c;
+    }
+    contacts_.resize(kept);
+    std::fill(pulling_.begin(), pulling_.end(), 0);
+    stats.detection_seconds += seconds_since(td);
+  }
+  if (alpha == 0.0) contacts_.clear();  // dx does not depend on dv: the fail-safe alone acts
+
   const PcgSettings ps = pcg_settings();
   if (preconditioner_ == Preconditioner::kMultigrid && !pcg_.multigrid.matches(P, system_.fixed(), ps.multigrid)) {
     // Built here rather than inside the solve, to keep the matrix it was built from.
     pcg_.multigrid.setup(step_.matrix, system_.fixed(), ps.multigrid);
     multigrid_setup_blocks_ = step_.matrix.block;
   }
-  PcgResult r = solve_pcg(step_.matrix, rhs_, system_.fixed(), ps, dv_, pcg_);
-  stats.cg_iterations += r.iterations;
-  ++stats.cg_solves;
-  if (!r.converged) ++stats.cg_failures;
-  if (r.converged) history_.record(rhs_, system_.fixed(), dv_);
+  // With contacts, an active set: the solve holds the detected contacts; nodes it would leave
+  // inside a collider's thickness at the step's end join them and the step is solved again
+  // (a few times at most; the handler's fail-safe catches what remains).
+  if (!contacts_.empty() || (contact_ && alpha > 0.0)) rhs_unconstrained_ = rhs_;
+  PcgResult r;
+  for (int pass = 0;; ++pass) {
+    if (!contacts_.empty()) {
+      const auto tr = Clock::now();
+      constrain(s, alpha, beta, dt_b);
+      stats.response_seconds += seconds_since(tr);
+    }
+    r = solve_pcg(step_.matrix, rhs_, system_.fixed(), ps, dv_, pcg_);
+    stats.cg_iterations += r.iterations;
+    ++stats.cg_solves;
+    if (!r.converged) ++stats.cg_failures;
+    if (contacts_.empty() && pass == 0) {
+      if (r.converged) history_.record(rhs_, system_.fixed(), dv_);
+    }
+    if (!contacts_.empty()) {
+      const auto tr = Clock::now();
+      unconstrain(dt, dt_b);
+      rhs_ = rhs_unconstrained_;
+      stats.response_seconds += seconds_since(tr);
+    }
+    if (!contact_ || alpha == 0.0 || pass + 1 >= kMaxContactPasses) break;
+    // Contacts that pull are let go (a node stays held when it was let go before in this step
+    // and came back, or starts inside the collider); nodes that would end inside join.
+    const auto td = Clock::now();
+    if (pass == 0) {
+      released_now_.assign(n, 0);
+      keep_held_.assign(n, 0);
+    }
+    bool changed = false;
+    size_t kept = 0;
+    const VecX& mass = system_.node_mass();
+    for (size_t k = 0; k < contacts_.size(); ++k) {
+      const NodeContact& c = contacts_[k];
+      if (contact_impulse_[k] < -kReleaseSpeed * mass[c.node] && !c.penetrating && !keep_held_[c.node]) {
+        released_now_[c.node] = 1;
+        ++stats.released_contacts;
+        changed = true;
+        continue;
+      }
+      contacts_[kept++] = c;
+    }
+    contacts_.resize(kept);
+    tmp2_ = s.x + dt_b * (s.v + alpha * dv_);
+    if (beta != 0.0) tmp2_ += beta * s.dx_prev;
+    held_.assign(n, 0);
+    for (const NodeContact& c : contacts_) held_[c.node] = 1;
+    const size_t before = contacts_.size();
+    contact_->detect_end(s.x, tmp2_, s.t, dt, held_, contacts_);
+    for (size_t k = before; k < contacts_.size(); ++k)
+      if (released_now_[contacts_[k].node]) keep_held_[contacts_[k].node] = 1;
+    stats.detection_seconds += seconds_since(td);
+    if (contacts_.size() != before) changed = true;
+    if (!changed) break;
+    ++stats.contact_passes;
+  }
+  if (!contacts_.empty()) {
+    stats.contacts += static_cast<long>(contacts_.size());
+    stats.max_contacts = std::max(stats.max_contacts, static_cast<long>(contacts_.size()));
+    if (r.converged) history_.record(rhs_, system_.fixed(), dv_);
+  }
   stats.solve_seconds += seconds_since(t1);
+  if (contact_) x_start_ = s.x;
 
   // dx = beta dx_p + dt_b (v + alpha dv), built in dx_prev's storage (no allocation per step);
   // tmp_ holds the mean velocity dx/dt.
@@ -253,8 +338,148 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   s.v += dv_;
   s.dv_prev = dv_;
   s.has_history = true;
+  if (contact_) {
+    const auto tr = Clock::now();
+    contact_velocities(s, dt);
+    stats.response_seconds += seconds_since(tr);
+    finish_contacts(s, s.t, dt, stats);
+  }
   s.t += dt;
   history_t_ = s.t;
+}
+
+// The contact constraints (Baraff and Witkin's filters, docs/collisions.md). A contact at node i
+// with normal n prescribes dv_i . n = z_i and leaves dv_i's tangential part S_i dv_i free,
+// S_i = I - n n^T. Writing dv = y + z with y_i in S_i's range, the solve's equations are the
+// free directions' ones, S (A (y + z) - b) = 0, that is
+//   (S A S + c (I - S)) y = S (b - A z)
+// where the c (I - S) term (c the node's mean diagonal stiffness) only keeps the matrix positive
+// definite: its (I - S) rows give (I - S) y = 0. The matrix keeps A's pattern and is symmetric
+// positive definite, so every preconditioner solves it unchanged; the changed blocks are put
+// back after the solve. z is chosen so that the step's displacement along n, beta dx_p . n +
+// dt_b (v . n + alpha z), is the contact's prescribed one.
+void Integrator::constrain(const State& s, double alpha, double beta, double dt_b) {
+  const BlockPattern& P = system_.pattern();
+  const auto& row_start = P.row_start();
+  const auto& column = P.column();
+  std::vector<Mat3>& blocks = step_.matrix.block;
+  const size_t count = contacts_.size();
+  contact_dv_.resize(count);
+  contact_rhs_.resize(count);
+  if (slot_saved_.size() != blocks.size()) slot_saved_.assign(blocks.size(), 0);
+  saved_blocks_.clear();
+  auto save = [&](int slot) {
+    if (slot_saved_[slot]) return;
+    slot_saved_[slot] = 1;
+    saved_blocks_.emplace_back(slot, blocks[slot]);
+  };
+  // z, and b - A z with the original blocks.
+  for (size_t k = 0; k < count; ++k) {
+    const NodeContact& c = contacts_[k];
+    const int i = c.node;
+    double target = c.normal_displacement;
+    if (beta != 0.0) target -= beta * c.normal.dot(node(s.dx_prev, i));
+    contact_dv_[k] = (target / dt_b - c.normal.dot(node(s.v, i))) / alpha;
+    contact_rhs_[k] = node(rhs_, i);
+  }
+  for (size_t k = 0; k < count; ++k) {
+    const int i = contacts_[k].node;
+    const Vec3 z = contact_dv_[k] * contacts_[k].normal;
+    for (int e = row_start[i]; e < row_start[i + 1]; ++e)
+      node(rhs_, column[e]) -= blocks[e].transpose() * z;  // A_ji = A_ij^T
+  }
+  // S (b - A z) and the warm start's y in the free directions.
+  for (size_t k = 0; k < count; ++k) {
+    const int i = contacts_[k].node;
+    const Vec3& n = contacts_[k].normal;
+    node(rhs_, i) -= n * n.dot(node(rhs_, i));
+    node(dv_, i) -= n * n.dot(node(dv_, i));
+  }
+  // S_i A_ij and A_ji S_i for every contact i (both: S_i A_ij S_j), the diagonal blocks last.
+  for (size_t k = 0; k < count; ++k) {
+    const int i = contacts_[k].node;
+    const Vec3& n = contacts_[k].normal;
+    for (int e = row_start[i]; e < row_start[i + 1]; ++e) {
+      const int j = column[e];
+      if (j == i) continue;
+      const int et = P.slot(j, i);
+      save(e);
+      save(et);
+      blocks[e] -= n * (n.transpose() * blocks[e]);
+      blocks[et] -= (blocks[et] * n) * n.transpose();
+    }
+  }
+  for (size_t k = 0; k < count; ++k) {
+    const int i = contacts_[k].node;
+    const Vec3& n = contacts_[k].normal;
+    const int d = P.diagonal_slot(i);
+    save(d);
+    Mat3& a = blocks[d];
+    const double c = a.trace() / 3;
+    const Mat3 S = Mat3::Identity() - n * n.transpose();
+    a = S * a * S + c * n * n.transpose();
+  }
+  step_.matrix.constants_changed();
+}
+
+void Integrator::unconstrain(double dt, double dt_b) {
+  const BlockPattern& P = system_.pattern();
+  const auto& row_start = P.row_start();
+  const auto& column = P.column();
+  std::vector<Mat3>& blocks = step_.matrix.block;
+  for (const auto& [slot, value] : saved_blocks_) {
+    blocks[slot] = value;
+    slot_saved_[slot] = 0;
+  }
+  saved_blocks_.clear();
+  step_.matrix.constants_changed();
+  const size_t count = contacts_.size();
+  contact_impulse_.resize(count);
+  for (size_t k = 0; k < count; ++k) {
+    const int i = contacts_[k].node;
+    const Vec3& n = contacts_[k].normal;
+    node(dv_, i) += n * (contact_dv_[k] - n.dot(node(dv_, i)));
+  }
+  // The constraint's impulse: what A dv - b leaves at the node, dt_b times the contact force.
+  for (size_t k = 0; k < count; ++k) {
+    const int i = contacts_[k].node;
+    Vec3 a_dv = Vec3::Zero();
+    for (int e = row_start[i]; e < row_start[i + 1]; ++e) a_dv += blocks[e] * node(dv_, column[e]);
+    contact_impulse_[k] = (dt / dt_b) * contacts_[k].normal.dot(a_dv - contact_rhs_[k]);
+  }
+}
+
+void Integrator::contact_velocities(State& s, double dt) {
+  const VecX& m = system_.node_mass();
+  for (size_t k = 0; k < contacts_.size(); ++k) {
+    const NodeContact& c = contacts_[k];
+    const int i = c.node;
+    const double impulse = contact_impulse_[k];
+    if (impulse < -kReleaseSpeed * m[i]) pulling_[i] = 1;
+    // The constraint force's work over the step's displacement.
+    s.contact_work += impulse / dt * c.normal.dot(s.x.segment<3>(3 * i) - x_start_.segment<3>(3 * i));
+    const Vec3 v_old = node(s.v, i);
+    // Inelastic along the normal: the node leaves the step moving with the surface; Coulomb
+    // friction takes up to friction * impulse / m off the sliding speed, all of it (sticking)
+    // when that is enough.
+    const Vec3 u = v_old - c.surface_velocity;
+    Vec3 ut = u - c.normal * c.normal.dot(u);
+    const double slide = ut.norm();
+    const double stop = c.friction * std::max(impulse, 0.0) / m[i];
+    ut *= slide > stop ? 1 - stop / slide : 0.0;
+    const Vec3 v_new = c.surface_velocity + ut;
+    node(s.v, i) = v_new;
+    s.contact_work += 0.5 * m[i] * (v_new.squaredNorm() - v_old.squaredNorm());
+  }
+}
+
+void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics& stats) {
+  const auto tr = Clock::now();
+  ContactReport report;
+  contact_->finish_step(x_start_, s.x, s.v, t0, dt, report);
+  stats.fail_safe_moves += report.fail_safe_moves;
+  s.contact_work += report.work;
+  stats.response_seconds += seconds_since(tr);
 }
 
 void Integrator::derivative(const VecX& x, const VecX& v, VecX& a, double& viscous_power) {
@@ -269,6 +494,7 @@ void Integrator::derivative(const VecX& x, const VecX& v, VecX& a, double& visco
 void Integrator::rk4_step(State& s, double dt, StepStatistics& stats) {
   const auto t0 = Clock::now();
   system_.begin_step(s.x, s.v, dt);
+  if (contact_) x_start_ = s.x;
   VecX a1, a2, a3, a4;
   double p1, p2, p3, p4;
   derivative(s.x, s.v, a1, p1);
@@ -287,8 +513,9 @@ void Integrator::rk4_step(State& s, double dt, StepStatistics& stats) {
   s.dx_prev = std::move(dx);
   s.dv_prev = std::move(dv);
   s.has_history = true;
-  s.t += dt;
   stats.assembly_seconds += seconds_since(t0);
+  if (contact_) finish_contacts(s, s.t, dt, stats);
+  s.t += dt;
 }
 
 bool Integrator::rk45_try(State& s, double h, double& error_norm, StepStatistics& stats) {
@@ -340,12 +567,14 @@ bool Integrator::rk45_try(State& s, double h, double& error_norm, StepStatistics
   }
   error_norm = std::sqrt(sum / (2.0 * ex.size()));
   if (!(error_norm <= 1.0)) return false;
+  if (contact_) x_start_ = s.x;
   s.dx_prev = x5 - s.x;
   s.dv_prev = v5 - s.v;
   s.x = std::move(x5);
   s.v = std::move(v5);
   s.viscous_dissipated += dissipated;
   s.has_history = true;
+  if (contact_) finish_contacts(s, s.t, h, stats);
   s.t += h;
   return true;
 }

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "integrate/contact.hpp"
 #include "linalg/pcg.hpp"
 #include "linalg/solution_history.hpp"
 #include "system/system.hpp"
@@ -41,6 +42,16 @@ struct IntegratorSettings {
 /// operators; above, its iteration count keeps growing with the mesh while multigrid's
 /// barely does (docs/performance.md).
 constexpr int kMultigridMinFreeNodes = 30000;
+/// Solves per step at most while contacts change (Integrator::linear_step's active set): a
+/// second solve takes the nodes the first would leave inside a collider and lets go of
+/// contacts that pull; what a third would find, the contact fail-safe corrects (on the 65x65
+/// sphere drop a third solve costs 12% more time and changes no contact the fail-safe would
+/// not; docs/collisions.md).
+constexpr int kMaxContactPasses = 2;
+/// A contact is let go when it pulls with an impulse that would change its node's velocity by
+/// more than this (m/s): below, the node stays held (at most 0.2 m/s^2 of adhesion at 5 ms
+/// steps), which keeps resting contacts from being let go and taken back step after step.
+constexpr double kReleaseSpeed = 1e-3;
 /// The preconditioner `settings` selects for a system with `free_nodes` unpinned nodes.
 Preconditioner choose_preconditioner(const IntegratorSettings& settings, int free_nodes);
 /// "auto", "block-jacobi", "ssor" or "multigrid"; nullopt for an unknown name.
@@ -66,6 +77,9 @@ struct State {
   VecX dx_prev, dv_prev; ///< previous step's changes (BDF-2 history)
   bool has_history = false;
   double viscous_dissipated = 0;  ///< cumulative work done against viscous forces (J)
+  /// Cumulative work of contact and friction forces on the cloth (J): negative when contacts
+  /// took energy out (inelastic impacts, friction), positive when a moving collider put it in.
+  double contact_work = 0;
   double rk45_step = 0;           ///< RK45 step size carried between calls
 };
 
@@ -77,6 +91,13 @@ struct StepStatistics {
   long cg_failures = 0;      ///< solves that hit the iteration cap
   double assembly_seconds = 0;
   double solve_seconds = 0;
+  long contacts = 0;             ///< node contacts held by linear solves, summed over steps
+  long max_contacts = 0;         ///< the most in one step
+  long released_contacts = 0;    ///< contacts let go because they pulled at the previous step
+  long fail_safe_moves = 0;      ///< nodes moved by the contact fail-safe after a step
+  long contact_passes = 0;       ///< solves repeated because nodes would have ended in a collider
+  double detection_seconds = 0;  ///< finding contacts
+  double response_seconds = 0;   ///< constraints, friction and the fail-safe
 };
 
 class Integrator {
@@ -88,6 +109,10 @@ class Integrator {
   /// One step of size dt (fixed-step methods).
   void step(State& state, double dt, StepStatistics& stats);
   const IntegratorSettings& settings() const { return settings_; }
+  /// Contact handling for later steps (null: none). Semi-implicit steps with alpha > 0 hold
+  /// the detected contacts as constraints in the linear solve (docs/collisions.md); every
+  /// method runs the handler's fail-safe after each step.
+  void set_contact_handler(ContactHandler* handler) { contact_ = handler; }
   /// The preconditioner the linear solves use.
   Preconditioner preconditioner() const { return preconditioner_; }
   /// The SSOR relaxation the solves use (the setting, or the automatic one for this system).
@@ -104,6 +129,7 @@ class Integrator {
     double ssor_residual_ratio = 0;
     long ssor_single_fallbacks = 0;
     std::vector<Mat3> multigrid_setup_blocks;  ///< empty: no hierarchy built yet
+    std::vector<char> contact_pulling;         ///< per node: its contact pulled (empty: none yet)
   };
   DynamicState dynamic_state() const;
   /// Restores a dynamic state taken from an integrator of the same system and settings
@@ -117,6 +143,16 @@ class Integrator {
   void rk4_step(State& s, double dt, StepStatistics& stats);
   bool rk45_try(State& s, double h, double& error_norm, StepStatistics& stats);
   void derivative(const VecX& x, const VecX& v, VecX& a, double& viscous_power);
+  /// Turns the step's system A dv = rhs into the one for the contacts' free directions
+  /// (docs/collisions.md); sets dv_'s prescribed normal components in contact_dv_.
+  void constrain(const State& s, double alpha, double beta, double dt_b);
+  /// After the solve: dv_ completed with the prescribed components, the matrix restored,
+  /// and the contact impulses into contact_impulse_.
+  void unconstrain(double dt, double dt_b);
+  /// Contact velocities after the step (inelastic normal, Coulomb friction) and their work.
+  void contact_velocities(State& s, double dt);
+  /// The handler's fail-safe on the step that went from x_start_.
+  void finish_contacts(State& s, double t0, double dt, StepStatistics& stats);
 
   System& system_;
   IntegratorSettings settings_;
@@ -131,6 +167,21 @@ class Integrator {
   double history_alpha_ = -1, history_beta_ = 0, history_dt_b_ = 0, history_t_ = 0;
   VecX mass3_;  ///< mass per coordinate
   std::vector<Mat3> multigrid_setup_blocks_;  ///< DynamicState::multigrid_setup_blocks
+
+  ContactHandler* contact_ = nullptr;
+  std::vector<NodeContact> contacts_;   ///< this step's, held by the solve
+  std::vector<double> contact_dv_;      ///< prescribed dv . normal per contact
+  std::vector<double> contact_impulse_; ///< normal impulse per contact (N s), > 0 pushing
+  std::vector<Vec3> contact_rhs_;       ///< the unconstrained right-hand side at each contact
+  /// Blocks the constraints changed (slot, original value), and per slot whether saved.
+  std::vector<std::pair<int, Mat3>> saved_blocks_;
+  std::vector<char> slot_saved_;
+  /// Per node: its contact pulled at the previous step (released unless penetrating).
+  std::vector<char> pulling_;
+  std::vector<char> held_;        ///< per node: held by a contact this pass
+  std::vector<char> released_now_;  ///< per node: let go in this step
+  std::vector<char> keep_held_;     ///< per node: let go and back in this step: held to its end
+  VecX x_start_, rhs_unconstrained_;
 };
 
 }  // namespace weft

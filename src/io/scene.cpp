@@ -80,8 +80,15 @@ void validate_timing(const Scene& s, const std::string& where) {
 
 namespace {
 
+constexpr double kMaxThickness_m = 0.1;  ///< contact thickness: beyond, not a cloth's
+constexpr double kMaxFriction = 10;
+
 void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
-  r.allow_only({"mesh", "placement", "material", "bending_model", "pins", "initial_velocity"});
+  r.allow_only({"mesh", "placement", "material", "bending_model", "pins", "initial_velocity", "thickness", "friction",
+                "self_collision"});
+  if (r.has("thickness")) c.thickness = r.number_in("thickness", 0, kMaxThickness_m, true);
+  if (r.has("friction")) c.friction = r.number_in("friction", 0, kMaxFriction, false);
+  if (r.has("self_collision")) c.self_collision = r.boolean("self_collision");
   if (r.has("bending_model")) {
     c.bending_model = r.string("bending_model");
     parse_bending_model(c.bending_model, r.where("bending_model"));
@@ -172,6 +179,120 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
   }
 }
 
+RigidMotion parse_motion(const Reader& m) {
+  RigidMotion motion;
+  m.allow_only({"linear_velocity", "angular_velocity_deg", "centre", "keyframes"});
+  const bool velocity = m.has("linear_velocity") || m.has("angular_velocity_deg") || m.has("centre");
+  if (velocity && m.has("keyframes"))
+    m.fail("keyframes", "give either keyframes or linear_velocity/angular_velocity_deg/centre, not both");
+  if (velocity) {
+    motion.kind = RigidMotion::Kind::kVelocity;
+    if (m.has("linear_velocity")) motion.linear_velocity = m.vec3_within("linear_velocity", kMaxSpeed_m_s, "m/s");
+    if (m.has("angular_velocity_deg"))
+      motion.angular_velocity = m.vec3_within("angular_velocity_deg", 360 * 1000.0, "deg/s") * (M_PI / 180.0);
+    if (m.has("centre")) motion.centre = m.vec3_within("centre", kMaxLength_m, "m");
+  } else if (m.has("keyframes")) {
+    motion.kind = RigidMotion::Kind::kKeyframes;
+    const auto& keys = m.raw("keyframes");
+    if (!keys.is_array() || keys.empty()) m.fail("keyframes", "expected a non-empty array of {time, translation, rotation_deg}");
+    for (size_t k = 0; k < keys.size(); ++k) {
+      const Reader key(keys[k], m.file(), m.path() + ".keyframes[" + std::to_string(k) + "]");
+      if (!keys[k].is_object()) m.fail("keyframes", "entry " + std::to_string(k) + " is not an object");
+      key.allow_only({"time", "translation", "rotation_deg"});
+      RigidMotion::Key kf;
+      kf.time = key.number_in("time", 0, 1e7, false);
+      if (!motion.keys.empty() && !(kf.time > motion.keys.back().time))
+        key.fail("time", "keyframe times must increase, got " + nlohmann::json(kf.time).dump() + " after " +
+                             nlohmann::json(motion.keys.back().time).dump());
+      if (key.has("translation")) kf.translation = key.vec3_within("translation", kMaxLength_m, "m");
+      if (key.has("rotation_deg")) kf.rotation_deg = key.vec3_within("rotation_deg", kMaxRotation_deg, "degrees");
+      motion.keys.push_back(kf);
+    }
+  }
+  return motion;
+}
+
+ColliderSpec parse_collider(const nlohmann::json& j, const std::string& file, const std::string& path,
+                            const std::string& base_dir, std::vector<BodyColliderSpec>& bodies) {
+  const Reader r(j, file, path);
+  const std::string type = r.string("type");
+  ColliderSpec c;
+  c.name = path + " (" + type + ")";
+  const std::initializer_list<const char*> common = {"type", "thickness", "friction", "motion"};
+  auto allow = [&](std::initializer_list<const char*> own) {
+    std::vector<const char*> all(common);
+    all.insert(all.end(), own.begin(), own.end());
+    for (const auto& [key, value] : j.items())
+      if (std::find_if(all.begin(), all.end(), [&](const char* a) { return key == a; }) == all.end()) {
+        std::string expected;
+        for (const char* a : all) expected += (expected.empty() ? "" : ", ") + std::string(a);
+        throw InputError(file + ": key " + path + "." + key + ": unknown key for a " + type + " collider (expected " +
+                         expected + ")");
+      }
+  };
+  if (r.has("thickness")) c.thickness = r.number_in("thickness", 0, kMaxThickness_m, true);
+  if (r.has("friction")) c.friction = r.number_in("friction", 0, kMaxFriction, false);
+  if (r.has("motion")) {
+    if (type == "body") r.fail("motion", "the body moves by its own motion file; a rigid motion applies to the other colliders");
+    c.motion = parse_motion(r.object("motion"));
+  }
+  auto positive_length = [&](const char* key) { return r.number_in(key, 0, kMaxLength_m, true); };
+  if (type == "plane") {
+    allow({"point", "normal"});
+    c.shape = ColliderShape::kPlane;
+    if (r.has("point")) c.point = r.vec3_within("point", kMaxLength_m, "m");
+    if (r.has("normal")) {
+      c.normal = r.vec3_within("normal", 1e6, "");
+      if (!(c.normal.norm() > 1e-12)) r.fail("normal", "must not be zero");
+      c.normal.normalize();
+    }
+  } else if (type == "sphere") {
+    allow({"centre", "radius"});
+    c.shape = ColliderShape::kSphere;
+    c.centre = r.vec3_within("centre", kMaxLength_m, "m");
+    c.radius = positive_length("radius");
+  } else if (type == "capsule") {
+    allow({"ends", "radius"});
+    c.shape = ColliderShape::kCapsule;
+    const auto& ends = r.raw("ends");
+    if (!ends.is_array() || ends.size() != 2) r.fail("ends", "expected [[x, y, z], [x, y, z]], got " + json_util::describe(ends));
+    const nlohmann::json pair = {{"a", ends[0]}, {"b", ends[1]}};
+    const Reader e(pair, file, path + ".ends");
+    c.end_a = e.vec3_within("a", kMaxLength_m, "m");
+    c.end_b = e.vec3_within("b", kMaxLength_m, "m");
+    c.radius = positive_length("radius");
+  } else if (type == "box") {
+    allow({"centre", "half_extents", "rotation_deg"});
+    c.shape = ColliderShape::kBox;
+    c.centre = r.vec3_within("centre", kMaxLength_m, "m");
+    c.half_extents = r.vec3_within("half_extents", kMaxLength_m, "m");
+    if (!(c.half_extents.minCoeff() > 0)) r.fail("half_extents", "must all be positive");
+    if (r.has("rotation_deg")) c.rotation_deg = r.vec3_within("rotation_deg", kMaxRotation_deg, "degrees");
+  } else if (type == "mesh") {
+    allow({"obj", "scale", "rotation_deg", "translation", "closed"});
+    c.shape = ColliderShape::kMesh;
+    const fs::path obj = r.string("obj");
+    if (obj.empty()) r.fail("obj", "expected an OBJ file name, got \"\"");
+    c.obj_path = (obj.is_absolute() ? obj : fs::path(base_dir) / obj).lexically_normal().string();
+    std::error_code ec;
+    if (!fs::is_regular_file(c.obj_path, ec)) r.fail("obj", "no such file: " + c.obj_path);
+    if (r.has("scale")) c.scale = r.number_in("scale", 0, 1e6, true);
+    if (r.has("rotation_deg")) c.rotation_deg = r.vec3_within("rotation_deg", kMaxRotation_deg, "degrees");
+    if (r.has("translation")) c.translation = r.vec3_within("translation", kMaxLength_m, "m");
+    if (r.has("closed")) c.closed = r.boolean("closed");
+  } else if (type == "body") {
+    c.shape = ColliderShape::kBody;
+    nlohmann::json body = j;
+    body.erase("thickness");
+    body.erase("friction");
+    bodies.push_back(parse_body_collider(body, file + ": key " + path, base_dir));
+    c.body = static_cast<int>(bodies.size()) - 1;
+  } else {
+    r.fail("type", "unknown collider type '" + type + "' (expected plane, sphere, capsule, box, mesh or body)");
+  }
+  return c;
+}
+
 }  // namespace
 
 Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::string& base_dir) {
@@ -233,9 +354,7 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
       const std::string where = file + ": key colliders[" + std::to_string(k) + "]";
       if (!c[k].is_object() || !c[k].contains("type") || !c[k]["type"].is_string())
         throw InputError(where + ": expected an object with a \"type\" string");
-      const std::string type = c[k]["type"].get<std::string>();
-      if (type != "body") throw InputError(where + ".type: unknown collider type '" + type + "' (expected: body)");
-      s.bodies.push_back(parse_body_collider(c[k], where, base_dir));
+      s.colliders.push_back(parse_collider(c[k], file, "colliders[" + std::to_string(k) + "]", base_dir, s.bodies));
     }
   }
   if (r.has("patterns")) {

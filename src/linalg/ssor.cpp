@@ -429,6 +429,7 @@ void SsorOperatorT<T>::build_rows(Rows& rows, const std::vector<char>& whole_slo
 template <class T>
 void SsorOperatorT<T>::build(const BlockMatrix& A, const std::vector<char>& fixed,
                          const std::vector<int>* base) {
+  if (pattern_ != A.pattern) whole_ever_.clear();
   pattern_ = A.pattern;
   blocks_ = A.pattern->num_blocks();
   n_ = A.pattern->num_nodes();
@@ -455,7 +456,12 @@ void SsorOperatorT<T>::build(const BlockMatrix& A, const std::vector<char>& fixe
   for (int m = 0; m < n_; ++m) where[b[m]] = m;
   const double* a = A.block.front().data();
   std::vector<char> whole_slot(blocks_);
-  for (int s = 0; s < blocks_; ++s) whole_slot[s] = !is_multiple_of_identity(a + 9L * s);
+  // A slot once laid out whole stays whole: a block that stops being a multiple of the identity
+  // now and then (contact constraints project the blocks of the nodes they hold) would
+  // otherwise lay the operator out again each time.
+  if (whole_ever_.size() != static_cast<size_t>(blocks_)) whole_ever_.assign(blocks_, 0);
+  for (int s = 0; s < blocks_; ++s) whole_slot[s] = whole_ever_[s] || !is_multiple_of_identity(a + 9L * s);
+  whole_ever_ = whole_slot;
   // The stretch: at least n / kLanes; a little more when that lines the lanes' patterns up
   // (on a grid, within two rows).
   const int shortest = std::max(1, (n_ + kLanes - 1) / kLanes);

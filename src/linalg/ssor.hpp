@@ -145,6 +145,8 @@ class SsorOperatorT {
   int groups_ = 0;
   double omega_ = 1.0;
   std::vector<char> fixed_;
+  /// Per slot: laid out whole by an earlier layout of this pattern (kept whole since).
+  std::vector<char> whole_ever_;
   std::vector<int> base_;  ///< the base order of the last layout (empty: the numbering)
   /// order_[p]: the node at position p; slot_[p] = kLanes * group + lane; node_slot_[i] the
   /// slot of node i.

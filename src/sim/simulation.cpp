@@ -1,5 +1,6 @@
 #include "weft/simulation.hpp"
 
+#include "collision/colliders.hpp"
 #include "sim/checkpoint.hpp"
 #include "weft/error.hpp"
 
@@ -42,6 +43,21 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
   system_ = std::make_unique<ClothSystem>(*model_, damping);
   stage("integrator", kSetupShareMesh + kSetupShareModel + kSetupShareSystem);
   integrator_ = std::make_unique<Integrator>(*system_, scene.integrator);
+  for (size_t k = 0; k < scene.bodies.size(); ++k) {
+    stage(("body " + std::to_string(k) + " (rig, motion, skinning)").c_str(), kSetupShareMesh + kSetupShareModel + kSetupShareSystem);
+    bodies_.push_back(std::make_unique<WalkingBody>(scene.bodies[k]));
+  }
+  for (const ColliderSpec& c : scene.colliders) {
+    if (c.shape == ColliderShape::kMesh || c.shape == ColliderShape::kBody)
+      throw InputError(c.name + ": mesh and body colliders are not available in this build");
+    colliders_.push_back(make_analytic_collider(c));
+  }
+  if (!colliders_.empty()) {
+    std::vector<Collider*> list;
+    for (const auto& c : colliders_) list.push_back(c.get());
+    contacts_ = std::make_unique<ColliderContacts>(std::move(list), model_->mass, model_->fixed);
+    integrator_->set_contact_handler(contacts_.get());
+  }
   state_.x = model_->initial_positions();
   state_.v = VecX::Zero(state_.x.size());
   for (int i = 0; i < model_->num_vertices(); ++i)
@@ -50,6 +66,8 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
   set_energy_reference();
   stage("done", 1.0);
 }
+
+Simulation::~Simulation() = default;
 
 void Simulation::reset_state(const VecX& x, const VecX& v) {
   state_ = State{};
@@ -151,11 +169,13 @@ void Simulation::save(BinaryWriter& out) const {
   out.vec(s.dv_prev);
   out.i64(s.has_history);
   out.f64(s.viscous_dissipated);
+  out.f64(s.contact_work);
   out.f64(s.rk45_step);
-  for (long c : {stats_.steps, stats_.rejected_steps, stats_.cg_iterations, stats_.cg_solves, stats_.cg_failures})
+  for (long c : {stats_.steps, stats_.rejected_steps, stats_.cg_iterations, stats_.cg_solves, stats_.cg_failures,
+                 stats_.contacts, stats_.max_contacts, stats_.released_contacts, stats_.fail_safe_moves})
     out.i64(c);
-  out.f64(stats_.assembly_seconds);
-  out.f64(stats_.solve_seconds);
+  for (double d : {stats_.assembly_seconds, stats_.solve_seconds, stats_.detection_seconds, stats_.response_seconds})
+    out.f64(d);
   out.f64(gravity0_);
   out.f64(total0_);
   out.f64(energy_scale_);
@@ -178,6 +198,8 @@ void Simulation::save(BinaryWriter& out) const {
   out.i64(in.ssor_single_fallbacks);
   out.doubles(in.multigrid_setup_blocks.empty() ? nullptr : in.multigrid_setup_blocks.front().data(),
               9 * in.multigrid_setup_blocks.size());
+  out.i64(static_cast<std::int64_t>(in.contact_pulling.size()));
+  for (char c : in.contact_pulling) out.i64(c);
 }
 
 void Simulation::restore(BinaryReader& in) {
@@ -193,11 +215,13 @@ void Simulation::restore(BinaryReader& in) {
   s.dv_prev = get_state_vector(in, size, "previous change of velocities", true);
   s.has_history = in.i64() != 0;
   s.viscous_dissipated = in.f64();
+  s.contact_work = in.f64();
   s.rk45_step = in.f64();
   StepStatistics st;
-  for (long* c : {&st.steps, &st.rejected_steps, &st.cg_iterations, &st.cg_solves, &st.cg_failures}) *c = in.i64();
-  st.assembly_seconds = in.f64();
-  st.solve_seconds = in.f64();
+  for (long* c : {&st.steps, &st.rejected_steps, &st.cg_iterations, &st.cg_solves, &st.cg_failures, &st.contacts,
+                  &st.max_contacts, &st.released_contacts, &st.fail_safe_moves})
+    *c = in.i64();
+  for (double* d : {&st.assembly_seconds, &st.solve_seconds, &st.detection_seconds, &st.response_seconds}) *d = in.f64();
   const double gravity0 = in.f64(), total0 = in.f64(), energy_scale = in.f64();
 
   ClothSystem::DynamicState sys;
@@ -224,6 +248,10 @@ void Simulation::restore(BinaryReader& in) {
   const std::vector<double> blocks = in.doubles();
   if (blocks.size() % 9) in.fail("checkpoint is damaged (multigrid matrix of " + std::to_string(blocks.size()) + " values)");
   for (size_t b = 0; b < blocks.size(); b += 9) id.multigrid_setup_blocks.push_back(Eigen::Map<const Mat3>(&blocks[b]));
+  const std::int64_t pulling = in.i64();
+  if (pulling != 0 && pulling != model_->num_vertices())
+    in.fail("checkpoint is damaged (contact flags for " + std::to_string(pulling) + " nodes)");
+  for (std::int64_t k = 0; k < pulling; ++k) id.contact_pulling.push_back(in.i64() != 0);
   try {
     system_->restore(sys);
     integrator_->restore(id);
@@ -246,7 +274,8 @@ EnergyRow Simulation::energies() {
   r.elastic = eval_.elastic_energy;
   r.gravity = eval_.gravity_energy - gravity0_;
   r.viscous_dissipated = state_.viscous_dissipated;
-  r.numerical_dissipated = total0_ - r.total() - r.viscous_dissipated;
+  r.contact_work = state_.contact_work;
+  r.numerical_dissipated = total0_ + r.contact_work - r.total() - r.viscous_dissipated;
   return r;
 }
 
@@ -273,10 +302,12 @@ RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResul
     std::string problem;
     if (!s.x.allFinite() || !s.v.allFinite() || !std::isfinite(e.total())) {
       problem = "positions or velocities became non-finite (NaN or infinity)";
-    } else if (e.total() - total0 > sim.energy_scale()) {
-      char buf[200];
-      std::snprintf(buf, sizeof buf, "mechanical energy rose by %.3g J, above the scene's energy scale of %.3g J",
-                    e.total() - total0, sim.energy_scale());
+    } else if (e.total() - e.contact_work - total0 > sim.energy_scale()) {
+      // Moving colliders may put energy in (contact_work); nothing else may.
+      char buf[240];
+      std::snprintf(buf, sizeof buf,
+                    "mechanical energy less the contacts' work rose by %.3g J, above the scene's energy scale of %.3g J",
+                    e.total() - e.contact_work - total0, sim.energy_scale());
       problem = buf;
     }
     if (!problem.empty()) {
@@ -346,6 +377,17 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
     j["message"] = r.message;
   }
   j["frames"] = r.energy.size();
+  if (!sim.colliders().empty()) {
+    const StepStatistics& st = r.steps;
+    j["contacts"] = {{"colliders", sim.colliders().size()},
+                     {"node_contacts_mean", st.steps ? static_cast<double>(st.contacts) / st.steps : 0.0},
+                     {"node_contacts_max", st.max_contacts},
+                     {"released", st.released_contacts},
+                     {"fail_safe_moves", st.fail_safe_moves},
+                     {"detection_seconds", st.detection_seconds},
+                     {"response_seconds", st.response_seconds},
+                     {"work_J", r.energy.empty() ? 0.0 : r.energy.back().contact_work}};
+  }
   j["damping_ratio"] = r.damping_ratio;
   j["kappa"] = stats_json(r.damping.membrane_kappa);
   j["lambda"] = stats_json(r.damping.membrane_lambda);
@@ -379,7 +421,8 @@ std::string checkpoint_bytes(const nlohmann::json& header, const Simulation& sim
   sim.save(w);
   w.u64(so_far.energy.size());
   for (const EnergyRow& e : so_far.energy)
-    for (double d : {e.time, e.kinetic, e.elastic, e.gravity, e.viscous_dissipated, e.numerical_dissipated}) w.f64(d);
+    for (double d : {e.time, e.kinetic, e.elastic, e.gravity, e.viscous_dissipated, e.numerical_dissipated, e.contact_work})
+      w.f64(d);
   w.f64(so_far.wall_seconds);
   w.u64(fnv1a(w.bytes().data(), w.bytes().size()));
   return w.bytes();
@@ -413,10 +456,11 @@ RunResult restore_checkpoint(const std::string& bytes, const std::string& file, 
   sim.restore(in);
   RunResult r;
   const std::uint64_t rows = in.u64();
-  if (rows > bytes.size() / (6 * sizeof(double))) in.fail("checkpoint is damaged (" + std::to_string(rows) + " energy rows)");
+  if (rows > bytes.size() / (7 * sizeof(double))) in.fail("checkpoint is damaged (" + std::to_string(rows) + " energy rows)");
   for (std::uint64_t k = 0; k < rows; ++k) {
     EnergyRow e;
-    for (double* d : {&e.time, &e.kinetic, &e.elastic, &e.gravity, &e.viscous_dissipated, &e.numerical_dissipated})
+    for (double* d : {&e.time, &e.kinetic, &e.elastic, &e.gravity, &e.viscous_dissipated, &e.numerical_dissipated,
+                      &e.contact_work})
       *d = in.f64();
     r.energy.push_back(e);
   }
@@ -427,11 +471,11 @@ RunResult restore_checkpoint(const std::string& bytes, const std::string& file, 
 
 std::string energy_csv(const std::vector<EnergyRow>& rows) {
   std::ostringstream out;
-  out << "time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,total\n";
-  char buf[256];
+  out << "time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total\n";
+  char buf[300];
   for (const auto& e : rows) {
-    std::snprintf(buf, sizeof buf, "%.6f,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g\n", e.time, e.kinetic, e.elastic, e.gravity,
-                  e.viscous_dissipated, e.numerical_dissipated, e.total());
+    std::snprintf(buf, sizeof buf, "%.6f,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g\n", e.time, e.kinetic, e.elastic,
+                  e.gravity, e.viscous_dissipated, e.numerical_dissipated, e.contact_work, e.total());
     out << buf;
   }
   return out.str();

@@ -41,7 +41,7 @@ TEST_F(RunCommand, WritesFramesEnergyAndSummary) {
   }
   EXPECT_FALSE(std::filesystem::exists(out / "frames" / "frame_00006.obj"));
   const std::string csv = read_text(out / "energy.csv");
-  EXPECT_EQ(csv.substr(0, csv.find('\n')), "time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,total");
+  EXPECT_EQ(csv.substr(0, csv.find('\n')), "time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total");
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 7);  // header + 6 frames
   const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
   for (const char* key : {"method", "alpha", "dt", "steps", "wall_seconds", "solver_iterations_mean", "status"})
@@ -221,11 +221,11 @@ TEST_F(RunCommand, BodyCollidersAreValidatedAndAnimatedAlongsideTheCloth) {
   EXPECT_TRUE(std::filesystem::exists(out / "frames" / "body0_00002.obj"));
 
   std::string bad = scene();
-  bad.insert(bad.rfind('}'), R"(, "colliders": [{"type": "sphere"}])");
+  bad.insert(bad.rfind('}'), R"(, "colliders": [{"type": "cylinder"}])");
   const auto b = write("bad.json", bad);
   r = weft("run '" + b.string() + "' --out '" + (folder_ / "bad").string() + "'");
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.error_output.find("colliders[0].type: unknown collider type 'sphere'"), std::string::npos) << r.error_output;
+  EXPECT_NE(r.error_output.find("colliders[0].type: unknown collider type 'cylinder'"), std::string::npos) << r.error_output;
   std::string bad_key = scene();
   bad_key.insert(bad_key.rfind('}'), R"(, "colliders": [{"type": "body", "sped": 1}])");
   const auto k = write("bad_key.json", bad_key);

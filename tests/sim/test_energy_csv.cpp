@@ -19,6 +19,7 @@ TEST(EnergyCsv, EachValueSitsUnderItsColumnName) {
   e.gravity = -3.125;
   e.viscous_dissipated = 0.0625;
   e.numerical_dissipated = 0.375;
+  e.contact_work = -0.5;
   std::istringstream in(energy_csv({e}));
   std::string header, row, extra;
   ASSERT_TRUE(std::getline(in, header));
@@ -31,6 +32,7 @@ TEST(EnergyCsv, EachValueSitsUnderItsColumnName) {
   const std::map<std::string, double> expected = {{"time", 0.25},           {"kinetic", 1.5},
                                                   {"elastic", 2.25},        {"gravity", -3.125},
                                                   {"viscous_dissipated", 0.0625}, {"numerical_dissipated", 0.375},
+                                                  {"contact_work", -0.5},
                                                   {"total", 1.5 + 2.25 - 3.125}};
   ASSERT_EQ(names.size(), expected.size());
   for (size_t k = 0; k < names.size(); ++k) {

@@ -1,0 +1,62 @@
+#pragma once
+// Collider descriptions of a scene (docs/scene-format.md, `colliders`): analytic shapes and
+// triangle meshes, static or moved rigidly, and the skinned walking body.
+#include <string>
+#include <vector>
+
+#include "weft/body.hpp"
+#include "weft/types.hpp"
+
+namespace weft {
+
+/// A rigid motion: world = rotation(t) * (shape as described) + translation(t), the identity
+/// at t = 0 for a constant velocity.
+struct RigidMotion {
+  enum class Kind { kStatic, kVelocity, kKeyframes };
+  Kind kind = Kind::kStatic;
+  Vec3 linear_velocity = Vec3::Zero();   ///< m/s (kVelocity)
+  Vec3 angular_velocity = Vec3::Zero();  ///< rad/s about `centre` (kVelocity)
+  Vec3 centre = Vec3::Zero();            ///< the point the rotation turns about, at t = 0
+  /// kKeyframes: the transform at increasing times (translation, then rotation about the
+  /// origin by X, then Y, then Z degrees applied first); linear between keys (rotations by
+  /// spherical interpolation), held before the first and after the last.
+  struct Key {
+    double time = 0;
+    Vec3 translation = Vec3::Zero();
+    Vec3 rotation_deg = Vec3::Zero();
+  };
+  std::vector<Key> keys;
+
+  /// The transform at time t (s).
+  Eigen::Isometry3d at(double t) const;
+};
+
+enum class ColliderShape { kPlane, kSphere, kCapsule, kBox, kMesh, kBody };
+
+struct ColliderSpec {
+  ColliderShape shape = ColliderShape::kPlane;
+  std::string name;          ///< "colliders[k] (sphere)", for messages and summaries
+  double thickness = 0.002;  ///< m: the cloth is kept this far from the surface
+  double friction = 0.3;     ///< Coulomb coefficient
+  // Shapes, in world coordinates at t = 0.
+  Vec3 point = Vec3::Zero();          ///< plane: a point on it
+  Vec3 normal = Vec3::UnitY();        ///< plane: unit normal, the free side
+  Vec3 centre = Vec3::Zero();         ///< sphere, box
+  double radius = 0;                  ///< sphere, capsule
+  Vec3 end_a = Vec3::Zero(), end_b = Vec3::Zero();  ///< capsule: the axis' ends
+  Vec3 half_extents = Vec3::Zero();   ///< box
+  Vec3 rotation_deg = Vec3::Zero();   ///< box and mesh: X, then Y, then Z
+  std::string obj_path;               ///< mesh: OBJ file (absolute, resolved against the scene)
+  double scale = 1.0;                 ///< mesh: metres per OBJ unit
+  Vec3 translation = Vec3::Zero();    ///< mesh: placement after scale and rotation
+  /// mesh: a closed surface (inside and outside told apart by its outward normals); an open
+  /// one keeps each cloth vertex on the side it started.
+  bool closed = true;
+  RigidMotion motion;
+  int body = -1;                      ///< kBody: index into Scene::bodies
+};
+
+/// Rotation by X, then Y, then Z degrees (as scenes give placements).
+Mat3 rotation_from_degrees(const Vec3& deg);
+
+}  // namespace weft

@@ -1,0 +1,354 @@
+#include "collision/colliders.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace weft {
+
+Mat3 rotation_from_degrees(const Vec3& deg) {
+  const Vec3 r = deg * (M_PI / 180.0);
+  return (Eigen::AngleAxisd(r.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(r.y(), Vec3::UnitY()) *
+          Eigen::AngleAxisd(r.x(), Vec3::UnitX()))
+      .toRotationMatrix();
+}
+
+Eigen::Isometry3d RigidMotion::at(double t) const {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  switch (kind) {
+    case Kind::kStatic:
+      break;
+    case Kind::kVelocity: {
+      // Turning about the moving centre c + v t: x -> R (x - c) + c + v t.
+      const double angle = angular_velocity.norm() * t;
+      const Mat3 R = angle > 0 ? Eigen::AngleAxisd(angle, angular_velocity.normalized()).toRotationMatrix()
+                               : Mat3::Identity();
+      T.linear() = R;
+      T.translation() = centre + linear_velocity * t - R * centre;
+      break;
+    }
+    case Kind::kKeyframes: {
+      if (keys.empty()) break;
+      size_t k = 0;
+      while (k + 1 < keys.size() && keys[k + 1].time <= t) ++k;
+      const Key& a = keys[k];
+      const Key& b = k + 1 < keys.size() ? keys[k + 1] : keys[k];
+      const double s = b.time > a.time ? std::clamp((t - a.time) / (b.time - a.time), 0.0, 1.0) : 0.0;
+      const Eigen::Quaterniond qa(rotation_from_degrees(a.rotation_deg)), qb(rotation_from_degrees(b.rotation_deg));
+      T.linear() = qa.slerp(s, qb).toRotationMatrix();
+      T.translation() = (1 - s) * a.translation + s * b.translation;
+      break;
+    }
+  }
+  return T;
+}
+
+namespace {
+
+/// Nodes predicted to end within this multiple of the thickness are held.
+constexpr double kHoldMargin = 1.1;
+
+// The closest surface point of a shape in its own (t = 0) placement.
+struct Closest {
+  double distance;
+  Vec3 normal, point;
+};
+
+Vec3 any_unit_normal_to(const Vec3& axis) {
+  const Vec3 other = std::abs(axis.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+  return axis.cross(other).normalized();
+}
+
+Closest round(const Vec3& p, const Vec3& centre, double radius, const Vec3& fallback_normal) {
+  const Vec3 d = p - centre;
+  const double r = d.norm();
+  const Vec3 n = r > 1e-12 ? Vec3(d / r) : fallback_normal;
+  return {r - radius, n, centre + radius * n};
+}
+
+// Adds a latitude-longitude sphere of `radius` about `centre`, its upper half (y >= 0 in the
+// frame R) shifted by `stretch` (a capsule's axis), to positions and triangles.
+void add_round_surface(const Vec3& centre, double radius, const Mat3& R, const Vec3& stretch,
+                       std::vector<Vec3>& points, std::vector<Eigen::Vector3i>& tris) {
+  const int rings = 16, segments = 32;
+  const int base = static_cast<int>(points.size());
+  for (int i = 0; i <= rings; ++i) {
+    const double theta = M_PI * i / rings;  // from the top
+    for (int j = 0; j < segments; ++j) {
+      const double phi = 2 * M_PI * j / segments;
+      const Vec3 local(std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi));
+      points.push_back(centre + radius * (R * local) + (i <= rings / 2 ? stretch : Vec3::Zero()));
+    }
+  }
+  auto at = [&](int i, int j) { return base + i * segments + (j % segments); };
+  for (int i = 0; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      tris.emplace_back(at(i, j), at(i + 1, j), at(i + 1, j + 1));
+      tris.emplace_back(at(i, j), at(i + 1, j + 1), at(i, j + 1));
+    }
+}
+
+class AnalyticCollider : public Collider {
+ public:
+  explicit AnalyticCollider(const ColliderSpec& spec) : Collider(spec), box_rotation_(rotation_from_degrees(spec.rotation_deg)) {
+    if (spec.shape == ColliderShape::kPlane || spec.shape == ColliderShape::kMesh || spec.shape == ColliderShape::kBody) {
+      normal_ = spec.normal.normalized();
+    }
+    if (spec.shape == ColliderShape::kCapsule) {
+      const Vec3 axis = spec.end_b - spec.end_a;
+      axis_ = axis.norm() > 0 ? Vec3(axis.normalized()) : Vec3::UnitY();
+    }
+  }
+
+  void prepare(double t0, double t1) override {
+    start_ = spec().motion.at(t0);
+    end_ = spec().motion.at(t1);
+    start_inverse_ = start_.inverse();
+    end_inverse_ = end_.inverse();
+  }
+
+  bool closest(const Vec3& p, double reach, bool end, int /*node*/, SurfacePoint& out) const override {
+    const Eigen::Isometry3d& T = end ? end_ : start_;
+    const Vec3 local = (end ? end_inverse_ : start_inverse_) * p;
+    const Closest c = closest_local(local);
+    (void)reach;  // computing the closest point costs no more than ruling it out
+    out.distance = c.distance;
+    out.normal = T.linear() * c.normal;
+    out.point = T * c.point;
+    // The surface point's motion over the step (for the end query: over the step before).
+    if (end) {
+      const Vec3 before = start_ * c.point;
+      out.displacement = out.point - before;
+    } else {
+      out.displacement = end_ * c.point - out.point;
+    }
+    return true;
+  }
+
+  void surface(double t, Points& positions, Triangles& triangles) const override {
+    std::vector<Vec3> points;
+    std::vector<Eigen::Vector3i> tris;
+    const ColliderSpec& s = spec();
+    switch (s.shape) {
+      case ColliderShape::kPlane: {
+        // A 4 m square about the plane's point stands for the unbounded plane.
+        const Vec3 u = any_unit_normal_to(normal_), w = normal_.cross(u);
+        for (int k = 0; k < 4; ++k) {
+          const double a = (k == 1 || k == 2) ? 2 : -2, b = k >= 2 ? 2 : -2;
+          points.push_back(s.point + a * u + b * w);
+        }
+        tris.emplace_back(0, 1, 2);
+        tris.emplace_back(0, 2, 3);
+        break;
+      }
+      case ColliderShape::kSphere:
+        add_round_surface(s.centre, s.radius, Mat3::Identity(), Vec3::Zero(), points, tris);
+        break;
+      case ColliderShape::kCapsule: {
+        // Frame whose y axis runs from end a to end b.
+        Mat3 R;
+        const Vec3 x = any_unit_normal_to(axis_);
+        R.col(0) = x;
+        R.col(1) = axis_;
+        R.col(2) = x.cross(axis_);
+        add_round_surface(s.end_a, s.radius, R, s.end_b - s.end_a, points, tris);
+        break;
+      }
+      case ColliderShape::kBox: {
+        for (int k = 0; k < 8; ++k) {
+          const Vec3 corner((k & 1) ? 1 : -1, (k & 2) ? 1 : -1, (k & 4) ? 1 : -1);
+          points.push_back(s.centre + box_rotation_ * corner.cwiseProduct(s.half_extents));
+        }
+        // Two triangles per face, wound outwards.
+        const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+        for (const auto& f : faces) {
+          tris.emplace_back(f[0], f[1], f[2]);
+          tris.emplace_back(f[0], f[2], f[3]);
+        }
+        break;
+      }
+      default:
+        break;
+    }
+    const Eigen::Isometry3d T = spec().motion.at(t);
+    positions.resize(static_cast<Eigen::Index>(points.size()), 3);
+    for (size_t k = 0; k < points.size(); ++k) positions.row(static_cast<Eigen::Index>(k)) = (T * points[k]).transpose();
+    triangles.resize(static_cast<Eigen::Index>(tris.size()), 3);
+    for (size_t k = 0; k < tris.size(); ++k) triangles.row(static_cast<Eigen::Index>(k)) = tris[k].transpose();
+  }
+
+ private:
+  Closest closest_local(const Vec3& p) const {
+    const ColliderSpec& s = spec();
+    switch (s.shape) {
+      case ColliderShape::kPlane: {
+        const double d = (p - s.point).dot(normal_);
+        return {d, normal_, p - d * normal_};
+      }
+      case ColliderShape::kSphere:
+        return round(p, s.centre, s.radius, Vec3::UnitY());
+      case ColliderShape::kCapsule: {
+        const Vec3 ab = s.end_b - s.end_a;
+        const double len2 = ab.squaredNorm();
+        const double u = len2 > 0 ? std::clamp((p - s.end_a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+        return round(p, s.end_a + u * ab, s.radius, any_unit_normal_to(axis_));
+      }
+      case ColliderShape::kBox: {
+        const Vec3 q = box_rotation_.transpose() * (p - s.centre);
+        const Vec3& h = s.half_extents;
+        const Vec3 clamped = q.cwiseMax(-h).cwiseMin(h);
+        const Vec3 outside = q - clamped;
+        if (outside.squaredNorm() > 0) {
+          const double d = outside.norm();
+          return {d, box_rotation_ * (outside / d), s.centre + box_rotation_ * clamped};
+        }
+        // Inside: the nearest face.
+        int axis = 0;
+        double depth = h[0] - std::abs(q[0]);
+        for (int k = 1; k < 3; ++k)
+          if (h[k] - std::abs(q[k]) < depth) {
+            depth = h[k] - std::abs(q[k]);
+            axis = k;
+          }
+        const double side = q[axis] >= 0 ? 1.0 : -1.0;
+        Vec3 n = Vec3::Zero();
+        n[axis] = side;
+        Vec3 on = q;
+        on[axis] = side * h[axis];
+        return {-depth, box_rotation_ * n, s.centre + box_rotation_ * on};
+      }
+      default:
+        throw std::logic_error("not an analytic collider");
+    }
+  }
+
+  Mat3 box_rotation_;
+  Vec3 normal_ = Vec3::UnitY();
+  Vec3 axis_ = Vec3::UnitY();
+  Eigen::Isometry3d start_ = Eigen::Isometry3d::Identity(), end_ = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d start_inverse_ = Eigen::Isometry3d::Identity(), end_inverse_ = Eigen::Isometry3d::Identity();
+};
+
+}  // namespace
+
+std::unique_ptr<Collider> make_analytic_collider(const ColliderSpec& spec) {
+  switch (spec.shape) {
+    case ColliderShape::kPlane:
+    case ColliderShape::kSphere:
+    case ColliderShape::kCapsule:
+    case ColliderShape::kBox: {
+      auto c = std::make_unique<AnalyticCollider>(spec);
+      c->prepare(0, 0);
+      return c;
+    }
+    default:
+      throw std::invalid_argument("make_analytic_collider: not a plane, sphere, capsule or box");
+  }
+}
+
+ColliderContacts::ColliderContacts(std::vector<Collider*> colliders, const VecX& mass, const std::vector<char>& fixed)
+    : colliders_(std::move(colliders)), mass_(mass), fixed_(fixed) {}
+
+void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt, std::vector<NodeContact>& out) {
+  out.clear();
+  const int n = static_cast<int>(fixed_.size());
+  best_gap_.assign(n, 0);
+  std::vector<int>& slot = slot_;  // the node's contact in out
+  slot.assign(n, -1);
+  prepared_t_ = t;
+  prepared_dt_ = dt;
+  for (Collider* c : colliders_) {
+    c->prepare(t, t + dt);
+    const double thickness = c->spec().thickness;
+    for (int i = 0; i < n; ++i) {
+      if (fixed_[i]) continue;
+      const Vec3 p = node(x, i), vi = node(v, i);
+      // Anything the node could reach this step, and the layer it must stay out of.
+      const double reach = 2 * thickness + dt * vi.norm();
+      SurfacePoint s;
+      if (!c->closest(p, reach, false, i, s)) continue;
+      const double approach = dt * vi.dot(s.normal) - s.displacement.dot(s.normal);
+      // Where the node would end without the contact, at its present velocity. A node resting
+      // at the thickness has gap = thickness: the margin keeps it held (its forces are not in
+      // the prediction), and a held node that pulls away is released by the integrator.
+      const double gap = s.distance + approach;
+      if (gap >= kHoldMargin * thickness) continue;
+      if (slot[i] >= 0 && gap >= best_gap_[i]) continue;  // another collider is closer
+      NodeContact contact;
+      contact.node = i;
+      contact.normal = s.normal;
+      contact.normal_displacement = thickness - s.distance + s.displacement.dot(s.normal);
+      contact.surface_velocity = s.displacement / dt;
+      contact.friction = c->spec().friction;
+      contact.penetrating = s.distance < 0;
+      best_gap_[i] = gap;
+      if (slot[i] >= 0) {
+        out[slot[i]] = contact;
+      } else {
+        slot[i] = static_cast<int>(out.size());
+        out.push_back(contact);
+      }
+    }
+  }
+}
+
+void ColliderContacts::detect_end(const VecX& x0, const VecX& x1, double /*t*/, double dt,
+                                  const std::vector<char>& held, std::vector<NodeContact>& out) {
+  const int n = static_cast<int>(fixed_.size());
+  std::vector<int>& slot = slot_;
+  slot.assign(n, -1);
+  for (Collider* c : colliders_) {
+    const double thickness = c->spec().thickness;
+    for (int i = 0; i < n; ++i) {
+      if (fixed_[i] || held[i]) continue;
+      SurfacePoint s;
+      if (!c->closest(node(x1, i), thickness, true, i, s) || s.distance >= thickness) continue;
+      if (slot[i] >= 0 && s.distance >= best_gap_[i]) continue;
+      NodeContact contact;
+      contact.node = i;
+      contact.normal = s.normal;
+      contact.normal_displacement = s.normal.dot(node(x1, i) - node(x0, i)) + thickness - s.distance;
+      contact.surface_velocity = s.displacement / dt;
+      contact.friction = c->spec().friction;
+      contact.penetrating = s.distance < 0;
+      best_gap_[i] = s.distance;
+      if (slot[i] >= 0) {
+        out[slot[i]] = contact;
+      } else {
+        slot[i] = static_cast<int>(out.size());
+        out.push_back(contact);
+      }
+    }
+  }
+}
+
+void ColliderContacts::finish_step(const VecX& /*x0*/, VecX& x1, VecX& v1, double t, double dt, ContactReport& report) {
+  const int n = static_cast<int>(fixed_.size());
+  if (t != prepared_t_ || dt != prepared_dt_) {
+    for (Collider* c : colliders_) c->prepare(t, t + dt);
+    prepared_t_ = t;
+    prepared_dt_ = dt;
+  }
+  for (Collider* c : colliders_) {
+    const double thickness = c->spec().thickness;
+    for (int i = 0; i < n; ++i) {
+      if (fixed_[i]) continue;
+      SurfacePoint s;
+      // A node held by a constraint ends at the thickness; one that ends well inside the layer
+      // was missed or pushed in by its neighbours: it is put back at the thickness, its
+      // velocity along the normal no faster towards the surface than the surface itself.
+      if (!c->closest(node(x1, i), thickness, true, i, s) || s.distance >= 0.5 * thickness) continue;
+      node(x1, i) += (thickness - s.distance) * s.normal;
+      const Vec3 v_old = node(v1, i);
+      const double surface_speed = s.displacement.dot(s.normal) / dt;
+      const double vn = v_old.dot(s.normal);
+      if (vn < surface_speed) {
+        node(v1, i) += (surface_speed - vn) * s.normal;
+        report.work += 0.5 * mass_[i] * (node(v1, i).squaredNorm() - v_old.squaredNorm());
+      }
+      ++report.fail_safe_moves;
+    }
+  }
+}
+
+}  // namespace weft
