@@ -17,61 +17,70 @@ AabbTree::AabbTree(const std::vector<std::array<int, 3>>& triangles, const doubl
     const auto& t = triangles_[f];
     centroid[f] = (vertex(xyz, t[0]) + vertex(xyz, t[1]) + vertex(xyz, t[2])) / 3;
   }
-  std::vector<int> order(triangles_.size());
-  for (size_t f = 0; f < order.size(); ++f) order[f] = static_cast<int>(f);
-  nodes_.reserve(2 * triangles_.size() - 1);
-  build(order, 0, static_cast<int>(order.size()), centroid);
+  order_.resize(triangles_.size());
+  for (size_t f = 0; f < order_.size(); ++f) order_[f] = static_cast<int>(f);
+  build(0, static_cast<int>(order_.size()), centroid);
+  slot_of_.resize(order_.size());
+  for (size_t k = 0; k < order_.size(); ++k) slot_of_[order_[k]] = static_cast<int>(k);
+  boxes_.resize(order_.size());
   refit(xyz);
 }
 
-int AabbTree::build(std::vector<int>& order, int begin, int end, const std::vector<Vec3>& centroid) {
+int AabbTree::build(int begin, int end, const std::vector<Vec3>& centroid) {
   const int index = static_cast<int>(nodes_.size());
   nodes_.emplace_back();
-  if (end - begin == 1) {
-    nodes_[index].triangle = order[begin];
-    return index;
-  }
+  nodes_[index].begin = begin;
+  nodes_[index].end = end;
+  if (end - begin <= kLeafSize) return index;
   Box bounds;
-  for (int i = begin; i < end; ++i) bounds.add(centroid[order[i]]);
+  for (int i = begin; i < end; ++i) bounds.add(centroid[order_[i]]);
   Eigen::Index axis = 0;
   (bounds.hi - bounds.lo).maxCoeff(&axis);
   // The median by position (ties by triangle number, so the shape does not depend on the
   // sorting algorithm): both halves equal in count, whatever the positions, so the depth is
   // about log2 of the triangle count.
   const int middle = begin + (end - begin) / 2;
-  std::nth_element(order.begin() + begin, order.begin() + middle, order.begin() + end, [&](int a, int b) {
+  std::nth_element(order_.begin() + begin, order_.begin() + middle, order_.begin() + end, [&](int a, int b) {
     const double ca = centroid[a][axis], cb = centroid[b][axis];
     return ca < cb || (ca == cb && a < b);
   });
-  build(order, begin, middle, centroid);
-  const int right = build(order, middle, end, centroid);
+  build(begin, middle, centroid);
+  const int right = build(middle, end, centroid);
   nodes_[index].right = right;
   return index;
 }
 
 template <class Corners>
-void AabbTree::refit_leaves_and_nodes(const Corners& corners, double margin) {
+void AabbTree::refit_boxes(const Corners& corners, double margin) {
   const Vec3 grow = Vec3::Constant(margin);
+  for (size_t k = 0; k < order_.size(); ++k) {
+    Box b;
+    corners(triangles_[order_[k]], b);
+    b.lo -= grow;
+    b.hi += grow;
+    boxes_[k] = b;
+  }
   // Children follow their parent in depth-first order: a backward sweep meets them first.
   for (int i = static_cast<int>(nodes_.size()) - 1; i >= 0; --i) {
     Node& n = nodes_[i];
-    if (n.triangle >= 0) {
-      Box b;
-      corners(triangles_[n.triangle], b);
-      b.lo -= grow;
-      b.hi += grow;
-      n.box = b;
+    Box b;
+    if (n.leaf()) {
+      for (int k = n.begin; k < n.end; ++k) {
+        b.lo = b.lo.cwiseMin(boxes_[k].lo);
+        b.hi = b.hi.cwiseMax(boxes_[k].hi);
+      }
     } else {
       const Box& l = nodes_[i + 1].box;
       const Box& r = nodes_[n.right].box;
-      n.box.lo = l.lo.cwiseMin(r.lo);
-      n.box.hi = l.hi.cwiseMax(r.hi);
+      b.lo = l.lo.cwiseMin(r.lo);
+      b.hi = l.hi.cwiseMax(r.hi);
     }
+    n.box = b;
   }
 }
 
 void AabbTree::refit(const double* xyz, double margin) {
-  refit_leaves_and_nodes(
+  refit_boxes(
       [xyz](const std::array<int, 3>& t, Box& b) {
         for (int k = 0; k < 3; ++k) b.add(vertex(xyz, t[k]));
       },
@@ -79,7 +88,7 @@ void AabbTree::refit(const double* xyz, double margin) {
 }
 
 void AabbTree::refit(const double* xyz_t0, const double* xyz_t1, double margin) {
-  refit_leaves_and_nodes(
+  refit_boxes(
       [xyz_t0, xyz_t1](const std::array<int, 3>& t, Box& b) {
         for (int k = 0; k < 3; ++k) {
           b.add(vertex(xyz_t0, t[k]));

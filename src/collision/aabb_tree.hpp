@@ -27,53 +27,60 @@ struct Box {
 class AabbTree {
  public:
   AabbTree() = default;
-  /// A tree over `triangles` (#F vertex triples), one triangle per leaf, split at the median of
-  /// the triangles' centroids along the longest side of their bounds, with the positions
-  /// `xyz` (3 doubles per vertex); its boxes are fitted to them.
+  /// A tree over `triangles` (#F vertex triples), split at the median of the triangles'
+  /// centroids along the longest side of their bounds down to leaves of at most 4 triangles,
+  /// with the positions `xyz` (3 doubles per vertex); its boxes are fitted to them.
   AabbTree(const std::vector<std::array<int, 3>>& triangles, const double* xyz);
 
   /// Refits every box to the positions `xyz` (same vertex numbering), grown by `margin` (m) on
   /// every side.
   void refit(const double* xyz, double margin = 0);
-  /// Refits every box to the swept volume of a step: each leaf box holds its triangle's
-  /// vertices at both `xyz_t0` and `xyz_t1`, grown by `margin`; so it holds the triangle at
-  /// every time of the step (straight trajectories).
+  /// Refits every box to the swept volume of a step: each triangle's box holds its vertices at
+  /// both `xyz_t0` and `xyz_t1`, grown by `margin`; so it holds the triangle at every time of
+  /// the step (straight trajectories).
   void refit(const double* xyz_t0, const double* xyz_t1, double margin);
 
   int triangle_count() const { return static_cast<int>(triangles_.size()); }
   const std::vector<std::array<int, 3>>& triangles() const { return triangles_; }
   /// The box of everything (empty box for an empty tree).
   Box bounds() const { return nodes_.empty() ? Box{} : nodes_[0].box; }
+  /// The box of triangle f as last refitted.
+  const Box& triangle_box(int f) const { return boxes_[slot_of_[f]]; }
 
-  /// Calls f(triangle) for every triangle whose leaf box overlaps `box`.
+  /// Calls f(triangle) for every triangle whose box overlaps `box`.
   template <class F>
   void for_each_overlapping(const Box& box, F&& f) const;
-  /// Calls f(i, j) once for every unordered pair of distinct triangles (i < j not implied)
-  /// whose leaf boxes overlap. Neighbours in the mesh are included: callers filter them.
+  /// Calls f(i, j) once for every unordered pair of distinct triangles (in either order) whose
+  /// boxes overlap. Neighbours in the mesh are included: callers filter them.
   template <class F>
   void for_each_self_pair(F&& f) const;
   /// Calls f(mine, theirs) for every pair of a triangle of this tree and one of `other` whose
-  /// leaf boxes overlap.
+  /// boxes overlap.
   template <class F>
   void for_each_pair(const AabbTree& other, F&& f) const;
 
  private:
+  static constexpr int kLeafSize = 4;
   struct Node {
     Box box;
-    int right = -1;     ///< the second child; the first is the next node (depth-first order)
-    int triangle = -1;  ///< >= 0 for a leaf
+    int right = -1;  ///< the second child; the first is the next node (depth-first order); -1 for a leaf
+    int begin = 0, end = 0;  ///< a leaf's slots in order_ and boxes_
+    bool leaf() const { return right < 0; }
   };
   // Descending a pair of nodes, the larger one (by the sum of its box's sides) is split,
   // so the boxes compared stay of similar size.
   static bool split_first(const Node& a, const Node& b) {
-    return b.triangle >= 0 || (a.triangle < 0 && (a.box.hi - a.box.lo).sum() >= (b.box.hi - b.box.lo).sum());
+    return b.leaf() || (!a.leaf() && (a.box.hi - a.box.lo).sum() >= (b.box.hi - b.box.lo).sum());
   }
-  int build(std::vector<int>& order, int begin, int end, const std::vector<Vec3>& centroid);
+  int build(int begin, int end, const std::vector<Vec3>& centroid);
   template <class Corners>
-  void refit_leaves_and_nodes(const Corners& corners, double margin);
+  void refit_boxes(const Corners& corners, double margin);
 
   std::vector<std::array<int, 3>> triangles_;
   std::vector<Node> nodes_;
+  std::vector<int> order_;    ///< triangle numbers, each leaf's contiguous
+  std::vector<int> slot_of_;  ///< inverse of order_
+  std::vector<Box> boxes_;    ///< per slot: the box of triangle order_[slot]
 };
 
 template <class F>
@@ -86,8 +93,9 @@ void AabbTree::for_each_overlapping(const Box& box, F&& f) const {
     const int i = stack[--top];
     const Node& n = nodes_[i];
     if (!n.box.overlaps(box)) continue;
-    if (n.triangle >= 0) {
-      f(n.triangle);
+    if (n.leaf()) {
+      for (int k = n.begin; k < n.end; ++k)
+        if (boxes_[k].overlaps(box)) f(order_[k]);
       continue;
     }
     stack[top++] = n.right;
@@ -99,13 +107,20 @@ template <class F>
 void AabbTree::for_each_self_pair(F&& f) const {
   if (nodes_.empty()) return;
   // Pairs (a, b) of nodes to visit; a == b stands for the pairs within one subtree.
-  std::vector<std::array<int, 2>> stack{{0, 0}};
+  std::vector<std::array<int, 2>> stack;
+  stack.reserve(256);
+  stack.push_back({0, 0});
   while (!stack.empty()) {
     const auto [a, b] = stack.back();
     stack.pop_back();
     const Node& na = nodes_[a];
     if (a == b) {
-      if (na.triangle >= 0) continue;
+      if (na.leaf()) {
+        for (int i = na.begin; i < na.end; ++i)
+          for (int j = i + 1; j < na.end; ++j)
+            if (boxes_[i].overlaps(boxes_[j])) f(order_[i], order_[j]);
+        continue;
+      }
       stack.push_back({a + 1, a + 1});
       stack.push_back({na.right, na.right});
       stack.push_back({a + 1, na.right});
@@ -113,8 +128,12 @@ void AabbTree::for_each_self_pair(F&& f) const {
     }
     const Node& nb = nodes_[b];
     if (!na.box.overlaps(nb.box)) continue;
-    if (na.triangle >= 0 && nb.triangle >= 0) {
-      f(na.triangle, nb.triangle);
+    if (na.leaf() && nb.leaf()) {
+      for (int i = na.begin; i < na.end; ++i) {
+        if (!boxes_[i].overlaps(nb.box)) continue;
+        for (int j = nb.begin; j < nb.end; ++j)
+          if (boxes_[i].overlaps(boxes_[j])) f(order_[i], order_[j]);
+      }
     } else if (split_first(na, nb)) {
       stack.push_back({a + 1, b});
       stack.push_back({na.right, b});
@@ -128,15 +147,21 @@ void AabbTree::for_each_self_pair(F&& f) const {
 template <class F>
 void AabbTree::for_each_pair(const AabbTree& other, F&& f) const {
   if (nodes_.empty() || other.nodes_.empty()) return;
-  std::vector<std::array<int, 2>> stack{{0, 0}};
+  std::vector<std::array<int, 2>> stack;
+  stack.reserve(256);
+  stack.push_back({0, 0});
   while (!stack.empty()) {
     const auto [a, b] = stack.back();
     stack.pop_back();
     const Node& na = nodes_[a];
     const Node& nb = other.nodes_[b];
     if (!na.box.overlaps(nb.box)) continue;
-    if (na.triangle >= 0 && nb.triangle >= 0) {
-      f(na.triangle, nb.triangle);
+    if (na.leaf() && nb.leaf()) {
+      for (int i = na.begin; i < na.end; ++i) {
+        if (!boxes_[i].overlaps(nb.box)) continue;
+        for (int j = nb.begin; j < nb.end; ++j)
+          if (boxes_[i].overlaps(other.boxes_[j])) f(order_[i], other.order_[j]);
+      }
     } else if (split_first(na, nb)) {
       stack.push_back({a + 1, b});
       stack.push_back({na.right, b});
