@@ -14,6 +14,7 @@
 
 #include <unistd.h>
 
+#include "collision/frame_check.hpp"
 #include "command.hpp"
 #include "progress.hpp"
 #include "sim/checkpoint.hpp"
@@ -225,6 +226,41 @@ void install_signal_handlers() {
   std::signal(SIGXFSZ, SIG_IGN);
 }
 
+// The intersections counted on each frame of a run, for summary.json.
+struct IntersectionTally {
+  std::vector<size_t> per_frame, cloth_self, cloth_body;
+  size_t at_body_crossings = 0;
+  double seconds = 0;
+
+  void add(const weft::FrameIntersections& r) {
+    size_t body = 0;
+    for (const auto& b : r.cloth_body) body += b.count;
+    for (size_t n : r.cloth_body_at_body_crossings) at_body_crossings += n;
+    per_frame.push_back(r.count());
+    cloth_self.push_back(r.cloth_self.count);
+    cloth_body.push_back(body);
+  }
+  nlohmann::json json(long first_frame) const {
+    nlohmann::json j;
+    j["first_frame"] = first_frame;
+    j["per_frame"] = per_frame;
+    size_t total = 0, worst = 0;
+    long worst_frame = -1;
+    for (size_t k = 0; k < per_frame.size(); ++k) {
+      total += per_frame[k];
+      if (per_frame[k] > worst) worst = per_frame[k], worst_frame = first_frame + static_cast<long>(k);
+    }
+    j["worst_frame"] = worst_frame >= 0 ? nlohmann::json(worst_frame) : nlohmann::json(nullptr);
+    j["worst_count"] = worst;
+    j["total"] = total;
+    j["cloth_self_per_frame"] = cloth_self;
+    j["cloth_body_per_frame"] = cloth_body;
+    j["cloth_body_at_body_crossings"] = at_body_crossings;
+    j["seconds"] = seconds;
+    return j;
+  }
+};
+
 std::string count_of(size_t n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
 
 int run(RunArgs a, const std::function<bool(const char*)>& given) {
@@ -312,8 +348,23 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   using Clock = std::chrono::steady_clock;
   auto last_checkpoint = Clock::now();
   long frames_complete = first_frame;  // frames 0 .. frames_complete - 1 are on disk
+  // Every frame's intersections (docs/collisions.md, "Checking"), counted whether or not it is
+  // written; the trees are built on the first frame and refitted after.
+  FrameChecker frame_checker(0);
+  IntersectionTally tally;
+  std::vector<Points> body_positions(bodies.size());
+  std::vector<std::vector<std::array<int, 3>>> body_triangles;
+  for (const auto& b : bodies) body_triangles.push_back(triangle_list(b->triangles()));
   RunCallbacks cb;
   cb.on_frame = [&](int f, const Simulation& s) {
+    const auto check_start = Clock::now();
+    std::vector<FrameMesh> body_meshes;
+    for (size_t k = 0; k < bodies.size(); ++k) {
+      bodies[k]->positions(s.state().t, body_positions[k]);
+      body_meshes.push_back({body_positions[k].data(), &body_triangles[k]});
+    }
+    tally.add(frame_checker.check({s.state().x.data(), &s.model().mesh.triangles}, body_meshes));
+    tally.seconds += std::chrono::duration<double>(Clock::now() - check_start).count();
     if (a.no_frames || !out.failures.empty()) return;
     char name[64];
     std::snprintf(name, sizeof name, "frame_%05d.%s", f, frame_format.c_str());
@@ -321,12 +372,10 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     bool ok = frame_format == "ply"
                   ? out.write(path, [&](std::ostream& o) { write_ply(o, s); })
                   : out.attempt(path, [&] { write_obj(path.string(), s.state().x, s.model().mesh.triangles); });
-    Points body_positions;
     for (size_t k = 0; ok && k < bodies.size(); ++k) {
       std::snprintf(name, sizeof name, "body%zu_%05d.obj", k, f);
-      bodies[k]->positions(s.state().t, body_positions);
       const fs::path body_path = out.frames() / name;
-      ok = out.attempt(body_path, [&] { write_obj(body_path.string(), body_positions, bodies[k]->triangles()); });
+      ok = out.attempt(body_path, [&] { write_obj(body_path.string(), body_positions[k], bodies[k]->triangles()); });
     }
     if (ok) frames_complete = f + 1;
   };
@@ -353,6 +402,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   const bool energy_written =
       out.write(out.dir() / "energy.csv", [&](std::ostream& o) { o << energy_csv(r.energy); });
   nlohmann::json summary = summary_json(sim, r);
+  summary["intersections"] = tally.json(first_frame);
   if (!out.failures.empty()) {
     summary["status"] = "output_failed";
     summary["message"] = "could not write " + out.failures.front().path + ": " + out.failures.front().reason;
