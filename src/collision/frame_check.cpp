@@ -30,10 +30,12 @@ FrameIntersections FrameChecker::check(const FrameMesh& cloth, const std::vector
     const FrameMesh& body = bodies[k];
     const AabbTree& body_tree = tree_for(k + 1, body);
     const auto& body_tris = *body.triangles;
-    // The body's own crossings and the triangles around them (sharing a vertex).
+    const IntersectionCount all = mesh_intersections(cloth.xyz, cloth_tree, body.xyz, body_tree, SIZE_MAX);
+    // The body's own crossings and the triangles around them (sharing a vertex): looked for
+    // only when the cloth meets the body at all, as it should not.
     std::vector<char> crossing_vertex;
-    const IntersectionCount body_self = self_intersections(body.xyz, body_tree, SIZE_MAX);
-    if (body_self.count > 0) {
+    if (all.count > 0) {
+      const IntersectionCount body_self = self_intersections(body.xyz, body_tree, SIZE_MAX);
       int n_vertices = 0;
       for (const auto& t : body_tris) n_vertices = std::max({n_vertices, t[0] + 1, t[1] + 1, t[2] + 1});
       crossing_vertex.assign(static_cast<size_t>(n_vertices), 0);
@@ -46,7 +48,6 @@ FrameIntersections FrameChecker::check(const FrameMesh& cloth, const std::vector
       const auto& t = body_tris[body_triangle];
       return crossing_vertex[t[0]] || crossing_vertex[t[1]] || crossing_vertex[t[2]];
     };
-    const IntersectionCount all = mesh_intersections(cloth.xyz, cloth_tree, body.xyz, body_tree, SIZE_MAX);
     IntersectionCount kept;
     size_t at_crossings = 0;
     for (const auto& [c, b] : all.examples) {
