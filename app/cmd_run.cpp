@@ -226,8 +226,10 @@ void install_signal_handlers() {
   std::signal(SIGXFSZ, SIG_IGN);
 }
 
-// The intersections counted on each frame of a run, for summary.json.
+// The intersections counted on each frame of a run, for summary.json. A checkpoint keeps
+// them (state()), so a resumed run reports every frame as an uninterrupted one does.
 struct IntersectionTally {
+  long first_frame = 0;  ///< the frame per_frame[0] counts (a resume from an older checkpoint starts later)
   std::vector<size_t> per_frame, cloth_self, cloth_body;
   size_t at_body_crossings = 0;
   double seconds = 0;
@@ -240,7 +242,19 @@ struct IntersectionTally {
     cloth_self.push_back(r.cloth_self.count);
     cloth_body.push_back(body);
   }
-  nlohmann::json json(long first_frame) const {
+  nlohmann::json state() const {
+    return {{"first_frame", first_frame}, {"per_frame", per_frame}, {"cloth_self", cloth_self},
+            {"cloth_body", cloth_body}, {"at_body_crossings", at_body_crossings}, {"seconds", seconds}};
+  }
+  void restore(const nlohmann::json& j) {
+    first_frame = j.at("first_frame").get<long>();
+    per_frame = j.at("per_frame").get<std::vector<size_t>>();
+    cloth_self = j.at("cloth_self").get<std::vector<size_t>>();
+    cloth_body = j.at("cloth_body").get<std::vector<size_t>>();
+    at_body_crossings = j.at("at_body_crossings").get<size_t>();
+    seconds = j.at("seconds").get<double>();
+  }
+  nlohmann::json summary() const {
     nlohmann::json j;
     j["first_frame"] = first_frame;
     j["per_frame"] = per_frame;
@@ -256,7 +270,6 @@ struct IntersectionTally {
     j["cloth_self_per_frame"] = cloth_self;
     j["cloth_body_per_frame"] = cloth_body;
     j["cloth_body_at_body_crossings"] = at_body_crossings;
-    j["seconds"] = seconds;
     return j;
   }
 };
@@ -325,6 +338,17 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   fs::create_directories(out.dir(), ec);
   if (ec) throw InputError(a.out + ": cannot create output folder: " + ec.message());
   const long first_frame = static_cast<long>(so_far.energy.size());
+  // Every frame's intersections (docs/collisions.md, "Checking"), counted whether or not it is
+  // written; a resumed run takes over the counts of the frames before its checkpoint.
+  IntersectionTally tally;
+  tally.first_frame = first_frame;
+  if (resume && header.contains("intersections")) {
+    try {
+      tally.restore(header.at("intersections"));
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError((fs::path(a.resume) / kCheckpointName).string() + ": checkpoint header is damaged: " + e.what());
+    }
+  }
   // A fresh run replaces an earlier run's outputs; a resumed one those past its checkpoint.
   out.clear(first_frame, resume);
   const std::string frame_format = a.frame_format.value_or("obj");
@@ -339,6 +363,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   checkpoint_header_out["options"] = options_json(a);
   long checkpoint_frame = resume ? first_frame - 1 : -1;  // the last frame a checkpoint on disk holds
   auto write_checkpoint = [&](const RunResult& r) {
+    checkpoint_header_out["intersections"] = tally.state();
     if (out.write_bytes(out.checkpoint(), checkpoint_bytes(checkpoint_header_out, sim, r)))
       checkpoint_frame = static_cast<long>(r.energy.size()) - 1;
   };
@@ -348,10 +373,8 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   using Clock = std::chrono::steady_clock;
   auto last_checkpoint = Clock::now();
   long frames_complete = first_frame;  // frames 0 .. frames_complete - 1 are on disk
-  // Every frame's intersections (docs/collisions.md, "Checking"), counted whether or not it is
-  // written; the trees are built on the first frame and refitted after.
+  // The trees are built on the first frame and refitted after.
   FrameChecker frame_checker(0);
-  IntersectionTally tally;
   std::vector<Points> body_positions(bodies.size());
   std::vector<std::vector<std::array<int, 3>>> body_triangles;
   for (const auto& b : bodies) body_triangles.push_back(triangle_list(b->triangles()));
@@ -402,7 +425,8 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   const bool energy_written =
       out.write(out.dir() / "energy.csv", [&](std::ostream& o) { o << energy_csv(r.energy); });
   nlohmann::json summary = summary_json(sim, r);
-  summary["intersections"] = tally.json(first_frame);
+  summary["intersections"] = tally.summary();
+  summary["intersection_seconds"] = tally.seconds;
   if (!out.failures.empty()) {
     summary["status"] = "output_failed";
     summary["message"] = "could not write " + out.failures.front().path + ": " + out.failures.front().reason;
