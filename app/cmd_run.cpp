@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "collision/colliders.hpp"
+#include "collision/frame_check.hpp"
 #include "command.hpp"
 #include "progress.hpp"
 #include "sim/checkpoint.hpp"
@@ -226,6 +227,54 @@ void install_signal_handlers() {
   std::signal(SIGXFSZ, SIG_IGN);
 }
 
+// The intersections counted on each frame of a run, for summary.json. A checkpoint keeps
+// them (state()), so a resumed run reports every frame as an uninterrupted one does.
+struct IntersectionTally {
+  long first_frame = 0;  ///< the frame per_frame[0] counts (a resume from an older checkpoint starts later)
+  std::vector<size_t> per_frame, cloth_self, cloth_body;
+  size_t at_body_crossings = 0;
+  double seconds = 0;
+
+  void add(const weft::FrameIntersections& r) {
+    size_t body = 0;
+    for (const auto& b : r.cloth_body) body += b.count;
+    for (size_t n : r.cloth_body_at_body_crossings) at_body_crossings += n;
+    per_frame.push_back(r.count());
+    cloth_self.push_back(r.cloth_self.count);
+    cloth_body.push_back(body);
+  }
+  nlohmann::json state() const {
+    return {{"first_frame", first_frame}, {"per_frame", per_frame}, {"cloth_self", cloth_self},
+            {"cloth_body", cloth_body}, {"at_body_crossings", at_body_crossings}, {"seconds", seconds}};
+  }
+  void restore(const nlohmann::json& j) {
+    first_frame = j.at("first_frame").get<long>();
+    per_frame = j.at("per_frame").get<std::vector<size_t>>();
+    cloth_self = j.at("cloth_self").get<std::vector<size_t>>();
+    cloth_body = j.at("cloth_body").get<std::vector<size_t>>();
+    at_body_crossings = j.at("at_body_crossings").get<size_t>();
+    seconds = j.at("seconds").get<double>();
+  }
+  nlohmann::json summary() const {
+    nlohmann::json j;
+    j["first_frame"] = first_frame;
+    j["per_frame"] = per_frame;
+    size_t total = 0, worst = 0;
+    long worst_frame = -1;
+    for (size_t k = 0; k < per_frame.size(); ++k) {
+      total += per_frame[k];
+      if (per_frame[k] > worst) worst = per_frame[k], worst_frame = first_frame + static_cast<long>(k);
+    }
+    j["worst_frame"] = worst_frame >= 0 ? nlohmann::json(worst_frame) : nlohmann::json(nullptr);
+    j["worst_count"] = worst;
+    j["total"] = total;
+    j["cloth_self_per_frame"] = cloth_self;
+    j["cloth_body_per_frame"] = cloth_body;
+    j["cloth_body_at_body_crossings"] = at_body_crossings;
+    return j;
+  }
+};
+
 std::string count_of(size_t n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
 
 int run(RunArgs a, const std::function<bool(const char*)>& given) {
@@ -280,6 +329,17 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   fs::create_directories(out.dir(), ec);
   if (ec) throw InputError(a.out + ": cannot create output folder: " + ec.message());
   const long first_frame = static_cast<long>(so_far.energy.size());
+  // Every frame's intersections (docs/collisions.md, "Checking"), counted whether or not it is
+  // written; a resumed run takes over the counts of the frames before its checkpoint.
+  IntersectionTally tally;
+  tally.first_frame = first_frame;
+  if (resume && header.contains("intersections")) {
+    try {
+      tally.restore(header.at("intersections"));
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError((fs::path(a.resume) / kCheckpointName).string() + ": checkpoint header is damaged: " + e.what());
+    }
+  }
   // A fresh run replaces an earlier run's outputs; a resumed one those past its checkpoint.
   out.clear(first_frame, resume);
   const std::string frame_format = a.frame_format.value_or("obj");
@@ -294,6 +354,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   checkpoint_header_out["options"] = options_json(a);
   long checkpoint_frame = resume ? first_frame - 1 : -1;  // the last frame a checkpoint on disk holds
   auto write_checkpoint = [&](const RunResult& r) {
+    checkpoint_header_out["intersections"] = tally.state();
     if (out.write_bytes(out.checkpoint(), checkpoint_bytes(checkpoint_header_out, sim, r)))
       checkpoint_frame = static_cast<long>(r.energy.size()) - 1;
   };
@@ -303,8 +364,35 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   using Clock = std::chrono::steady_clock;
   auto last_checkpoint = Clock::now();
   long frames_complete = first_frame;  // frames 0 .. frames_complete - 1 are on disk
+  // The trees are built on the first frame and refitted after.
+  FrameChecker frame_checker(0);
+  // The colliders' surfaces in file order: a walking body's skinned mesh, another collider's
+  // surface as Collider::surface draws it.
+  const size_t collider_count = sim.colliders().size();
+  std::vector<Points> collider_positions(collider_count);
+  std::vector<Triangles> collider_triangles(collider_count);
+  std::vector<std::vector<std::array<int, 3>>> collider_triangle_lists(collider_count);
+  auto collider_surface = [&](const Simulation& s, size_t k) {
+    const Collider& c = *s.colliders()[k];
+    if (c.spec().shape == ColliderShape::kBody) {
+      const WalkingBody& body = *s.bodies()[c.spec().body];
+      body.positions(s.state().t, collider_positions[k]);
+      if (collider_triangles[k].rows() == 0) collider_triangles[k] = body.triangles();
+    } else {
+      c.surface(s.state().t, collider_positions[k], collider_triangles[k]);
+    }
+    if (collider_triangle_lists[k].empty()) collider_triangle_lists[k] = triangle_list(collider_triangles[k]);
+  };
   RunCallbacks cb;
   cb.on_frame = [&](int f, const Simulation& s) {
+    const auto check_start = Clock::now();
+    std::vector<FrameMesh> body_meshes;
+    for (size_t k = 0; k < collider_count; ++k) {
+      collider_surface(s, k);
+      body_meshes.push_back({collider_positions[k].data(), &collider_triangle_lists[k]});
+    }
+    tally.add(frame_checker.check({s.state().x.data(), &s.model().mesh.triangles}, body_meshes));
+    tally.seconds += std::chrono::duration<double>(Clock::now() - check_start).count();
     if (a.no_frames || !out.failures.empty()) return;
     char name[64];
     std::snprintf(name, sizeof name, "frame_%05d.%s", f, frame_format.c_str());
@@ -314,20 +402,16 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
                   : out.attempt(path, [&] { write_obj(path.string(), s.state().x, s.model().mesh.triangles); });
     // The colliders' surfaces: body<k> for the k-th walking body, collider<k> for the k-th
     // collider of another kind.
-    Points surface;
-    Triangles triangles;
-    for (size_t k = 0; ok && k < s.bodies().size(); ++k) {
-      std::snprintf(name, sizeof name, "body%zu_%05d.obj", k, f);
-      s.bodies()[k]->positions(s.state().t, surface);
-      const fs::path body_path = out.frames() / name;
-      ok = out.attempt(body_path, [&] { write_obj(body_path.string(), surface, s.bodies()[k]->triangles()); });
-    }
-    for (size_t k = 0; ok && k < s.colliders().size(); ++k) {
-      if (s.colliders()[k]->spec().shape == ColliderShape::kBody) continue;
-      std::snprintf(name, sizeof name, "collider%zu_%05d.obj", k, f);
-      s.colliders()[k]->surface(s.state().t, surface, triangles);
+    for (size_t k = 0; ok && k < collider_count; ++k) {
+      const ColliderSpec& spec = s.colliders()[k]->spec();
+      if (spec.shape == ColliderShape::kBody) {
+        std::snprintf(name, sizeof name, "body%d_%05d.obj", spec.body, f);
+      } else {
+        std::snprintf(name, sizeof name, "collider%zu_%05d.obj", k, f);
+      }
       const fs::path collider_path = out.frames() / name;
-      ok = out.attempt(collider_path, [&] { write_obj(collider_path.string(), surface, triangles); });
+      ok = out.attempt(collider_path,
+                       [&] { write_obj(collider_path.string(), collider_positions[k], collider_triangles[k]); });
     }
     if (ok) frames_complete = f + 1;
   };
@@ -354,6 +438,8 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   const bool energy_written =
       out.write(out.dir() / "energy.csv", [&](std::ostream& o) { o << energy_csv(r.energy); });
   nlohmann::json summary = summary_json(sim, r);
+  summary["intersections"] = tally.summary();
+  summary["intersection_seconds"] = tally.seconds;
   if (!out.failures.empty()) {
     summary["status"] = "output_failed";
     summary["message"] = "could not write " + out.failures.front().path + ": " + out.failures.front().reason;

@@ -20,8 +20,8 @@ int main(int argc, char** argv) {
       " - cloth simulation by semi-implicit integration (alpha family, Implicit Midpoint,\n"
       "progressive BDF-2) with adaptive damping.\n"
       "Exit status: 0 success, 1 internal error, 2 bad input (nothing written), 3 simulation became\n"
-      "unstable, 4 an output could not be written (the message says what was kept), 130 interrupted\n"
-      "(Ctrl-C; `weft run` keeps a checkpoint to resume from)."};
+      "unstable, 4 an output could not be written (the message says what was kept), 5 `weft check`\n"
+      "found intersections, 130 interrupted (Ctrl-C; `weft run` keeps a checkpoint to resume from)."};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("weft ") + WEFT_VERSION);
 

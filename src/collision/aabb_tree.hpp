@@ -1,0 +1,184 @@
+#pragma once
+// A bounding-volume hierarchy of axis-aligned boxes over the triangles of a mesh: its shape is
+// built once from the topology and a set of positions; each step only refits the boxes to
+// the new positions (docs/collisions.md, "Detection").
+#include <array>
+#include <limits>
+#include <vector>
+
+#include "weft/types.hpp"
+
+namespace weft {
+
+/// A closed axis-aligned box.
+struct Box {
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+  Vec3 hi = Vec3::Constant(-std::numeric_limits<double>::infinity());
+  void add(const Vec3& p) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  bool overlaps(const Box& o) const {
+    return lo.x() <= o.hi.x() && o.lo.x() <= hi.x() && lo.y() <= o.hi.y() && o.lo.y() <= hi.y() &&
+           lo.z() <= o.hi.z() && o.lo.z() <= hi.z();
+  }
+};
+
+class AabbTree {
+ public:
+  AabbTree() = default;
+  /// A tree over `triangles` (#F vertex triples), split at the median of the triangles'
+  /// centroids along the longest side of their bounds down to leaves of at most 4 triangles,
+  /// with the positions `xyz` (3 doubles per vertex); its boxes are fitted to them.
+  AabbTree(const std::vector<std::array<int, 3>>& triangles, const double* xyz);
+
+  /// Refits every box to the positions `xyz` (same vertex numbering), grown by `margin` (m) on
+  /// every side.
+  void refit(const double* xyz, double margin = 0);
+  /// Refits every box to the swept volume of a step: each triangle's box holds its vertices at
+  /// both `xyz_t0` and `xyz_t1`, grown by `margin`; so it holds the triangle at every time of
+  /// the step (straight trajectories).
+  void refit(const double* xyz_t0, const double* xyz_t1, double margin);
+
+  int triangle_count() const { return static_cast<int>(triangles_.size()); }
+  const std::vector<std::array<int, 3>>& triangles() const { return triangles_; }
+  /// The box of everything (empty box for an empty tree).
+  Box bounds() const { return nodes_.empty() ? Box{} : nodes_[0].box; }
+  /// The box of triangle f as last refitted.
+  const Box& triangle_box(int f) const { return boxes_[slot_of_[f]]; }
+
+  /// Calls f(triangle) for every triangle whose box overlaps `box`.
+  template <class F>
+  void for_each_overlapping(const Box& box, F&& f) const;
+  /// Calls f(i, j) once for every unordered pair of distinct triangles (in either order) whose
+  /// boxes overlap. Neighbours in the mesh are included: callers filter them.
+  template <class F>
+  void for_each_self_pair(F&& f) const;
+  /// Calls f(mine, theirs) for every pair of a triangle of this tree and one of `other` whose
+  /// boxes overlap.
+  template <class F>
+  void for_each_pair(const AabbTree& other, F&& f) const;
+
+ private:
+  static constexpr int kLeafSize = 4;
+  struct Node {
+    Box box;
+    int right = -1;  ///< the second child; the first is the next node (depth-first order); -1 for a leaf
+    int begin = 0, end = 0;  ///< a leaf's slots in order_ and boxes_
+    bool leaf() const { return right < 0; }
+  };
+  // Descending a pair of nodes, the larger one (by the sum of its box's sides) is split,
+  // so the boxes compared stay of similar size.
+  static bool split_first(const Node& a, const Node& b) {
+    return b.leaf() || (!a.leaf() && (a.box.hi - a.box.lo).sum() >= (b.box.hi - b.box.lo).sum());
+  }
+  int build(int begin, int end, const std::vector<Vec3>& centroid);
+  template <class Corners>
+  void refit_boxes(const Corners& corners, double margin);
+
+  std::vector<std::array<int, 3>> triangles_;
+  std::vector<Node> nodes_;
+  std::vector<int> order_;    ///< triangle numbers, each leaf's contiguous
+  std::vector<int> slot_of_;  ///< inverse of order_
+  std::vector<Box> boxes_;    ///< per slot: the box of triangle order_[slot]
+};
+
+template <class F>
+void AabbTree::for_each_overlapping(const Box& box, F&& f) const {
+  if (nodes_.empty()) return;
+  int stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const int i = stack[--top];
+    const Node& n = nodes_[i];
+    if (!n.box.overlaps(box)) continue;
+    if (n.leaf()) {
+      for (int k = n.begin; k < n.end; ++k)
+        if (boxes_[k].overlaps(box)) f(order_[k]);
+      continue;
+    }
+    stack[top++] = n.right;
+    stack[top++] = i + 1;
+  }
+}
+
+template <class F>
+void AabbTree::for_each_self_pair(F&& f) const {
+  if (nodes_.empty()) return;
+  // Pairs (a, b) of nodes to visit; a == b stands for the pairs within one subtree.
+  std::vector<std::array<int, 2>> stack;
+  stack.reserve(256);
+  stack.push_back({0, 0});
+  while (!stack.empty()) {
+    const auto [a, b] = stack.back();
+    stack.pop_back();
+    const Node& na = nodes_[a];
+    if (a == b) {
+      if (na.leaf()) {
+        for (int i = na.begin; i < na.end; ++i)
+          for (int j = i + 1; j < na.end; ++j)
+            if (boxes_[i].overlaps(boxes_[j])) f(order_[i], order_[j]);
+        continue;
+      }
+      stack.push_back({a + 1, a + 1});
+      stack.push_back({na.right, na.right});
+      stack.push_back({a + 1, na.right});
+      continue;
+    }
+    const Node& nb = nodes_[b];
+    if (!na.box.overlaps(nb.box)) continue;
+    if (na.leaf() && nb.leaf()) {
+      for (int i = na.begin; i < na.end; ++i) {
+        if (!boxes_[i].overlaps(nb.box)) continue;
+        for (int j = nb.begin; j < nb.end; ++j)
+          if (boxes_[i].overlaps(boxes_[j])) f(order_[i], order_[j]);
+      }
+    } else if (split_first(na, nb)) {
+      stack.push_back({a + 1, b});
+      stack.push_back({na.right, b});
+    } else {
+      stack.push_back({a, b + 1});
+      stack.push_back({a, nb.right});
+    }
+  }
+}
+
+template <class F>
+void AabbTree::for_each_pair(const AabbTree& other, F&& f) const {
+  if (nodes_.empty() || other.nodes_.empty()) return;
+  std::vector<std::array<int, 2>> stack;
+  stack.reserve(256);
+  stack.push_back({0, 0});
+  while (!stack.empty()) {
+    const auto [a, b] = stack.back();
+    stack.pop_back();
+    const Node& na = nodes_[a];
+    const Node& nb = other.nodes_[b];
+    if (!na.box.overlaps(nb.box)) continue;
+    if (na.leaf() && nb.leaf()) {
+      for (int i = na.begin; i < na.end; ++i) {
+        if (!boxes_[i].overlaps(nb.box)) continue;
+        for (int j = nb.begin; j < nb.end; ++j)
+          if (boxes_[i].overlaps(other.boxes_[j])) f(order_[i], other.order_[j]);
+      }
+    } else if (split_first(na, nb)) {
+      stack.push_back({a + 1, b});
+      stack.push_back({na.right, b});
+    } else {
+      stack.push_back({a, b + 1});
+      stack.push_back({a, nb.right});
+    }
+  }
+}
+
+/// The rows of a #F by 3 index matrix as vertex triples.
+template <class Matrix>
+std::vector<std::array<int, 3>> triangle_list(const Matrix& triangles) {
+  std::vector<std::array<int, 3>> out(static_cast<size_t>(triangles.rows()));
+  for (size_t i = 0; i < out.size(); ++i)
+    for (int k = 0; k < 3; ++k) out[i][k] = triangles(static_cast<Eigen::Index>(i), k);
+  return out;
+}
+
+}  // namespace weft
