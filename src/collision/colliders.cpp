@@ -1,8 +1,13 @@
 #include "collision/colliders.hpp"
 
+#include "collision/aabb_tree.hpp"
+#include "collision/geometry.hpp"
+
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
+#include <unordered_map>
 
 namespace weft {
 
@@ -229,7 +234,162 @@ class AnalyticCollider : public Collider {
   Eigen::Isometry3d start_inverse_ = Eigen::Isometry3d::Identity(), end_inverse_ = Eigen::Isometry3d::Identity();
 };
 
+// A triangle mesh collider. The closest point is found among the triangles whose boxes (the
+// tree refitted to the surface at the query's time) meet a box of the reach about the point;
+// its side from the pseudo-normal of the feature it lies on (the face's normal, the sum of an
+// edge's two faces' normals, the angle-weighted normals of a vertex's faces), which tells
+// inside from outside at every point of a closed surface.
+class MeshCollider : public Collider {
+ public:
+  MeshCollider(const ColliderSpec& spec, const Triangles& triangles, SurfaceMotion motion, bool closed)
+      : Collider(spec), triangles_(triangles), list_(triangle_list(triangles)), motion_(std::move(motion)), closed_(closed) {
+    motion_(0.0, start_);
+    end_ = start_;
+    tree_start_ = AabbTree(list_, start_.data());
+    tree_end_ = tree_start_;
+    // Each edge's faces (for its pseudo-normal).
+    for (int f = 0; f < static_cast<int>(list_.size()); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int a = list_[f][k], b = list_[f][(k + 1) % 3];
+        edge_faces_[key(a, b)].push_back(f);
+      }
+    normals(start_, face_normal_start_, vertex_normal_start_);
+    face_normal_end_ = face_normal_start_;
+    vertex_normal_end_ = vertex_normal_start_;
+  }
+
+  void prepare(double t0, double t1) override {
+    if (t0 == t1_ && t0 != t0_) {
+      // The step after the last: its start is the last one's end.
+      std::swap(start_, end_);
+      std::swap(tree_start_, tree_end_);
+      std::swap(face_normal_start_, face_normal_end_);
+      std::swap(vertex_normal_start_, vertex_normal_end_);
+    } else if (t0 != t0_) {
+      motion_(t0, start_);
+      tree_start_.refit(start_.data());
+      normals(start_, face_normal_start_, vertex_normal_start_);
+    }
+    if (t1 != t1_ || t0 != t0_) {
+      motion_(t1, end_);
+      tree_end_.refit(end_.data());
+      normals(end_, face_normal_end_, vertex_normal_end_);
+    }
+    t0_ = t0;
+    t1_ = t1;
+    step_motion_ = 0;
+    for (Eigen::Index v = 0; v < start_.rows(); ++v)
+      step_motion_ = std::max(step_motion_, (end_.row(v) - start_.row(v)).squaredNorm());
+    step_motion_ = std::sqrt(step_motion_);
+  }
+
+  double step_motion() const override { return step_motion_; }
+
+  bool closest(const Vec3& p, double reach, bool end, int node, SurfacePoint& out) const override {
+    const Points& x = end ? end_ : start_;
+    const AabbTree& tree = end ? tree_end_ : tree_start_;
+    Box box;
+    box.add(p - Vec3::Constant(reach));
+    box.add(p + Vec3::Constant(reach));
+    double best = std::numeric_limits<double>::infinity();
+    int best_face = -1;
+    PointTriangleClosest hit{};
+    tree.for_each_overlapping(box, [&](int f) {
+      const auto& t = list_[f];
+      const PointTriangleClosest c = closest_point_triangle(p, x.row(t[0]).transpose(), x.row(t[1]).transpose(),
+                                                            x.row(t[2]).transpose());
+      if (c.distance < best) {
+        best = c.distance;
+        best_face = f;
+        hit = c;
+      }
+    });
+    if (best_face < 0 || best > reach) return false;
+    const Vec3 pseudo = pseudo_normal(best_face, hit.feature, end);
+    const Vec3 away = p - hit.point;
+    double side = away.dot(pseudo) >= 0 ? 1.0 : -1.0;
+    if (!closed_) {
+      // An open surface has no inside: a node keeps the side it was on when clear of it.
+      if (side_.size() <= static_cast<size_t>(node)) side_.resize(node + 1, 0);
+      signed char& kept = side_[node];
+      if (kept == 0 || (!end && best > 2 * spec().thickness)) kept = static_cast<signed char>(side);
+      side = kept;
+    }
+    out.distance = side * best;
+    out.normal = best > 1e-12 ? Vec3(side * away / best) : Vec3(side * pseudo);
+    out.point = hit.point;
+    const auto& t = list_[best_face];
+    Vec3 before = Vec3::Zero(), after = Vec3::Zero();
+    for (int k = 0; k < 3; ++k) {
+      before += hit.weights[k] * start_.row(t[k]).transpose();
+      after += hit.weights[k] * end_.row(t[k]).transpose();
+    }
+    out.displacement = after - before;
+    return true;
+  }
+
+  void surface(double t, Points& positions, Triangles& triangles) const override {
+    motion_(t, positions);
+    triangles = triangles_;
+  }
+
+ private:
+  static long long key(int a, int b) { return (static_cast<long long>(std::min(a, b)) << 32) | std::max(a, b); }
+
+  void normals(const Points& x, std::vector<Vec3>& face, std::vector<Vec3>& vertex) const {
+    face.resize(list_.size());
+    vertex.assign(static_cast<size_t>(x.rows()), Vec3::Zero());
+    for (size_t f = 0; f < list_.size(); ++f) {
+      const auto& t = list_[f];
+      const Vec3 a = x.row(t[0]), b = x.row(t[1]), c = x.row(t[2]);
+      const Vec3 n = (b - a).cross(c - a);
+      face[f] = n.norm() > 0 ? Vec3(n.normalized()) : Vec3::Zero();
+      const Vec3 corner[3] = {a, b, c};
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 e1 = corner[(k + 1) % 3] - corner[k], e2 = corner[(k + 2) % 3] - corner[k];
+        const double angle = std::atan2(e1.cross(e2).norm(), e1.dot(e2));
+        vertex[t[k]] += angle * face[f];
+      }
+    }
+  }
+
+  Vec3 pseudo_normal(int f, TriangleFeature feature, bool end) const {
+    const std::vector<Vec3>& face = end ? face_normal_end_ : face_normal_start_;
+    switch (feature.kind) {
+      case FeatureKind::kFace:
+        return face[f];
+      case FeatureKind::kEdge: {
+        const auto& t = list_[f];
+        const auto it = edge_faces_.find(key(t[feature.index], t[(feature.index + 1) % 3]));
+        Vec3 n = Vec3::Zero();
+        for (int g : it->second) n += face[g];
+        return n;
+      }
+      case FeatureKind::kVertex:
+        return (end ? vertex_normal_end_ : vertex_normal_start_)[list_[f][feature.index]];
+    }
+    return face[f];
+  }
+
+  Triangles triangles_;
+  std::vector<std::array<int, 3>> list_;
+  SurfaceMotion motion_;
+  bool closed_;
+  Points start_, end_;
+  AabbTree tree_start_, tree_end_;
+  std::unordered_map<long long, std::vector<int>> edge_faces_;
+  std::vector<Vec3> face_normal_start_, face_normal_end_, vertex_normal_start_, vertex_normal_end_;
+  double t0_ = std::numeric_limits<double>::quiet_NaN(), t1_ = std::numeric_limits<double>::quiet_NaN();
+  double step_motion_ = 0;
+  mutable std::vector<signed char> side_;  ///< per cloth node, open surfaces: +1 or -1 (0: not yet)
+};
+
 }  // namespace
+
+std::unique_ptr<Collider> make_mesh_collider(const ColliderSpec& spec, const Triangles& triangles, SurfaceMotion motion,
+                                             bool closed) {
+  return std::make_unique<MeshCollider>(spec, triangles, std::move(motion), closed);
+}
 
 std::unique_ptr<Collider> make_analytic_collider(const ColliderSpec& spec) {
   switch (spec.shape) {
@@ -264,7 +424,7 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
       if (fixed_[i]) continue;
       const Vec3 p = node(x, i), vi = node(v, i);
       // Anything the node could reach this step, and the layer it must stay out of.
-      const double reach = 2 * thickness + dt * vi.norm();
+      const double reach = 2 * thickness + dt * vi.norm() + c->step_motion();
       SurfacePoint s;
       if (!c->closest(p, reach, false, i, s)) continue;
       const double approach = dt * vi.dot(s.normal) - s.displacement.dot(s.normal);
@@ -302,7 +462,9 @@ void ColliderContacts::detect_end(const VecX& x0, const VecX& x1, double /*t*/, 
     for (int i = 0; i < n; ++i) {
       if (fixed_[i] || held[i]) continue;
       SurfacePoint s;
-      if (!c->closest(node(x1, i), thickness, true, i, s) || s.distance >= thickness) continue;
+      // A node the surface swept past may be deep inside it at the end.
+      const double reach = thickness + c->step_motion() + (node(x1, i) - node(x0, i)).norm();
+      if (!c->closest(node(x1, i), reach, true, i, s) || s.distance >= thickness) continue;
       if (slot[i] >= 0 && s.distance >= best_gap_[i]) continue;
       NodeContact contact;
       contact.node = i;
@@ -322,7 +484,7 @@ void ColliderContacts::detect_end(const VecX& x0, const VecX& x1, double /*t*/, 
   }
 }
 
-void ColliderContacts::finish_step(const VecX& /*x0*/, VecX& x1, VecX& v1, double t, double dt, ContactReport& report) {
+void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t, double dt, ContactReport& report) {
   const int n = static_cast<int>(fixed_.size());
   if (t != prepared_t_ || dt != prepared_dt_) {
     for (Collider* c : colliders_) c->prepare(t, t + dt);
@@ -337,7 +499,8 @@ void ColliderContacts::finish_step(const VecX& /*x0*/, VecX& x1, VecX& v1, doubl
       // A node held by a constraint ends at the thickness; one that ends well inside the layer
       // was missed or pushed in by its neighbours: it is put back at the thickness, its
       // velocity along the normal no faster towards the surface than the surface itself.
-      if (!c->closest(node(x1, i), thickness, true, i, s) || s.distance >= 0.5 * thickness) continue;
+      const double reach = thickness + c->step_motion() + (node(x1, i) - node(x0, i)).norm();
+      if (!c->closest(node(x1, i), reach, true, i, s) || s.distance >= 0.5 * thickness) continue;
       node(x1, i) += (thickness - s.distance) * s.normal;
       const Vec3 v_old = node(v1, i);
       const double surface_speed = s.displacement.dot(s.normal) / dt;

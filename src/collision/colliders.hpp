@@ -2,6 +2,7 @@
 // Colliders at run time (docs/collisions.md): each answers the contact response's one question,
 // the closest point of its surface to a point, with the outward normal there and how far that
 // surface point moves over the step; and draws its surface for the output frames.
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -29,6 +30,9 @@ class Collider {
   /// collider may also answer farther points). `node` identifies the querying cloth node (open meshes
   /// keep each node's side).
   virtual bool closest(const Vec3& p, double reach, bool end, int node, SurfacePoint& out) const = 0;
+  /// How far any point of the surface moves over the prepared step (m); 0 for a collider
+  /// whose queries answer at any distance.
+  virtual double step_motion() const { return 0; }
   /// The surface at time t as triangles (output frames, checks).
   virtual void surface(double t, Points& positions, Triangles& triangles) const = 0;
 
@@ -38,6 +42,14 @@ class Collider {
 
 /// A plane, sphere, capsule or box; throws std::invalid_argument for another shape.
 std::unique_ptr<Collider> make_analytic_collider(const ColliderSpec& spec);
+
+/// The positions of a triangle mesh's vertices at time t (#V by 3).
+using SurfaceMotion = std::function<void(double t, Points& positions)>;
+/// A triangle mesh whose vertices move by `motion` (an OBJ moved rigidly, a skinned body).
+/// `closed`: inside and outside are told apart by the outward normals (the triangles wound
+/// counter-clockwise seen from outside); open: each cloth node keeps the side it is on.
+std::unique_ptr<Collider> make_mesh_collider(const ColliderSpec& spec, const Triangles& triangles,
+                                             SurfaceMotion motion, bool closed);
 
 /// Contact handling against colliders (integrate/contact.hpp) for a cloth of the given node
 /// masses and pins.

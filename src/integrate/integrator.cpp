@@ -163,6 +163,29 @@ void Integrator::advance(State& s, double t_end, StepStatistics& stats) {
 }
 
 void Integrator::step(State& s, double dt, StepStatistics& stats) {
+  if (handlers_.empty()) {
+    single_step(s, dt, stats);
+    return;
+  }
+  // A step the contact handlers could not make valid is taken again as two of half the size
+  // (a few times at most; the last result stands).
+  State start = s;
+  const std::vector<char> pulling = pulling_;
+  last_step_ok_ = true;
+  single_step(s, dt, stats);
+  if (last_step_ok_ || retry_depth_ >= kMaxStepHalvings) return;
+  s = std::move(start);
+  pulling_ = pulling;
+  history_.clear();
+  ++stats.halved_steps;
+  ++retry_depth_;
+  step(s, 0.5 * dt, stats);
+  step(s, 0.5 * dt, stats);
+  --retry_depth_;
+  --stats.steps;  // the attempt that was taken again is not an accepted step
+}
+
+void Integrator::single_step(State& s, double dt, StepStatistics& stats) {
   const double alpha = settings_.alpha;
   switch (settings_.method) {
     case Method::ForwardEuler:
@@ -228,9 +251,9 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   // Contacts (semi-implicit steps that depend on dv): detected at the step's start, held by
   // the solve as constraints.
   contacts_.clear();
-  if (contact_) {
+  if (!handlers_.empty()) {
     const auto td = Clock::now();
-    contact_->detect(s.x, s.v, s.t, dt, contacts_);
+    for (ContactHandler* h : handlers_) h->detect(s.x, s.v, s.t, dt, contacts_);
     if (pulling_.size() != static_cast<size_t>(n)) pulling_.assign(n, 0);
     size_t kept = 0;
     for (const NodeContact& c : contacts_) {
@@ -255,7 +278,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   // With contacts, an active set: the solve holds the detected contacts; nodes it would leave
   // inside a collider's thickness at the step's end join them and the step is solved again
   // (a few times at most; the handler's fail-safe catches what remains).
-  if (!contacts_.empty() || (contact_ && alpha > 0.0)) rhs_unconstrained_ = rhs_;
+  if (!contacts_.empty() || (!handlers_.empty() && alpha > 0.0)) rhs_unconstrained_ = rhs_;
   PcgResult r;
   for (int pass = 0;; ++pass) {
     if (!contacts_.empty()) {
@@ -276,7 +299,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
       rhs_ = rhs_unconstrained_;
       stats.response_seconds += seconds_since(tr);
     }
-    if (!contact_ || alpha == 0.0 || pass + 1 >= kMaxContactPasses) break;
+    if (handlers_.empty() || alpha == 0.0 || pass + 1 >= kMaxContactPasses) break;
     // Contacts that pull are let go (a node stays held when it was let go before in this step
     // and came back, or starts inside the collider); nodes that would end inside join.
     const auto td = Clock::now();
@@ -303,7 +326,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     held_.assign(n, 0);
     for (const NodeContact& c : contacts_) held_[c.node] = 1;
     const size_t before = contacts_.size();
-    contact_->detect_end(s.x, tmp2_, s.t, dt, held_, contacts_);
+    for (ContactHandler* h : handlers_) h->detect_end(s.x, tmp2_, s.t, dt, held_, contacts_);
     for (size_t k = before; k < contacts_.size(); ++k)
       if (released_now_[contacts_[k].node]) keep_held_[contacts_[k].node] = 1;
     stats.detection_seconds += seconds_since(td);
@@ -317,7 +340,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     if (r.converged) history_.record(rhs_, system_.fixed(), dv_);
   }
   stats.solve_seconds += seconds_since(t1);
-  if (contact_) x_start_ = s.x;
+  if (!handlers_.empty()) x_start_ = s.x;
 
   // dx = beta dx_p + dt_b (v + alpha dv), built in dx_prev's storage (no allocation per step);
   // tmp_ holds the mean velocity dx/dt.
@@ -338,7 +361,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   s.v += dv_;
   s.dv_prev = dv_;
   s.has_history = true;
-  if (contact_) {
+  if (!handlers_.empty()) {
     const auto tr = Clock::now();
     contact_velocities(s, dt);
     stats.response_seconds += seconds_since(tr);
@@ -476,7 +499,9 @@ void Integrator::contact_velocities(State& s, double dt) {
 void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics& stats) {
   const auto tr = Clock::now();
   ContactReport report;
-  contact_->finish_step(x_start_, s.x, s.v, t0, dt, report);
+  for (ContactHandler* h : handlers_) h->finish_step(x_start_, s.x, s.v, t0, dt, report);
+  if (!report.ok) ++stats.failed_contact_steps;
+  last_step_ok_ = report.ok;
   stats.fail_safe_moves += report.fail_safe_moves;
   s.contact_work += report.work;
   stats.response_seconds += seconds_since(tr);
@@ -494,7 +519,7 @@ void Integrator::derivative(const VecX& x, const VecX& v, VecX& a, double& visco
 void Integrator::rk4_step(State& s, double dt, StepStatistics& stats) {
   const auto t0 = Clock::now();
   system_.begin_step(s.x, s.v, dt);
-  if (contact_) x_start_ = s.x;
+  if (!handlers_.empty()) x_start_ = s.x;
   VecX a1, a2, a3, a4;
   double p1, p2, p3, p4;
   derivative(s.x, s.v, a1, p1);
@@ -514,7 +539,7 @@ void Integrator::rk4_step(State& s, double dt, StepStatistics& stats) {
   s.dv_prev = std::move(dv);
   s.has_history = true;
   stats.assembly_seconds += seconds_since(t0);
-  if (contact_) finish_contacts(s, s.t, dt, stats);
+  if (!handlers_.empty()) finish_contacts(s, s.t, dt, stats);
   s.t += dt;
 }
 
@@ -567,14 +592,14 @@ bool Integrator::rk45_try(State& s, double h, double& error_norm, StepStatistics
   }
   error_norm = std::sqrt(sum / (2.0 * ex.size()));
   if (!(error_norm <= 1.0)) return false;
-  if (contact_) x_start_ = s.x;
+  if (!handlers_.empty()) x_start_ = s.x;
   s.dx_prev = x5 - s.x;
   s.dv_prev = v5 - s.v;
   s.x = std::move(x5);
   s.v = std::move(v5);
   s.viscous_dissipated += dissipated;
   s.has_history = true;
-  if (contact_) finish_contacts(s, s.t, h, stats);
+  if (!handlers_.empty()) finish_contacts(s, s.t, h, stats);
   s.t += h;
   return true;
 }

@@ -48,6 +48,8 @@ constexpr int kMultigridMinFreeNodes = 30000;
 /// sphere drop a third solve costs 12% more time and changes no contact the fail-safe would
 /// not; docs/collisions.md).
 constexpr int kMaxContactPasses = 2;
+/// How many times a step the contact handlers could not make valid is halved.
+constexpr int kMaxStepHalvings = 3;
 /// A contact is let go when it pulls with an impulse that would change its node's velocity by
 /// more than this (m/s): below, the node stays held (at most 0.2 m/s^2 of adhesion at 5 ms
 /// steps), which keeps resting contacts from being let go and taken back step after step.
@@ -96,6 +98,8 @@ struct StepStatistics {
   long released_contacts = 0;    ///< contacts let go because they pulled at the previous step
   long fail_safe_moves = 0;      ///< nodes moved by the contact fail-safe after a step
   long contact_passes = 0;       ///< solves repeated because nodes would have ended in a collider
+  long failed_contact_steps = 0; ///< steps the contact fail-safe could not make valid
+  long halved_steps = 0;         ///< steps taken again as two halves for that reason
   double detection_seconds = 0;  ///< finding contacts
   double response_seconds = 0;   ///< constraints, friction and the fail-safe
 };
@@ -109,10 +113,11 @@ class Integrator {
   /// One step of size dt (fixed-step methods).
   void step(State& state, double dt, StepStatistics& stats);
   const IntegratorSettings& settings() const { return settings_; }
-  /// Contact handling for later steps (null: none). Semi-implicit steps with alpha > 0 hold
-  /// the detected contacts as constraints in the linear solve (docs/collisions.md); every
-  /// method runs the handler's fail-safe after each step.
-  void set_contact_handler(ContactHandler* handler) { contact_ = handler; }
+  /// Contact handling for later steps, the handlers asked in the order added. Semi-implicit
+  /// steps with alpha > 0 hold the detected contacts as constraints in the linear solve
+  /// (docs/collisions.md); every method runs the handlers' fail-safes after each step, and
+  /// takes a step they could not make valid again as two halves.
+  void add_contact_handler(ContactHandler* handler) { handlers_.push_back(handler); }
   /// The preconditioner the linear solves use.
   Preconditioner preconditioner() const { return preconditioner_; }
   /// The SSOR relaxation the solves use (the setting, or the automatic one for this system).
@@ -139,6 +144,7 @@ class Integrator {
 
  private:
   PcgSettings pcg_settings() const;
+  void single_step(State& s, double dt, StepStatistics& stats);
   void linear_step(State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
   void rk4_step(State& s, double dt, StepStatistics& stats);
   bool rk45_try(State& s, double h, double& error_norm, StepStatistics& stats);
@@ -168,7 +174,9 @@ class Integrator {
   VecX mass3_;  ///< mass per coordinate
   std::vector<Mat3> multigrid_setup_blocks_;  ///< DynamicState::multigrid_setup_blocks
 
-  ContactHandler* contact_ = nullptr;
+  std::vector<ContactHandler*> handlers_;
+  bool last_step_ok_ = true;  ///< the handlers' verdict on the last step
+  int retry_depth_ = 0;
   std::vector<NodeContact> contacts_;   ///< this step's, held by the solve
   std::vector<double> contact_dv_;      ///< prescribed dv . normal per contact
   std::vector<double> contact_impulse_; ///< normal impulse per contact (N s), > 0 pushing

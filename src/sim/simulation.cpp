@@ -48,15 +48,34 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
     bodies_.push_back(std::make_unique<WalkingBody>(scene.bodies[k]));
   }
   for (const ColliderSpec& c : scene.colliders) {
-    if (c.shape == ColliderShape::kMesh || c.shape == ColliderShape::kBody)
-      throw InputError(c.name + ": mesh and body colliders are not available in this build");
-    colliders_.push_back(make_analytic_collider(c));
+    if (c.shape == ColliderShape::kBody) {
+      const WalkingBody* body = bodies_[c.body].get();
+      colliders_.push_back(make_mesh_collider(
+          c, body->triangles(), [body](double t, Points& out) { body->positions(t, out); }, true));
+    } else if (c.shape == ColliderShape::kMesh) {
+      ObjMesh obj = read_obj(c.obj_path);
+      if (obj.triangles.rows() == 0) throw InputError(c.obj_path + ": no faces (a mesh collider needs triangles)");
+      const Mat3 R = rotation_from_degrees(c.rotation_deg);
+      for (Eigen::Index v = 0; v < obj.positions.rows(); ++v)
+        obj.positions.row(v) = (R * (c.scale * obj.positions.row(v).transpose()) + c.translation).transpose();
+      const RigidMotion motion = c.motion;
+      colliders_.push_back(make_mesh_collider(
+          c, obj.triangles,
+          [placed = std::move(obj.positions), motion](double t, Points& out) {
+            const Eigen::Isometry3d T = motion.at(t);
+            out.resize(placed.rows(), 3);
+            for (Eigen::Index v = 0; v < placed.rows(); ++v) out.row(v) = (T * Vec3(placed.row(v))).transpose();
+          },
+          c.closed));
+    } else {
+      colliders_.push_back(make_analytic_collider(c));
+    }
   }
   if (!colliders_.empty()) {
     std::vector<Collider*> list;
     for (const auto& c : colliders_) list.push_back(c.get());
     contacts_ = std::make_unique<ColliderContacts>(std::move(list), model_->mass, model_->fixed);
-    integrator_->set_contact_handler(contacts_.get());
+    integrator_->add_contact_handler(contacts_.get());
   }
   state_.x = model_->initial_positions();
   state_.v = VecX::Zero(state_.x.size());
@@ -172,7 +191,8 @@ void Simulation::save(BinaryWriter& out) const {
   out.f64(s.contact_work);
   out.f64(s.rk45_step);
   for (long c : {stats_.steps, stats_.rejected_steps, stats_.cg_iterations, stats_.cg_solves, stats_.cg_failures,
-                 stats_.contacts, stats_.max_contacts, stats_.released_contacts, stats_.fail_safe_moves})
+                 stats_.contacts, stats_.max_contacts, stats_.released_contacts, stats_.fail_safe_moves,
+                 stats_.contact_passes, stats_.failed_contact_steps, stats_.halved_steps})
     out.i64(c);
   for (double d : {stats_.assembly_seconds, stats_.solve_seconds, stats_.detection_seconds, stats_.response_seconds})
     out.f64(d);
@@ -219,7 +239,8 @@ void Simulation::restore(BinaryReader& in) {
   s.rk45_step = in.f64();
   StepStatistics st;
   for (long* c : {&st.steps, &st.rejected_steps, &st.cg_iterations, &st.cg_solves, &st.cg_failures, &st.contacts,
-                  &st.max_contacts, &st.released_contacts, &st.fail_safe_moves})
+                  &st.max_contacts, &st.released_contacts, &st.fail_safe_moves, &st.contact_passes,
+                  &st.failed_contact_steps, &st.halved_steps})
     *c = in.i64();
   for (double* d : {&st.assembly_seconds, &st.solve_seconds, &st.detection_seconds, &st.response_seconds}) *d = in.f64();
   const double gravity0 = in.f64(), total0 = in.f64(), energy_scale = in.f64();
@@ -305,9 +326,9 @@ RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResul
     } else if (e.total() - e.contact_work - total0 > sim.energy_scale()) {
       // Moving colliders may put energy in (contact_work); nothing else may.
       char buf[240];
-      std::snprintf(buf, sizeof buf,
-                    "mechanical energy less the contacts' work rose by %.3g J, above the scene's energy scale of %.3g J",
-                    e.total() - e.contact_work - total0, sim.energy_scale());
+      std::snprintf(buf, sizeof buf, "mechanical energy%s rose by %.3g J, above the scene's energy scale of %.3g J",
+                    e.contact_work != 0 ? " less the contacts' work" : "", e.total() - e.contact_work - total0,
+                    sim.energy_scale());
       problem = buf;
     }
     if (!problem.empty()) {
@@ -384,6 +405,9 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
                      {"node_contacts_max", st.max_contacts},
                      {"released", st.released_contacts},
                      {"fail_safe_moves", st.fail_safe_moves},
+                     {"repeated_solves", st.contact_passes},
+                     {"failed_steps", st.failed_contact_steps},
+                     {"halved_steps", st.halved_steps},
                      {"detection_seconds", st.detection_seconds},
                      {"response_seconds", st.response_seconds},
                      {"work_J", r.energy.empty() ? 0.0 : r.energy.back().contact_work}};

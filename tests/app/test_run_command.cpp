@@ -212,6 +212,9 @@ TEST_F(RunCommand, UnstableRunExitsThreeAndKeepsFramesSoFar) {
 
 TEST_F(RunCommand, BodyCollidersAreValidatedAndAnimatedAlongsideTheCloth) {
   std::string text = scene();
+  // The cloth hangs clear of the body, 2 m to its side.
+  const std::string placement = R"("placement": {"rotation_deg": [-90, 0, 0]})";
+  text.replace(text.find(placement), placement.size(), R"("placement": {"rotation_deg": [-90, 0, 0], "translation": [2, 1, 0]})");
   text.insert(text.rfind('}'), R"(, "colliders": [{"type": "body", "speed": 0.75}])");
   const auto s = write("scene.json", text);
   const auto out = folder_ / "out";
