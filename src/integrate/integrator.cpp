@@ -363,7 +363,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   s.has_history = true;
   if (!handlers_.empty()) {
     const auto tr = Clock::now();
-    contact_velocities(s, dt);
+    contact_velocities(s, dt, alpha, dt_b);
     stats.response_seconds += seconds_since(tr);
     finish_contacts(s, s.t, dt, stats);
   }
@@ -472,25 +472,33 @@ void Integrator::unconstrain(double dt, double dt_b) {
   }
 }
 
-void Integrator::contact_velocities(State& s, double dt) {
+void Integrator::contact_velocities(State& s, double dt, double alpha, double dt_b) {
   const VecX& m = system_.node_mass();
   for (size_t k = 0; k < contacts_.size(); ++k) {
     const NodeContact& c = contacts_[k];
     const int i = c.node;
     const double impulse = contact_impulse_[k];
     if (impulse < -kReleaseSpeed * m[i]) pulling_[i] = 1;
-    // The constraint force's work over the step's displacement.
-    s.contact_work += impulse / dt * c.normal.dot(s.x.segment<3>(3 * i) - x_start_.segment<3>(3 * i));
-    const Vec3 v_old = node(s.v, i);
-    // Inelastic along the normal: the node leaves the step moving with the surface; Coulomb
-    // friction takes up to friction * impulse / m off the sliding speed, all of it (sticking)
-    // when that is enough.
-    const Vec3 u = v_old - c.surface_velocity;
-    Vec3 ut = u - c.normal * c.normal.dot(u);
+    // Coulomb friction: an impulse against the sliding relative to the surface of up to
+    // friction * impulse, all of it when that stops the sliding (sticking). It enters the step
+    // like any impulse: the velocity changes by delta and, through dx = dt_b (v + alpha dv),
+    // the position by alpha dt_b delta (so a stuck node does not creep).
+    const Vec3 u = node(s.v, i) - c.surface_velocity;
+    const Vec3 ut = u - c.normal * c.normal.dot(u);
     const double slide = ut.norm();
     const double stop = c.friction * std::max(impulse, 0.0) / m[i];
-    ut *= slide > stop ? 1 - stop / slide : 0.0;
-    const Vec3 v_new = c.surface_velocity + ut;
+    const Vec3 delta = -(slide > stop ? stop / slide : 1.0) * ut;
+    node(s.v, i) += delta;
+    node(s.x, i) += alpha * dt_b * delta;
+    // BDF-2's history: the displacement as taken, the solve's change of velocity (friction
+    // and the normal reset are corrections after the step: repeated through the history's
+    // beta dv_p they would act again, by a third at alpha = 1).
+    node(s.dx_prev, i) += alpha * dt_b * delta;
+    // The work of the constraint's and friction's impulses over the step's displacement.
+    s.contact_work += (impulse * c.normal + m[i] * delta).dot(node(s.x, i) - node(x_start_, i)) / dt;
+    // Inelastic along the normal: the node leaves the step moving with the surface.
+    const Vec3 v_old = node(s.v, i);
+    const Vec3 v_new = v_old - c.normal * c.normal.dot(v_old - c.surface_velocity);
     node(s.v, i) = v_new;
     s.contact_work += 0.5 * m[i] * (v_new.squaredNorm() - v_old.squaredNorm());
   }

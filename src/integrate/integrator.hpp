@@ -156,7 +156,7 @@ class Integrator {
   /// and the contact impulses into contact_impulse_.
   void unconstrain(double dt, double dt_b);
   /// Contact velocities after the step (inelastic normal, Coulomb friction) and their work.
-  void contact_velocities(State& s, double dt);
+  void contact_velocities(State& s, double dt, double alpha, double dt_b);
   /// The handler's fail-safe on the step that went from x_start_.
   void finish_contacts(State& s, double t0, double dt, StepStatistics& stats);
 

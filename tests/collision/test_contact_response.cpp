@@ -1,0 +1,229 @@
+// Contact with colliders (docs/collisions.md, "Response"): resting contact at the thickness,
+// Coulomb friction's sticking and sliding, no energy from static frictionless contact, rigid
+// motions carrying cloth, and mesh colliders telling inside from outside.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "collision/colliders.hpp"
+#include "weft/simulation.hpp"
+
+using namespace weft;
+
+namespace {
+
+constexpr double kThickness = 0.003;
+
+// A small horizontal square of side `size` (n x n vertices) whose lower-left corner (in x and
+// -z) is at `corner`, of a linear material.
+Scene patch(double size, int n, const Vec3& corner, const std::string& method = "bdf2") {
+  Scene s;
+  s.cloth.grid = GridSpec{size, size, n, n};
+  s.cloth.rotation_deg = Vec3(-90, 0, 0);  // the grid's y axis becomes -z
+  s.cloth.translation = corner + Vec3(0, 0, size);
+  s.cloth.material.weft = StressCurve::linear(200);
+  s.cloth.material.warp = StressCurve::linear(200);
+  s.cloth.material.shear = StressCurve::linear(20);
+  s.cloth.self_collision = false;
+  set_method(s, method, std::nullopt, "test");
+  s.integrator.dt = 0.002;
+  s.frame_interval = 0.01;
+  s.duration = 0.5;
+  s.integrator.cg_tolerance = 1e-10;
+  s.integrator.ssor_single_precision = false;
+  return s;
+}
+
+ColliderSpec floor_plane(double friction) {
+  ColliderSpec c;
+  c.shape = ColliderShape::kPlane;
+  c.name = "floor";
+  c.thickness = kThickness;
+  c.friction = friction;
+  return c;
+}
+
+ColliderSpec sphere(const Vec3& centre, double radius, double friction) {
+  ColliderSpec c;
+  c.shape = ColliderShape::kSphere;
+  c.name = "sphere";
+  c.centre = centre;
+  c.radius = radius;
+  c.thickness = kThickness;
+  c.friction = friction;
+  return c;
+}
+
+Vec3 centroid(const VecX& x) {
+  Vec3 c = Vec3::Zero();
+  for (Eigen::Index i = 0; i < x.size() / 3; ++i) c += node(x, static_cast<int>(i));
+  return c / static_cast<double>(x.size() / 3);
+}
+
+}  // namespace
+
+TEST(ContactResponse, ClothComesToRestOnAPlaneAtTheThicknessWithNoNormalVelocity) {
+  for (const char* method : {"bdf2", "backward-euler", "implicit-midpoint", "alpha"}) {
+    Scene s = patch(0.1, 5, Vec3(-0.05, 0.02, -0.05), method);
+    s.colliders.push_back(floor_plane(0.5));
+    Simulation sim(s);
+    const RunResult r = run_simulation(sim);
+    ASSERT_EQ(r.status, "ok") << method << ": " << r.message;
+    const State& st = sim.state();
+    for (int i = 0; i < sim.model().num_vertices(); ++i) {
+      EXPECT_NEAR(st.x[3 * i + 1], kThickness, 1e-9) << method << " node " << i;
+      EXPECT_NEAR(st.v[3 * i + 1], 0.0, 1e-9) << method << " node " << i;
+    }
+    EXPECT_GT(sim.statistics().contacts, 0) << method;
+  }
+}
+
+TEST(ContactResponse, ClothRestsOnASphereAtTheThickness) {
+  const Vec3 centre(0, 0, 0);
+  const double radius = 0.3;
+  // A patch of 1 mm (flat to 4e-7 m over the sphere) dropped from 1 mm above its top.
+  Scene s = patch(0.001, 2, Vec3(-0.0005, radius + kThickness + 0.001, -0.0005));
+  s.colliders.push_back(sphere(centre, radius, 1.0));
+  Simulation sim(s);
+  const RunResult r = run_simulation(sim);
+  ASSERT_EQ(r.status, "ok") << r.message;
+  for (int i = 0; i < sim.model().num_vertices(); ++i) {
+    const Vec3 p = node(sim.state().x, i);
+    const Vec3 n = (p - centre).normalized();
+    EXPECT_NEAR((p - centre).norm() - radius, kThickness, 1e-6) << "node " << i;
+    EXPECT_NEAR(n.dot(node(sim.state().v, i)), 0.0, 1e-6) << "node " << i;
+  }
+}
+
+// A patch resting on a plane under gravity tilted by theta: Coulomb friction holds it while
+// tan(theta) <= friction, and otherwise it slides with acceleration g (sin theta - friction cos
+// theta), the normal impulse being the weight's normal part each step.
+TEST(ContactResponse, FrictionHoldsBelowTheFrictionAngleAndSlidesWithTheCoulombAccelerationAbove) {
+  const double g = 9.81;
+  struct Case {
+    double theta_deg, friction;
+  };
+  for (const char* method : {"bdf2", "backward-euler", "implicit-midpoint"})
+  for (const Case c : {Case{20, 0.5}, Case{30, 0.2}, Case{45, 0.9}, Case{45, 1.1}}) {
+    SCOPED_TRACE(method);
+    const double theta = c.theta_deg * M_PI / 180;
+    Scene s = patch(0.1, 5, Vec3(-0.05, kThickness, -0.05), method);
+    s.gravity = Vec3(g * std::sin(theta), -g * std::cos(theta), 0);
+    s.colliders.push_back(floor_plane(c.friction));
+    s.duration = 0.3;
+    Simulation sim(s);
+    const RunResult r = run_simulation(sim);
+    ASSERT_EQ(r.status, "ok") << r.message;
+    const double a = std::max(0.0, g * (std::sin(theta) - c.friction * std::cos(theta)));
+    const double t = sim.state().t;
+    const Vec3 mean_v = centroid(sim.state().v);
+    const Vec3 moved = centroid(sim.state().x) - centroid(sim.model().initial_positions());
+    if (a == 0) {
+      EXPECT_LT(std::abs(moved.x()), 1e-9) << c.theta_deg << " deg, friction " << c.friction;
+      EXPECT_LT(std::abs(mean_v.x()), 1e-9) << c.theta_deg << " deg, friction " << c.friction;
+    } else {
+      EXPECT_NEAR(mean_v.x(), a * t, 1e-6 * a * t) << c.theta_deg << " deg, friction " << c.friction;
+    }
+    EXPECT_NEAR(mean_v.y(), 0.0, 1e-9);
+  }
+}
+
+// Without friction or damping a static collider can only take energy out: the cloth's
+// mechanical energy never rises above its start, and the contacts' work is not positive.
+TEST(ContactResponse, FrictionlessContactWithAStaticSphereAddsNoEnergy) {
+  Scene s = patch(0.3, 9, Vec3(-0.15, 0.25, -0.15), "implicit-midpoint");
+  s.colliders.push_back(sphere(Vec3(0, 0, 0), 0.2, 0.0));
+  s.damping_ratio = 0.0;
+  s.cloth.material.viscosity_Ns_m = 0;
+  s.integrator.dt = 0.001;
+  s.duration = 0.4;
+  Simulation sim(s);
+  const RunResult r = run_simulation(sim);
+  ASSERT_EQ(r.status, "ok") << r.message;
+  ASSERT_GT(sim.statistics().contacts, 0);
+  const double scale = sim.energy_scale();
+  for (const EnergyRow& e : r.energy) {
+    EXPECT_LE(e.total(), 1e-6 * scale) << "t = " << e.time;
+    EXPECT_LE(e.contact_work, 1e-6 * scale) << "t = " << e.time;
+  }
+}
+
+TEST(ContactResponse, ASpinningSphereCarriesTheClothOnItRoundByFriction) {
+  const double radius = 0.3, omega = 1.0;  // rad/s about the vertical through the centre
+  Scene s = patch(0.04, 3, Vec3(0.08, radius + 0.002, -0.02));  // 10 cm from the axis
+  ColliderSpec c = sphere(Vec3::Zero(), radius, 2.0);
+  c.motion.kind = RigidMotion::Kind::kVelocity;
+  c.motion.angular_velocity = Vec3(0, omega, 0);
+  s.colliders.push_back(c);
+  s.duration = 1.0;
+  s.frame_interval = 0.25;
+  Simulation sim(s);
+  std::vector<double> angle;  // of the patch's centroid about the axis, per frame
+  RunCallbacks cb;
+  cb.on_frame = [&](int, const Simulation& at) {
+    const Vec3 c = centroid(at.state().x);
+    angle.push_back(std::atan2(-c.z(), c.x()));
+  };
+  const RunResult r = run_simulation(sim, cb);
+  ASSERT_EQ(r.status, "ok") << r.message;
+  ASSERT_EQ(angle.size(), 5u);
+  // Once it has landed (it falls 2 cm onto the sphere's slope) and stuck, the patch turns with
+  // the surface.
+  EXPECT_NEAR((angle[4] - angle[2]) / 0.5, omega, 0.02 * omega);
+  EXPECT_GT(sim.statistics().contacts, 0);
+}
+
+TEST(RigidMotion, VelocityMovesTheCentreAndTurnsAboutIt) {
+  RigidMotion m;
+  m.kind = RigidMotion::Kind::kVelocity;
+  m.linear_velocity = Vec3(1, 2, 3);
+  m.angular_velocity = Vec3(0, 0, 0.5);
+  m.centre = Vec3(1, 0, 0);
+  const Eigen::Isometry3d T = m.at(2.0);
+  EXPECT_LT((T * m.centre - (m.centre + 2.0 * m.linear_velocity)).norm(), 1e-12);
+  // A point 1 m from the centre along x turns by 1 rad about z.
+  const Vec3 p = T * (m.centre + Vec3(1, 0, 0)) - T * m.centre;
+  EXPECT_LT((p - Vec3(std::cos(1.0), std::sin(1.0), 0)).norm(), 1e-12);
+}
+
+TEST(RigidMotion, KeyframesAreHitAndInterpolatedAndHeldOutside) {
+  RigidMotion m;
+  m.kind = RigidMotion::Kind::kKeyframes;
+  m.keys = {{1.0, Vec3(0, 0, 0), Vec3(0, 0, 0)}, {3.0, Vec3(2, 0, 0), Vec3(0, 90, 0)}};
+  EXPECT_LT((m.at(0.0).translation() - Vec3::Zero()).norm(), 1e-12);  // held before the first
+  EXPECT_LT((m.at(2.0).translation() - Vec3(1, 0, 0)).norm(), 1e-12);
+  const Vec3 x = m.at(2.0).linear() * Vec3::UnitX();
+  EXPECT_LT((x - Vec3(std::cos(M_PI / 4), 0, -std::sin(M_PI / 4))).norm(), 1e-12);  // half of 90 deg about y
+  EXPECT_LT((m.at(5.0).matrix() - m.at(3.0).matrix()).norm(), 1e-12);  // held after the last
+}
+
+// A closed mesh collider (a cube of side 1 about the origin, outward-wound) answers signed
+// distances: outside positive, inside negative, with the outward normal.
+TEST(MeshCollider, ClosedMeshTellsInsideFromOutsideEverywhere) {
+  Points cube(8, 3);
+  for (int k = 0; k < 8; ++k) cube.row(k) << ((k & 1) ? 0.5 : -0.5), ((k & 2) ? 0.5 : -0.5), ((k & 4) ? 0.5 : -0.5);
+  Triangles t(12, 3);
+  const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (int f = 0; f < 6; ++f) {
+    t.row(2 * f) << faces[f][0], faces[f][1], faces[f][2];
+    t.row(2 * f + 1) << faces[f][0], faces[f][2], faces[f][3];
+  }
+  ColliderSpec spec;
+  spec.shape = ColliderShape::kMesh;
+  auto analytic_spec = spec;
+  analytic_spec.shape = ColliderShape::kBox;
+  analytic_spec.half_extents = Vec3::Constant(0.5);
+  const auto mesh = make_mesh_collider(spec, t, [&](double, Points& out) { out = cube; }, true);
+  const auto box = make_analytic_collider(analytic_spec);
+  mesh->prepare(0, 0.01);
+  box->prepare(0, 0.01);
+  std::srand(7);
+  for (int k = 0; k < 2000; ++k) {
+    const Vec3 p = Vec3::Random() * 0.9;  // inside, outside, near faces, edges and corners
+    SurfacePoint a, b;
+    ASSERT_TRUE(mesh->closest(p, 10, false, 0, a));
+    ASSERT_TRUE(box->closest(p, 10, false, 0, b));
+    EXPECT_NEAR(a.distance, b.distance, 1e-12) << p.transpose();
+    if (std::abs(a.distance) > 1e-9) EXPECT_LT((a.normal - b.normal).norm(), 1e-9) << p.transpose();
+  }
+}
