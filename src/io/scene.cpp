@@ -232,10 +232,7 @@ ColliderSpec parse_collider(const nlohmann::json& j, const std::string& file, co
   };
   if (r.has("thickness")) c.thickness = r.number_in("thickness", 0, kMaxThickness_m, true);
   if (r.has("friction")) c.friction = r.number_in("friction", 0, kMaxFriction, false);
-  if (r.has("motion")) {
-    if (type == "body") r.fail("motion", "the body moves by its own motion file; a rigid motion applies to the other colliders");
-    c.motion = parse_motion(r.object("motion"));
-  }
+  if (r.has("motion") && type != "body") c.motion = parse_motion(r.object("motion"));  // a body's is its BVH file
   auto positive_length = [&](const char* key) { return r.number_in(key, 0, kMaxLength_m, true); };
   if (type == "plane") {
     allow({"point", "normal"});

@@ -53,8 +53,14 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
       colliders_.push_back(make_mesh_collider(
           c, body->triangles(), [body](double t, Points& out) { body->positions(t, out); }, true));
     } else if (c.shape == ColliderShape::kMesh) {
-      ObjMesh obj = read_obj(c.obj_path);
-      if (obj.triangles.rows() == 0) throw InputError(c.obj_path + ": no faces (a mesh collider needs triangles)");
+      const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": " + c.name;
+      ObjMesh obj;
+      try {
+        obj = read_obj(c.obj_path);
+      } catch (const InputError& e) {
+        throw InputError(where + ": " + e.what());
+      }
+      if (obj.triangles.rows() == 0) throw InputError(where + ": " + c.obj_path + ": no faces (a mesh collider needs triangles)");
       const Mat3 R = rotation_from_degrees(c.rotation_deg);
       for (Eigen::Index v = 0; v < obj.positions.rows(); ++v)
         obj.positions.row(v) = (R * (c.scale * obj.positions.row(v).transpose()) + c.translation).transpose();

@@ -90,3 +90,33 @@ TEST_F(BadInputCommand, GridsTooLargeForMemoryAreRefusedQuicklyWithTheEstimate) 
                  "key cloth.mesh.grid.vertices: a 2000 x 2000 grid (4000000 vertices) needs about ");
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 10.0);
 }
+
+TEST_F(BadInputCommand, ColliderDescriptions) {
+  auto with = [](const std::string& collider) {
+    return scene(kGrid, R"("colliders": [)" + collider + "], ");
+  };
+  expect_refused("type", with(R"({"type": "cylinder"})"),
+                 "key colliders[0].type: unknown collider type 'cylinder' (expected plane, sphere, capsule, box, mesh or body)");
+  expect_refused("thickness", with(R"({"type": "sphere", "centre": [0, 0, 0], "radius": 0.1, "thickness": -0.01})"),
+                 "key colliders[0].thickness: value -0.01 is out of range (0.0, 0.1]");
+  expect_refused("friction", with(R"({"type": "plane", "friction": -1})"), "key colliders[0].friction: value -1");
+  expect_refused("missing_obj", with(R"({"type": "mesh", "obj": "nope.obj"})"), "key colliders[0].obj: no such file: ");
+  expect_refused("unknown_key", with(R"({"type": "sphere", "centre": [0, 0, 0], "radius": 0.1, "colour": 1})"),
+                 "key colliders[0].colour: unknown key for a sphere collider (expected type, thickness, friction, "
+                 "motion, centre, radius)");
+  expect_refused("radius", with(R"({"type": "sphere", "centre": [0, 0, 0], "radius": 0})"), "key colliders[0].radius");
+  expect_refused("keyframes",
+                 with(R"({"type": "box", "centre": [0, 0, 0], "half_extents": [1, 1, 1],
+                          "motion": {"keyframes": [{"time": 1}, {"time": 0.5}]}})"),
+                 "key colliders[0].motion.keyframes[1].time: keyframe times must increase, got 0.5 after 1.0");
+  expect_refused("both_motions", with(R"({"type": "plane", "motion": {"linear_velocity": [0, 1, 0], "keyframes": []}})"),
+                 "key colliders[0].motion.keyframes: give either keyframes or linear_velocity/angular_velocity_deg/centre, "
+                 "not both");
+  expect_refused("zero_normal", with(R"({"type": "plane", "normal": [0, 0, 0]})"), "key colliders[0].normal: must not be zero");
+  write("bad.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n");
+  expect_refused("bad_obj", with(R"({"type": "mesh", "obj": "bad.obj"})"),
+                 "colliders[0] (mesh): ", "bad.obj");
+  expect_refused("cloth_thickness", scene(std::string(kGrid) + R"(, "thickness": 0)"),
+                 "key cloth.thickness: value 0.0 is out of range (0.0, 0.1]");
+  expect_refused("self_collision", scene(std::string(kGrid) + R"(, "self_collision": "yes")"), "key cloth.self_collision");
+}
