@@ -194,6 +194,10 @@ struct BodyColliderSpec {
   double speed = 0.75;        ///< playback speed scale
   std::string skinning = "lbs";
   double start_time = 0.0;    ///< seconds into the motion at scene time 0
+  /// Scene seconds the body stands in its bind pose (the T-pose) before it moves, and the
+  /// seconds over which it then blends into the motion's first pose; the motion starts after both.
+  double bind_pose_hold = 0.0;
+  double blend = 0.0;
 };
 
 /// Validates keys and types; errors name `where` and the key. "type" may be present ("body").
@@ -235,6 +239,7 @@ class WalkingBody {
   Skinning skinning_ = Skinning::kLinearBlend;
   double motion_interval_s_ = 0.0;  ///< play time between two motion frames
   double start_time_s_ = 0.0;
+  double hold_s_ = 0.0, blend_s_ = 0.0;  ///< BodyColliderSpec::bind_pose_hold and blend
 };
 
 /// The shipped walk: data_dir()/motion/35_01.bvh.

@@ -54,9 +54,15 @@ BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string&
       spec.start_time = value.get<double>();
       if (!(spec.start_time >= 0 && spec.start_time <= kMaxBodyStartTime_s))
         throw InputError(at + ": must be in [0, 1e7] s, got " + value.dump());
+    } else if (key == "bind_pose_hold" || key == "blend") {
+      if (!value.is_number()) throw InputError(at + ": expected a number (seconds)");
+      const double seconds = value.get<double>();
+      if (!(seconds >= 0 && seconds <= kMaxBodyStartTime_s)) throw InputError(at + ": must be in [0, 1e7] s, got " + value.dump());
+      (key == "blend" ? spec.blend : spec.bind_pose_hold) = seconds;
     } else {
       throw InputError(where + ": unknown key \"" + key +
-                       "\" (expected type, motion, speed, skinning, start_time, thickness, friction)");
+                       "\" (expected type, motion, speed, skinning, start_time, bind_pose_hold, blend, thickness, "
+                       "friction)");
     }
   }
   return spec;
@@ -94,10 +100,26 @@ WalkingBody::WalkingBody(const BodyColliderSpec& spec)
   }
   motion_interval_s_ = motion_.frame_time_s / spec.speed;
   start_time_s_ = spec.start_time;
+  hold_s_ = spec.bind_pose_hold;
+  blend_s_ = spec.blend;
 }
 
 void WalkingBody::bone_poses(double t, std::vector<BonePose>& poses) const {
-  animation_->bone_poses(t, poses);
+  const double moving = t - hold_s_ - blend_s_;  // play time of the motion
+  animation_->bone_poses(std::max(moving, 0.0), poses);
+  if (moving < 0) {
+    // Standing in the bind pose moved to where the motion starts (its hips where the first
+    // pose has them), then blending each bone's transform into the first pose (smoothstep in
+    // time, rotations by slerp).
+    const Vec3 hips = rig_.head_bind[0];
+    const Vec3 shift = poses[0].apply(hips) - hips;
+    const double a = blend_s_ > 0 ? std::clamp((t - hold_s_) / blend_s_, 0.0, 1.0) : 0.0;
+    const double s = a * a * (3 - 2 * a);
+    for (BonePose& p : poses) {
+      p.rotation = Eigen::Quaterniond::Identity().slerp(s, p.rotation);
+      p.translation = (1 - s) * shift + s * p.translation;
+    }
+  }
   for (int b = 0; b < rig_.bone_count(); ++b) poses[b] = poses[b] * rig_.rest_to_bind[b];
 }
 
@@ -117,10 +139,14 @@ void WalkingBody::positions(double t, Points& out) const {
 void WalkingBody::velocities(double t, Points& out) const {
   // The motion interpolates between frames, so it is smooth inside a frame interval and kinked
   // at its ends: difference inside the interval that holds t.
-  const double offset_s = start_time_s_ * (motion_interval_s_ / motion_.frame_time_s);
+  const double offset_s = start_time_s_ * (motion_interval_s_ / motion_.frame_time_s) - hold_s_ - blend_s_;
   const double phase = (t + offset_s) / motion_interval_s_;
-  const double lo = (std::floor(phase) * motion_interval_s_) - offset_s;
-  const double hi = lo + motion_interval_s_;
+  double lo = (std::floor(phase) * motion_interval_s_) - offset_s;
+  double hi = lo + motion_interval_s_;
+  if (t < hold_s_ + blend_s_) {  // standing or blending: smooth between the hold's ends
+    lo = t < hold_s_ ? 0.0 : hold_s_;
+    hi = t < hold_s_ ? hold_s_ : hold_s_ + blend_s_;
+  }
   const double h = 1e-4 * motion_interval_s_;
   const double centre = std::clamp(t, std::max(lo + h, h), std::max(hi - h, h));
   Points ahead, behind;

@@ -96,7 +96,7 @@ PcgSettings Integrator::pcg_settings() const {
 Integrator::DynamicState Integrator::dynamic_state() const {
   return {history_.snapshot(), history_alpha_,           history_beta_,          history_dt_b_,
           history_t_,          pcg_.ssor_residual_ratio, pcg_.ssor_single_fallbacks, multigrid_setup_blocks_,
-          pulling_};
+          pulling_, stuck_};
 }
 
 void Integrator::restore(const DynamicState& d) {
@@ -119,7 +119,10 @@ void Integrator::restore(const DynamicState& d) {
   multigrid_setup_blocks_ = d.multigrid_setup_blocks;
   if (!d.contact_pulling.empty() && d.contact_pulling.size() != static_cast<size_t>(system_.num_nodes()))
     throw std::invalid_argument("the contact flags do not fit this system");
+  if (!d.contact_stuck.empty() && d.contact_stuck.size() != static_cast<size_t>(system_.num_nodes()))
+    throw std::invalid_argument("the contact flags do not fit this system");
   pulling_ = d.contact_pulling;
+  stuck_ = d.contact_stuck;
 }
 
 void Integrator::advance(State& s, double t_end, StepStatistics& stats) {
@@ -170,12 +173,13 @@ void Integrator::step(State& s, double dt, StepStatistics& stats) {
   // A step the contact handlers could not make valid is taken again as two of half the size
   // (a few times at most; the last result stands).
   State start = s;
-  const std::vector<char> pulling = pulling_;
+  const std::vector<char> pulling = pulling_, stuck = stuck_;
   last_step_ok_ = true;
   single_step(s, dt, stats);
   if (last_step_ok_ || retry_depth_ >= kMaxStepHalvings) return;
   s = std::move(start);
   pulling_ = pulling;
+  stuck_ = stuck;
   history_.clear();
   ++stats.halved_steps;
   ++retry_depth_;
@@ -268,6 +272,14 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     stats.detection_seconds += seconds_since(td);
   }
   if (alpha == 0.0) contacts_.clear();  // dx does not depend on dv: the fail-safe alone acts
+  if (!handlers_.empty()) {
+    // A node that ended the last step stuck to a surface starts this one stuck.
+    if (stuck_.size() != static_cast<size_t>(n)) stuck_.assign(n, 0);
+    contact_stuck_.resize(contacts_.size());
+    for (size_t k = 0; k < contacts_.size(); ++k)
+      contact_stuck_[k] = stuck_[contacts_[k].node] && contacts_[k].friction > 0;
+    std::fill(stuck_.begin(), stuck_.end(), 0);
+  }
 
   const PcgSettings ps = pcg_settings();
   if (preconditioner_ == Preconditioner::kMultigrid && !pcg_.multigrid.matches(P, system_.fixed(), ps.multigrid)) {
@@ -283,7 +295,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   for (int pass = 0;; ++pass) {
     if (!contacts_.empty()) {
       const auto tr = Clock::now();
-      constrain(s, alpha, beta, dt_b);
+      constrain(s, dt, alpha, beta, dt_b);
       stats.response_seconds += seconds_since(tr);
     }
     r = solve_pcg(step_.matrix, rhs_, system_.fixed(), ps, dv_, pcg_);
@@ -312,21 +324,31 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     const VecX& mass = system_.node_mass();
     for (size_t k = 0; k < contacts_.size(); ++k) {
       const NodeContact& c = contacts_[k];
-      if (contact_impulse_[k] < -kReleaseSpeed * mass[c.node] && !c.penetrating && !keep_held_[c.node]) {
+      const Vec3& J = contact_impulse_[k];
+      const double normal_impulse = c.normal.dot(J);
+      // A stuck contact whose impulse left the friction cone slides.
+      if (contact_stuck_[k] && (J - c.normal * normal_impulse).norm() > c.friction * std::max(normal_impulse, 0.0)) {
+        contact_stuck_[k] = 0;
+        changed = true;
+      }
+      if (normal_impulse < -kReleaseSpeed * mass[c.node] && !c.penetrating && !keep_held_[c.node]) {
         released_now_[c.node] = 1;
         ++stats.released_contacts;
         changed = true;
         continue;
       }
+      contact_stuck_[kept] = contact_stuck_[k];
       contacts_[kept++] = c;
     }
     contacts_.resize(kept);
+    contact_stuck_.resize(kept);
     tmp2_ = s.x + dt_b * (s.v + alpha * dv_);
     if (beta != 0.0) tmp2_ += beta * s.dx_prev;
     held_.assign(n, 0);
     for (const NodeContact& c : contacts_) held_[c.node] = 1;
     const size_t before = contacts_.size();
     for (ContactHandler* h : handlers_) h->detect_end(s.x, tmp2_, s.t, dt, held_, contacts_);
+    contact_stuck_.resize(contacts_.size(), 0);  // those that join slide
     for (size_t k = before; k < contacts_.size(); ++k)
       if (released_now_[contacts_[k].node]) keep_held_[contacts_[k].node] = 1;
     stats.detection_seconds += seconds_since(td);
@@ -363,7 +385,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   s.has_history = true;
   if (!handlers_.empty()) {
     const auto tr = Clock::now();
-    contact_velocities(s, dt, alpha, dt_b);
+    contact_velocities(s, dt, dt_b);
     stats.response_seconds += seconds_since(tr);
     finish_contacts(s, s.t, dt, stats);
   }
@@ -371,17 +393,23 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   history_t_ = s.t;
 }
 
-// The contact constraints (Baraff and Witkin's filters, docs/collisions.md). A contact at node i
-// with normal n prescribes dv_i . n = z_i and leaves dv_i's tangential part S_i dv_i free,
-// S_i = I - n n^T. Writing dv = y + z with y_i in S_i's range, the solve's equations are the
-// free directions' ones, S (A (y + z) - b) = 0, that is
+// The contact constraints (Baraff and Witkin's filters, docs/collisions.md). A sliding contact
+// at node i with normal n prescribes dv_i . n and leaves dv_i's tangential part free,
+// S_i = I - n n^T; a sticking one prescribes all of dv_i (S_i = 0), the node moving with the
+// surface. Writing dv = y + z with y_i in S_i's range and z_i the prescribed part, the solve's
+// equations are the free directions' ones, S (A (y + z) - b) = 0, that is
 //   (S A S + c (I - S)) y = S (b - A z)
 // where the c (I - S) term (c the node's mean diagonal stiffness) only keeps the matrix positive
 // definite: its (I - S) rows give (I - S) y = 0. The matrix keeps A's pattern and is symmetric
 // positive definite, so every preconditioner solves it unchanged; the changed blocks are put
-// back after the solve. z is chosen so that the step's displacement along n, beta dx_p . n +
-// dt_b (v . n + alpha z), is the contact's prescribed one.
-void Integrator::constrain(const State& s, double alpha, double beta, double dt_b) {
+// back after the solve. z is chosen so that the step's displacement beta dx_p + dt_b (v +
+// alpha dv) has the prescribed part.
+Mat3 Integrator::contact_filter(size_t k) const {
+  const Vec3& n = contacts_[k].normal;
+  return contact_stuck_[k] ? Mat3(Mat3::Zero()) : Mat3(Mat3::Identity() - n * n.transpose());
+}
+
+void Integrator::constrain(const State& s, double dt, double alpha, double beta, double dt_b) {
   const BlockPattern& P = system_.pattern();
   const auto& row_start = P.row_start();
   const auto& column = P.column();
@@ -400,47 +428,49 @@ void Integrator::constrain(const State& s, double alpha, double beta, double dt_
   for (size_t k = 0; k < count; ++k) {
     const NodeContact& c = contacts_[k];
     const int i = c.node;
-    double target = c.normal_displacement;
-    if (beta != 0.0) target -= beta * c.normal.dot(node(s.dx_prev, i));
-    contact_dv_[k] = (target / dt_b - c.normal.dot(node(s.v, i))) / alpha;
+    const Mat3 S = contact_filter(k);
+    // The prescribed displacement: along the normal, and when stuck the surface's tangential one.
+    Vec3 target = c.normal * c.normal_displacement;
+    if (contact_stuck_[k]) target += dt * (c.surface_velocity - c.normal * c.normal.dot(c.surface_velocity));
+    if (beta != 0.0) target -= beta * node(s.dx_prev, i);
+    contact_dv_[k] = (Mat3::Identity() - S) * ((target / dt_b - node(s.v, i)) / alpha);
     contact_rhs_[k] = node(rhs_, i);
   }
   for (size_t k = 0; k < count; ++k) {
     const int i = contacts_[k].node;
-    const Vec3 z = contact_dv_[k] * contacts_[k].normal;
+    const Vec3& z = contact_dv_[k];
     for (int e = row_start[i]; e < row_start[i + 1]; ++e)
       node(rhs_, column[e]) -= blocks[e].transpose() * z;  // A_ji = A_ij^T
   }
   // S (b - A z) and the warm start's y in the free directions.
   for (size_t k = 0; k < count; ++k) {
     const int i = contacts_[k].node;
-    const Vec3& n = contacts_[k].normal;
-    node(rhs_, i) -= n * n.dot(node(rhs_, i));
-    node(dv_, i) -= n * n.dot(node(dv_, i));
+    const Mat3 S = contact_filter(k);
+    node(rhs_, i) = S * node(rhs_, i);
+    node(dv_, i) = S * node(dv_, i);
   }
   // S_i A_ij and A_ji S_i for every contact i (both: S_i A_ij S_j), the diagonal blocks last.
   for (size_t k = 0; k < count; ++k) {
     const int i = contacts_[k].node;
-    const Vec3& n = contacts_[k].normal;
+    const Mat3 S = contact_filter(k);
     for (int e = row_start[i]; e < row_start[i + 1]; ++e) {
       const int j = column[e];
       if (j == i) continue;
       const int et = P.slot(j, i);
       save(e);
       save(et);
-      blocks[e] -= n * (n.transpose() * blocks[e]);
-      blocks[et] -= (blocks[et] * n) * n.transpose();
+      blocks[e] = S * blocks[e];
+      blocks[et] = blocks[et] * S;
     }
   }
   for (size_t k = 0; k < count; ++k) {
     const int i = contacts_[k].node;
-    const Vec3& n = contacts_[k].normal;
+    const Mat3 S = contact_filter(k);
     const int d = P.diagonal_slot(i);
     save(d);
     Mat3& a = blocks[d];
     const double c = a.trace() / 3;
-    const Mat3 S = Mat3::Identity() - n * n.transpose();
-    a = S * a * S + c * n * n.transpose();
+    a = S * a * S + c * (Mat3::Identity() - S);
   }
   step_.matrix.constants_changed();
 }
@@ -460,46 +490,55 @@ void Integrator::unconstrain(double dt, double dt_b) {
   contact_impulse_.resize(count);
   for (size_t k = 0; k < count; ++k) {
     const int i = contacts_[k].node;
-    const Vec3& n = contacts_[k].normal;
-    node(dv_, i) += n * (contact_dv_[k] - n.dot(node(dv_, i)));
+    node(dv_, i) = contact_filter(k) * node(dv_, i) + contact_dv_[k];
   }
   // The constraint's impulse: what A dv - b leaves at the node, dt_b times the contact force.
   for (size_t k = 0; k < count; ++k) {
     const int i = contacts_[k].node;
     Vec3 a_dv = Vec3::Zero();
     for (int e = row_start[i]; e < row_start[i + 1]; ++e) a_dv += blocks[e] * node(dv_, column[e]);
-    contact_impulse_[k] = (dt / dt_b) * contacts_[k].normal.dot(a_dv - contact_rhs_[k]);
+    contact_impulse_[k] = (dt / dt_b) * (a_dv - contact_rhs_[k]);
   }
 }
 
-void Integrator::contact_velocities(State& s, double dt, double alpha, double dt_b) {
+void Integrator::contact_velocities(State& s, double dt, double dt_b) {
   const VecX& m = system_.node_mass();
   for (size_t k = 0; k < contacts_.size(); ++k) {
     const NodeContact& c = contacts_[k];
     const int i = c.node;
-    const double impulse = contact_impulse_[k];
-    if (impulse < -kReleaseSpeed * m[i]) pulling_[i] = 1;
-    // Coulomb friction: an impulse against the sliding relative to the surface of up to
-    // friction * impulse, all of it when that stops the sliding (sticking). It enters the step
-    // like any impulse: the velocity changes by delta and, through dx = dt_b (v + alpha dv),
-    // the position by alpha dt_b delta (so a stuck node does not creep).
-    const Vec3 u = node(s.v, i) - c.surface_velocity;
-    const Vec3 ut = u - c.normal * c.normal.dot(u);
-    const double slide = ut.norm();
-    const double stop = c.friction * std::max(impulse, 0.0) / m[i];
-    const Vec3 delta = -(slide > stop ? stop / slide : 1.0) * ut;
-    node(s.v, i) += delta;
-    node(s.x, i) += alpha * dt_b * delta;
-    // BDF-2's history: the displacement as taken, the solve's change of velocity (friction
-    // and the normal reset are corrections after the step: repeated through the history's
-    // beta dv_p they would act again, by a third at alpha = 1).
-    node(s.dx_prev, i) += alpha * dt_b * delta;
-    // The work of the constraint's and friction's impulses over the step's displacement.
-    s.contact_work += (impulse * c.normal + m[i] * delta).dot(node(s.x, i) - node(x_start_, i)) / dt;
-    // Inelastic along the normal: the node leaves the step moving with the surface.
+    const Vec3& J = contact_impulse_[k];
+    const double normal_impulse = c.normal.dot(J);
+    if (normal_impulse < -kReleaseSpeed * m[i]) pulling_[i] = 1;
+    // The work of the constraint's impulse over the step's displacement.
+    s.contact_work += J.dot(node(s.x, i) - node(x_start_, i)) / dt;
     const Vec3 v_old = node(s.v, i);
-    const Vec3 v_new = v_old - c.normal * c.normal.dot(v_old - c.surface_velocity);
+    Vec3 v_new;
+    if (contact_stuck_[k]) {
+      // Stuck: the node leaves the step moving with the surface, and stays stuck.
+      v_new = c.surface_velocity;
+      stuck_[i] = 1;
+    } else {
+      // Sliding: Coulomb friction takes up to friction * impulse / m off the sliding speed (a
+      // change of velocity after the step, which only takes kinetic energy out); a node it
+      // stops is stuck from the next step on. Along the normal the contact is inelastic: the
+      // node leaves the step moving with the surface.
+      const Vec3 u = v_old - c.surface_velocity;
+      const Vec3 ut = u - c.normal * c.normal.dot(u);
+      const double slide = ut.norm();
+      // (For BDF-2, whose step applies a force over dt_b and repeats the last change of
+      // velocity by beta, the change is dt_b / dt of the impulse's: the sliding then slows by
+      // exactly friction * impulse / m per step, as with the other methods.)
+      const double stop = (dt_b / dt) * c.friction * std::max(normal_impulse, 0.0) / m[i];
+      const bool stops = c.friction > 0 && slide <= stop;
+      v_new = c.surface_velocity + (stops ? 0.0 : 1 - stop / slide) * ut;
+      stuck_[i] = stops ? 1 : 0;
+    }
     node(s.v, i) = v_new;
+    // BDF-2's history as if the node had moved at its new velocity: the change of velocity as
+    // taken, the displacement changed by dt times the correction (a node stopped by friction
+    // is then at rest for the next step, not carrying the step's sliding).
+    node(s.dv_prev, i) += v_new - v_old;
+    node(s.dx_prev, i) += dt * (v_new - v_old);
     s.contact_work += 0.5 * m[i] * (v_new.squaredNorm() - v_old.squaredNorm());
   }
 }

@@ -135,6 +135,7 @@ class Integrator {
     long ssor_single_fallbacks = 0;
     std::vector<Mat3> multigrid_setup_blocks;  ///< empty: no hierarchy built yet
     std::vector<char> contact_pulling;         ///< per node: its contact pulled (empty: none yet)
+    std::vector<char> contact_stuck;           ///< per node: stuck by friction (empty: none yet)
   };
   DynamicState dynamic_state() const;
   /// Restores a dynamic state taken from an integrator of the same system and settings
@@ -151,12 +152,14 @@ class Integrator {
   void derivative(const VecX& x, const VecX& v, VecX& a, double& viscous_power);
   /// Turns the step's system A dv = rhs into the one for the contacts' free directions
   /// (docs/collisions.md); sets dv_'s prescribed normal components in contact_dv_.
-  void constrain(const State& s, double alpha, double beta, double dt_b);
+  void constrain(const State& s, double dt, double alpha, double beta, double dt_b);
+  /// The filter S of contact k: I - n n^T sliding, 0 stuck.
+  Mat3 contact_filter(size_t k) const;
   /// After the solve: dv_ completed with the prescribed components, the matrix restored,
   /// and the contact impulses into contact_impulse_.
   void unconstrain(double dt, double dt_b);
   /// Contact velocities after the step (inelastic normal, Coulomb friction) and their work.
-  void contact_velocities(State& s, double dt, double alpha, double dt_b);
+  void contact_velocities(State& s, double dt, double dt_b);
   /// The handler's fail-safe on the step that went from x_start_.
   void finish_contacts(State& s, double t0, double dt, StepStatistics& stats);
 
@@ -178,14 +181,17 @@ class Integrator {
   bool last_step_ok_ = true;  ///< the handlers' verdict on the last step
   int retry_depth_ = 0;
   std::vector<NodeContact> contacts_;   ///< this step's, held by the solve
-  std::vector<double> contact_dv_;      ///< prescribed dv . normal per contact
-  std::vector<double> contact_impulse_; ///< normal impulse per contact (N s), > 0 pushing
+  std::vector<Vec3> contact_dv_;        ///< the prescribed part of dv per contact
+  std::vector<Vec3> contact_impulse_;   ///< the constraint's impulse per contact (N s)
+  std::vector<char> contact_stuck_;     ///< per contact: sticking (all of dv prescribed)
   std::vector<Vec3> contact_rhs_;       ///< the unconstrained right-hand side at each contact
   /// Blocks the constraints changed (slot, original value), and per slot whether saved.
   std::vector<std::pair<int, Mat3>> saved_blocks_;
   std::vector<char> slot_saved_;
   /// Per node: its contact pulled at the previous step (released unless penetrating).
   std::vector<char> pulling_;
+  /// Per node: ended the last step stuck to a surface by friction (starts this one stuck).
+  std::vector<char> stuck_;
   std::vector<char> held_;        ///< per node: held by a contact this pass
   std::vector<char> released_now_;  ///< per node: let go in this step
   std::vector<char> keep_held_;     ///< per node: let go and back in this step: held to its end

@@ -224,8 +224,10 @@ void Simulation::save(BinaryWriter& out) const {
   out.i64(in.ssor_single_fallbacks);
   out.doubles(in.multigrid_setup_blocks.empty() ? nullptr : in.multigrid_setup_blocks.front().data(),
               9 * in.multigrid_setup_blocks.size());
-  out.i64(static_cast<std::int64_t>(in.contact_pulling.size()));
-  for (char c : in.contact_pulling) out.i64(c);
+  for (const std::vector<char>* flags : {&in.contact_pulling, &in.contact_stuck}) {
+    out.i64(static_cast<std::int64_t>(flags->size()));
+    for (char c : *flags) out.i64(c);
+  }
 }
 
 void Simulation::restore(BinaryReader& in) {
@@ -275,10 +277,12 @@ void Simulation::restore(BinaryReader& in) {
   const std::vector<double> blocks = in.doubles();
   if (blocks.size() % 9) in.fail("checkpoint is damaged (multigrid matrix of " + std::to_string(blocks.size()) + " values)");
   for (size_t b = 0; b < blocks.size(); b += 9) id.multigrid_setup_blocks.push_back(Eigen::Map<const Mat3>(&blocks[b]));
-  const std::int64_t pulling = in.i64();
-  if (pulling != 0 && pulling != model_->num_vertices())
-    in.fail("checkpoint is damaged (contact flags for " + std::to_string(pulling) + " nodes)");
-  for (std::int64_t k = 0; k < pulling; ++k) id.contact_pulling.push_back(in.i64() != 0);
+  for (std::vector<char>* flags : {&id.contact_pulling, &id.contact_stuck}) {
+    const std::int64_t count = in.i64();
+    if (count != 0 && count != model_->num_vertices())
+      in.fail("checkpoint is damaged (contact flags for " + std::to_string(count) + " nodes)");
+    for (std::int64_t k = 0; k < count; ++k) flags->push_back(in.i64() != 0);
+  }
   try {
     system_->restore(sys);
     integrator_->restore(id);

@@ -119,7 +119,8 @@ TEST(ContactResponse, FrictionHoldsBelowTheFrictionAngleAndSlidesWithTheCoulombA
     const Vec3 mean_v = centroid(sim.state().v);
     const Vec3 moved = centroid(sim.state().x) - centroid(sim.model().initial_positions());
     if (a == 0) {
-      EXPECT_LT(std::abs(moved.x()), 1e-9) << c.theta_deg << " deg, friction " << c.friction;
+      // It slides during the first step only (a contact starts sliding), by at most dt^2 g.
+      EXPECT_LT(std::abs(moved.x()), s.integrator.dt * s.integrator.dt * g) << c.theta_deg << " deg, friction " << c.friction;
       EXPECT_LT(std::abs(mean_v.x()), 1e-9) << c.theta_deg << " deg, friction " << c.friction;
     } else {
       EXPECT_NEAR(mean_v.x(), a * t, 1e-6 * a * t) << c.theta_deg << " deg, friction " << c.friction;
