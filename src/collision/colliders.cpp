@@ -242,7 +242,7 @@ class AnalyticCollider : public Collider {
 class MeshCollider : public Collider {
  public:
   MeshCollider(const ColliderSpec& spec, const Triangles& triangles, SurfaceMotion motion, bool closed)
-      : Collider(spec), triangles_(triangles), list_(triangle_list(triangles)), motion_(std::move(motion)), closed_(closed) {
+      : Collider(spec), triangles_(triangles), list_(weft::triangle_list(triangles)), motion_(std::move(motion)), closed_(closed) {
     motion_(0.0, start_);
     end_ = start_;
     tree_start_ = AabbTree(list_, start_.data());
@@ -284,6 +284,14 @@ class MeshCollider : public Collider {
   }
 
   double step_motion() const override { return step_motion_; }
+  const AabbTree* end_tree() const override { return &tree_end_; }
+  const Points* end_vertices() const override { return &end_; }
+  const std::vector<Vec3>* end_vertex_normals() const override {
+    unit_normals_end_.resize(vertex_normal_end_.size());
+    for (size_t v = 0; v < vertex_normal_end_.size(); ++v) unit_normals_end_[v] = vertex_normal_end_[v].normalized();
+    return &unit_normals_end_;
+  }
+  const std::vector<std::array<int, 3>>* triangle_list() const override { return &list_; }
 
   bool closest(const Vec3& p, double reach, bool end, int node, SurfacePoint& out) const override {
     const Points& x = end ? end_ : start_;
@@ -381,6 +389,7 @@ class MeshCollider : public Collider {
   std::vector<Vec3> face_normal_start_, face_normal_end_, vertex_normal_start_, vertex_normal_end_;
   double t0_ = std::numeric_limits<double>::quiet_NaN(), t1_ = std::numeric_limits<double>::quiet_NaN();
   double step_motion_ = 0;
+  mutable std::vector<Vec3> unit_normals_end_;
   mutable std::vector<signed char> side_;  ///< per cloth node, open surfaces: +1 or -1 (0: not yet)
 };
 
@@ -406,8 +415,9 @@ std::unique_ptr<Collider> make_analytic_collider(const ColliderSpec& spec) {
   }
 }
 
-ColliderContacts::ColliderContacts(std::vector<Collider*> colliders, const VecX& mass, const std::vector<char>& fixed)
-    : colliders_(std::move(colliders)), mass_(mass), fixed_(fixed) {}
+ColliderContacts::ColliderContacts(std::vector<Collider*> colliders, const VecX& mass, const std::vector<char>& fixed,
+                                   std::vector<std::array<int, 3>> triangles)
+    : colliders_(std::move(colliders)), mass_(mass), fixed_(fixed), triangles_(std::move(triangles)) {}
 
 void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt, std::vector<NodeContact>& out) {
   out.clear();
@@ -511,7 +521,75 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
       }
       ++report.fail_safe_moves;
     }
+    if (c->end_tree() && !triangles_.empty()) push_faces_off_vertices(*c, x1, v1, dt, report);
   }
+}
+
+void ColliderContacts::push_faces_off_vertices(const Collider& c, VecX& x1, VecX& v1, double dt,
+                                               ContactReport& report) {
+  // A collider vertex deeper than this behind a cloth face is taken to be on the face's other
+  // side (under an arm, say), not poking through it.
+  constexpr double kMaxPokeDepth = 0.02;
+  const double thickness = c.spec().thickness;
+  if (tree_.triangle_count() == 0) tree_ = AabbTree(triangles_, x1.data());
+  tree_.refit(x1.data(), thickness);
+  const Points& body = *c.end_vertices();
+  const std::vector<Vec3>& normal = *c.end_vertex_normals();
+  const auto& body_triangles = *c.triangle_list();
+  // Each (cloth face, collider vertex) pair once: the pairs of overlapping boxes give the
+  // candidates; the deepest correction per face is applied.
+  std::vector<std::pair<int, int>> candidates;
+  tree_.for_each_pair(*c.end_tree(), [&](int f, int b) {
+    for (int k = 0; k < 3; ++k) candidates.emplace_back(f, body_triangles[b][k]);
+  });
+  side_normal_known_.assign(fixed_.size(), 0);
+  side_normal_.resize(fixed_.size());
+  std::sort(candidates.begin(), candidates.end());
+  candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+  for (const auto& [f, vertex] : candidates) {
+    const auto& t = triangles_[f];
+    if (fixed_[t[0]] && fixed_[t[1]] && fixed_[t[2]]) continue;
+    const Vec3 p = body.row(vertex).transpose();
+    const Vec3& n = normal[vertex];
+    const PointTriangleClosest q = closest_point_triangle(p, node(x1, t[0]), node(x1, t[1]), node(x1, t[2]));
+    if (q.feature.kind != FeatureKind::kFace) continue;  // a neighbouring face's
+    const double height = (q.point - p).dot(n);            // of the face above the vertex
+    if (height >= 0.5 * thickness || height < -kMaxPokeDepth) continue;
+    // The face must lie on the vertex's side of the collider: its own vertices' closest
+    // surface normals face the same way (not a face on the far side of a thin part).
+    bool same_side = true;
+    for (int k = 0; k < 3 && same_side; ++k) {
+      const int i = t[k];
+      if (!side_normal_known_[i]) {
+        SurfacePoint sp;
+        side_normal_known_[i] = 1;
+        side_normal_[i] = c.closest(node(x1, i), kMaxPokeDepth + thickness, true, i, sp) ? sp.normal : Vec3::Zero();
+      }
+      same_side = side_normal_[i].dot(n) > 0.5;
+    }
+    if (!same_side) continue;
+    // As for vertices: a face resting at the thickness sags a little between its vertices over
+    // a curved surface, so only a face closer than half the thickness is moved.
+    if (height >= 0.5 * thickness || height < -kMaxPokeDepth) continue;
+    // Move the face's point over the vertex out to the thickness: vertex i by w_i d / sum w^2.
+    const double lift = thickness - height;
+    double w2 = 0;
+    for (int k = 0; k < 3; ++k) w2 += fixed_[t[k]] ? 0.0 : q.weights[k] * q.weights[k];
+    if (!(w2 > 0)) continue;
+    for (int k = 0; k < 3; ++k) {
+      const int i = t[k];
+      if (fixed_[i]) continue;
+      node(x1, i) += (q.weights[k] * lift / w2) * n;
+      const Vec3 v_old = node(v1, i);
+      const double vn = v_old.dot(n);
+      if (vn < 0) {
+        node(v1, i) -= vn * n;
+        report.work += 0.5 * mass_[i] * (node(v1, i).squaredNorm() - v_old.squaredNorm());
+      }
+      ++report.fail_safe_moves;
+    }
+  }
+  (void)dt;
 }
 
 }  // namespace weft

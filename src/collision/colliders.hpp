@@ -6,6 +6,7 @@
 #include <memory>
 #include <vector>
 
+#include "collision/aabb_tree.hpp"
 #include "integrate/contact.hpp"
 #include "weft/collider.hpp"
 
@@ -33,6 +34,12 @@ class Collider {
   /// How far any point of the surface moves over the prepared step (m); 0 for a collider
   /// whose queries answer at any distance.
   virtual double step_motion() const { return 0; }
+  /// A mesh collider's surface at the prepared step's end: its tree (refitted there), vertex
+  /// positions and unit outward vertex normals; null for analytic colliders.
+  virtual const AabbTree* end_tree() const { return nullptr; }
+  virtual const Points* end_vertices() const { return nullptr; }
+  virtual const std::vector<Vec3>* end_vertex_normals() const { return nullptr; }
+  virtual const std::vector<std::array<int, 3>>* triangle_list() const { return nullptr; }
   /// The surface at time t as triangles (output frames, checks).
   virtual void surface(double t, Points& positions, Triangles& triangles) const = 0;
 
@@ -55,7 +62,9 @@ std::unique_ptr<Collider> make_mesh_collider(const ColliderSpec& spec, const Tri
 /// masses and pins.
 class ColliderContacts : public ContactHandler {
  public:
-  ColliderContacts(std::vector<Collider*> colliders, const VecX& mass, const std::vector<char>& fixed);
+  /// `triangles`: the cloth's, for keeping mesh colliders' vertices out of its faces.
+  ColliderContacts(std::vector<Collider*> colliders, const VecX& mass, const std::vector<char>& fixed,
+                   std::vector<std::array<int, 3>> triangles);
   void detect(const VecX& x, const VecX& v, double t, double dt, std::vector<NodeContact>& out) override;
   void detect_end(const VecX& x0, const VecX& x1, double t, double dt, const std::vector<char>& held,
                   std::vector<NodeContact>& out) override;
@@ -68,6 +77,13 @@ class ColliderContacts : public ContactHandler {
   std::vector<double> best_gap_;  ///< per node: the gap of its contact so far
   std::vector<int> slot_;         ///< per node: its contact's index in the output, or -1
   double prepared_t_ = -1, prepared_dt_ = -1;  ///< the step the colliders are prepared for
+  /// Moves cloth faces that a mesh collider's vertex (a nose, a finger) came within the
+  /// thickness of, or poked through, back out along that vertex's normal.
+  void push_faces_off_vertices(const Collider& c, VecX& x1, VecX& v1, double dt, ContactReport& report);
+  std::vector<std::array<int, 3>> triangles_;
+  AabbTree tree_;  ///< over the cloth's triangles
+  std::vector<char> side_normal_known_;  ///< per node, this step: side_normal_ computed
+  std::vector<Vec3> side_normal_;        ///< the collider's normal nearest the node (0: none near)
 };
 
 }  // namespace weft

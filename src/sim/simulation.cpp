@@ -80,7 +80,8 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
   if (!colliders_.empty()) {
     std::vector<Collider*> list;
     for (const auto& c : colliders_) list.push_back(c.get());
-    contacts_ = std::make_unique<ColliderContacts>(std::move(list), model_->mass, model_->fixed);
+    contacts_ = std::make_unique<ColliderContacts>(std::move(list), model_->mass, model_->fixed,
+                                                   model_->mesh.triangles);
     integrator_->add_contact_handler(contacts_.get());
   }
   state_.x = model_->initial_positions();
