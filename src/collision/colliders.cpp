@@ -130,6 +130,29 @@ class AnalyticCollider : public Collider {
     return true;
   }
 
+  bool closest_to_triangle(const Vec3& a, const Vec3& b, const Vec3& c, SurfacePoint& out,
+                           Vec3& weights) const override {
+    const ColliderSpec& s = spec();
+    if (s.shape != ColliderShape::kSphere && s.shape != ColliderShape::kCapsule) return false;
+    // In the shape's frame at the step's end: the triangle's point nearest the centre (or the
+    // axis: alternate projections between the segment and the triangle, both convex).
+    const Vec3 la = end_inverse_ * a, lb = end_inverse_ * b, lc = end_inverse_ * c;
+    Vec3 centre = s.shape == ColliderShape::kSphere ? s.centre : s.end_a;
+    PointTriangleClosest q = closest_point_triangle(centre, la, lb, lc);
+    if (s.shape == ColliderShape::kCapsule)
+      for (int k = 0; k < 8; ++k) {
+        centre = closest_point_segment(q.point, s.end_a, s.end_b).point;
+        q = closest_point_triangle(centre, la, lb, lc);
+      }
+    const Closest r = round(q.point, centre, s.radius, Vec3::UnitY());
+    out.distance = r.distance;
+    out.normal = end_.linear() * r.normal;
+    out.point = end_ * r.point;
+    out.displacement = out.point - start_ * r.point;
+    weights = q.weights;
+    return true;
+  }
+
   void surface(double t, Points& positions, Triangles& triangles) const override {
     std::vector<Vec3> points;
     std::vector<Eigen::Vector3i> tris;
@@ -522,6 +545,38 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
       ++report.fail_safe_moves;
     }
     if (c->end_tree() && !triangles_.empty()) push_faces_off_vertices(*c, x1, v1, dt, report);
+    lift_faces_off_round(*c, x1, v1, report);
+  }
+}
+
+void ColliderContacts::lift_faces_off_round(const Collider& c, VecX& x1, VecX& v1, ContactReport& report) {
+  const double thickness = c.spec().thickness;
+  for (const auto& t : triangles_) {
+    SurfacePoint sp;
+    Vec3 w;
+    if (!c.closest_to_triangle(node(x1, t[0]), node(x1, t[1]), node(x1, t[2]), sp, w)) return;
+    if (sp.distance >= 0.5 * thickness) continue;
+    lift_face(t, w, thickness - sp.distance, sp.normal, x1, v1, report);
+  }
+}
+
+void ColliderContacts::lift_face(const std::array<int, 3>& t, const Vec3& weights, double lift, const Vec3& n, VecX& x1,
+                                 VecX& v1, ContactReport& report) {
+  // The face's point with these weights moves by `lift` along n: vertex i by w_i lift / sum w^2.
+  double w2 = 0;
+  for (int k = 0; k < 3; ++k) w2 += fixed_[t[k]] ? 0.0 : weights[k] * weights[k];
+  if (!(w2 > 0)) return;
+  for (int k = 0; k < 3; ++k) {
+    const int i = t[k];
+    if (fixed_[i]) continue;
+    node(x1, i) += (weights[k] * lift / w2) * n;
+    const Vec3 v_old = node(v1, i);
+    const double vn = v_old.dot(n);
+    if (vn < 0) {
+      node(v1, i) -= vn * n;
+      report.work += 0.5 * mass_[i] * (node(v1, i).squaredNorm() - v_old.squaredNorm());
+    }
+    ++report.fail_safe_moves;
   }
 }
 
@@ -555,8 +610,11 @@ void ColliderContacts::push_faces_off_vertices(const Collider& c, VecX& x1, VecX
     if (q.feature.kind != FeatureKind::kFace) continue;  // a neighbouring face's
     const double height = (q.point - p).dot(n);            // of the face above the vertex
     if (height >= 0.5 * thickness || height < -kMaxPokeDepth) continue;
-    // The face must lie on the vertex's side of the collider: its own vertices' closest
-    // surface normals face the same way (not a face on the far side of a thin part).
+    // The face must lie on the vertex's side of the collider: its own vertices' nearest
+    // surface normals face the same way (not a face on the far side of a thin part). Lifting
+    // faces more freely (those wrapped round an arm) moves so many vertices that the cloth's
+    // elastic energy blows up: on coarse cloth (triangles as wide as an arm) edges can still
+    // cut the body (docs/collisions.md).
     bool same_side = true;
     for (int k = 0; k < 3 && same_side; ++k) {
       const int i = t[k];
@@ -571,23 +629,8 @@ void ColliderContacts::push_faces_off_vertices(const Collider& c, VecX& x1, VecX
     // As for vertices: a face resting at the thickness sags a little between its vertices over
     // a curved surface, so only a face closer than half the thickness is moved.
     if (height >= 0.5 * thickness || height < -kMaxPokeDepth) continue;
-    // Move the face's point over the vertex out to the thickness: vertex i by w_i d / sum w^2.
-    const double lift = thickness - height;
-    double w2 = 0;
-    for (int k = 0; k < 3; ++k) w2 += fixed_[t[k]] ? 0.0 : q.weights[k] * q.weights[k];
-    if (!(w2 > 0)) continue;
-    for (int k = 0; k < 3; ++k) {
-      const int i = t[k];
-      if (fixed_[i]) continue;
-      node(x1, i) += (q.weights[k] * lift / w2) * n;
-      const Vec3 v_old = node(v1, i);
-      const double vn = v_old.dot(n);
-      if (vn < 0) {
-        node(v1, i) -= vn * n;
-        report.work += 0.5 * mass_[i] * (node(v1, i).squaredNorm() - v_old.squaredNorm());
-      }
-      ++report.fail_safe_moves;
-    }
+    // Move the face's point over the vertex out to the thickness.
+    lift_face(t, q.weights, thickness - height, n, x1, v1, report);
   }
   (void)dt;
 }

@@ -34,6 +34,13 @@ class Collider {
   /// How far any point of the surface moves over the prepared step (m); 0 for a collider
   /// whose queries answer at any distance.
   virtual double step_motion() const { return 0; }
+  /// For a round collider (sphere, capsule): the surface point nearest the triangle (a, b, c)
+  /// at the step's end, with the triangle's point nearest it (its barycentric weights in
+  /// `weights`); false for other colliders.
+  virtual bool closest_to_triangle(const Vec3& /*a*/, const Vec3& /*b*/, const Vec3& /*c*/, SurfacePoint& /*out*/,
+                                   Vec3& /*weights*/) const {
+    return false;
+  }
   /// A mesh collider's surface at the prepared step's end: its tree (refitted there), vertex
   /// positions and unit outward vertex normals; null for analytic colliders.
   virtual const AabbTree* end_tree() const { return nullptr; }
@@ -80,6 +87,13 @@ class ColliderContacts : public ContactHandler {
   /// Moves cloth faces that a mesh collider's vertex (a nose, a finger) came within the
   /// thickness of, or poked through, back out along that vertex's normal.
   void push_faces_off_vertices(const Collider& c, VecX& x1, VecX& v1, double dt, ContactReport& report);
+  /// Lifts cloth faces that sag between their vertices to within half the thickness of a
+  /// round collider (sphere, capsule) back to the thickness.
+  void lift_faces_off_round(const Collider& c, VecX& x1, VecX& v1, ContactReport& report);
+  /// Moves face t's point with barycentric `weights` by `lift` along n (its free vertices in
+  /// proportion to their weights), no vertex then moving towards -n.
+  void lift_face(const std::array<int, 3>& t, const Vec3& weights, double lift, const Vec3& n, VecX& x1, VecX& v1,
+                 ContactReport& report);
   std::vector<std::array<int, 3>> triangles_;
   AabbTree tree_;  ///< over the cloth's triangles
   std::vector<char> side_normal_known_;  ///< per node, this step: side_normal_ computed
