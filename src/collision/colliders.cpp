@@ -276,9 +276,19 @@ class MeshCollider : public Collider {
         const int a = list_[f][k], b = list_[f][(k + 1) % 3];
         edge_faces_[key(a, b)].push_back(f);
       }
-    normals(start_, face_normal_start_, vertex_normal_start_);
+    // Each vertex's faces (for its pseudo-normal), in compressed rows.
+    vertex_face_start_.assign(static_cast<size_t>(start_.rows()) + 1, 0);
+    for (const auto& t : list_)
+      for (int v : t) ++vertex_face_start_[v + 1];
+    for (size_t v = 0; v + 1 < vertex_face_start_.size(); ++v) vertex_face_start_[v + 1] += vertex_face_start_[v];
+    vertex_faces_.resize(3 * list_.size());
+    std::vector<int> fill(vertex_face_start_.begin(), vertex_face_start_.end() - 1);
+    for (int f = 0; f < static_cast<int>(list_.size()); ++f)
+      for (int v : list_[f]) vertex_faces_[fill[v]++] = f;
+    face_normals(start_, face_normal_start_);
     face_normal_end_ = face_normal_start_;
-    vertex_normal_end_ = vertex_normal_start_;
+    for (auto& side : vertex_normal_) side.assign(static_cast<size_t>(start_.rows()), Vec3::Zero());
+    for (auto& side : vertex_normal_ready_) side.assign(static_cast<size_t>(start_.rows()), 0);
   }
 
   void prepare(double t0, double t1) override {
@@ -287,16 +297,19 @@ class MeshCollider : public Collider {
       std::swap(start_, end_);
       std::swap(tree_start_, tree_end_);
       std::swap(face_normal_start_, face_normal_end_);
-      std::swap(vertex_normal_start_, vertex_normal_end_);
+      std::swap(vertex_normal_[0], vertex_normal_[1]);
+      std::swap(vertex_normal_ready_[0], vertex_normal_ready_[1]);
     } else if (t0 != t0_) {
       motion_(t0, start_);
       tree_start_.refit(start_.data());
-      normals(start_, face_normal_start_, vertex_normal_start_);
+      face_normals(start_, face_normal_start_);
+      std::fill(vertex_normal_ready_[0].begin(), vertex_normal_ready_[0].end(), 0);
     }
     if (t1 != t1_ || t0 != t0_) {
       motion_(t1, end_);
       tree_end_.refit(end_.data());
-      normals(end_, face_normal_end_, vertex_normal_end_);
+      face_normals(end_, face_normal_end_);
+      std::fill(vertex_normal_ready_[1].begin(), vertex_normal_ready_[1].end(), 0);
     }
     t0_ = t0;
     t1_ = t1;
@@ -309,11 +322,7 @@ class MeshCollider : public Collider {
   double step_motion() const override { return step_motion_; }
   const AabbTree* end_tree() const override { return &tree_end_; }
   const Points* end_vertices() const override { return &end_; }
-  const std::vector<Vec3>* end_vertex_normals() const override {
-    unit_normals_end_.resize(vertex_normal_end_.size());
-    for (size_t v = 0; v < vertex_normal_end_.size(); ++v) unit_normals_end_[v] = vertex_normal_end_[v].normalized();
-    return &unit_normals_end_;
-  }
+  Vec3 end_vertex_normal(int v) const override { return vertex_normal(v, true).normalized(); }
   const std::vector<std::array<int, 3>>* triangle_list() const override { return &list_; }
 
   bool closest(const Vec3& p, double reach, bool end, int node, SurfacePoint& out) const override {
@@ -367,21 +376,32 @@ class MeshCollider : public Collider {
  private:
   static long long key(int a, int b) { return (static_cast<long long>(std::min(a, b)) << 32) | std::max(a, b); }
 
-  void normals(const Points& x, std::vector<Vec3>& face, std::vector<Vec3>& vertex) const {
+  void face_normals(const Points& x, std::vector<Vec3>& face) const {
     face.resize(list_.size());
-    vertex.assign(static_cast<size_t>(x.rows()), Vec3::Zero());
     for (size_t f = 0; f < list_.size(); ++f) {
       const auto& t = list_[f];
       const Vec3 a = x.row(t[0]), b = x.row(t[1]), c = x.row(t[2]);
       const Vec3 n = (b - a).cross(c - a);
       face[f] = n.norm() > 0 ? Vec3(n.normalized()) : Vec3::Zero();
-      const Vec3 corner[3] = {a, b, c};
-      for (int k = 0; k < 3; ++k) {
-        const Vec3 e1 = corner[(k + 1) % 3] - corner[k], e2 = corner[(k + 2) % 3] - corner[k];
-        const double angle = std::atan2(e1.cross(e2).norm(), e1.dot(e2));
-        vertex[t[k]] += angle * face[f];
-      }
     }
+  }
+
+  /// The angle-weighted normal of vertex v (not unit) at the step's start or end, computed
+  /// when first asked for in a step (most queries end on a face or an edge).
+  const Vec3& vertex_normal(int v, bool end) const {
+    if (vertex_normal_ready_[end][v]) return vertex_normal_[end][v];
+    const Points& x = end ? end_ : start_;
+    const std::vector<Vec3>& face = end ? face_normal_end_ : face_normal_start_;
+    Vec3 sum = Vec3::Zero();
+    for (int k = vertex_face_start_[v]; k < vertex_face_start_[v + 1]; ++k) {
+      const int f = vertex_faces_[k];
+      const auto& t = list_[f];
+      const int at = t[0] == v ? 0 : t[1] == v ? 1 : 2;
+      const Vec3 p = x.row(v), e1 = Vec3(x.row(t[(at + 1) % 3])) - p, e2 = Vec3(x.row(t[(at + 2) % 3])) - p;
+      sum += std::atan2(e1.cross(e2).norm(), e1.dot(e2)) * face[f];
+    }
+    vertex_normal_ready_[end][v] = 1;
+    return vertex_normal_[end][v] = sum;
   }
 
   Vec3 pseudo_normal(int f, TriangleFeature feature, bool end) const {
@@ -397,7 +417,7 @@ class MeshCollider : public Collider {
         return n;
       }
       case FeatureKind::kVertex:
-        return (end ? vertex_normal_end_ : vertex_normal_start_)[list_[f][feature.index]];
+        return vertex_normal(list_[f][feature.index], end);
     }
     return face[f];
   }
@@ -409,10 +429,12 @@ class MeshCollider : public Collider {
   Points start_, end_;
   AabbTree tree_start_, tree_end_;
   std::unordered_map<long long, std::vector<int>> edge_faces_;
-  std::vector<Vec3> face_normal_start_, face_normal_end_, vertex_normal_start_, vertex_normal_end_;
+  std::vector<Vec3> face_normal_start_, face_normal_end_;
+  std::vector<int> vertex_face_start_, vertex_faces_;  ///< each vertex's faces, compressed rows
+  mutable std::vector<Vec3> vertex_normal_[2];          ///< [0] start, [1] end
+  mutable std::vector<char> vertex_normal_ready_[2];
   double t0_ = std::numeric_limits<double>::quiet_NaN(), t1_ = std::numeric_limits<double>::quiet_NaN();
   double step_motion_ = 0;
-  mutable std::vector<Vec3> unit_normals_end_;
   mutable std::vector<signed char> side_;  ///< per cloth node, open surfaces: +1 or -1 (0: not yet)
 };
 
@@ -589,7 +611,6 @@ void ColliderContacts::push_faces_off_vertices(const Collider& c, VecX& x1, VecX
   if (tree_.triangle_count() == 0) tree_ = AabbTree(triangles_, x1.data());
   tree_.refit(x1.data(), thickness);
   const Points& body = *c.end_vertices();
-  const std::vector<Vec3>& normal = *c.end_vertex_normals();
   const auto& body_triangles = *c.triangle_list();
   // Each (cloth face, collider vertex) pair once: the pairs of overlapping boxes give the
   // candidates; the deepest correction per face is applied.
@@ -605,7 +626,7 @@ void ColliderContacts::push_faces_off_vertices(const Collider& c, VecX& x1, VecX
     const auto& t = triangles_[f];
     if (fixed_[t[0]] && fixed_[t[1]] && fixed_[t[2]]) continue;
     const Vec3 p = body.row(vertex).transpose();
-    const Vec3& n = normal[vertex];
+    const Vec3 n = c.end_vertex_normal(vertex);
     const PointTriangleClosest q = closest_point_triangle(p, node(x1, t[0]), node(x1, t[1]), node(x1, t[2]));
     if (q.feature.kind != FeatureKind::kFace) continue;  // a neighbouring face's
     const double height = (q.point - p).dot(n);            // of the face above the vertex

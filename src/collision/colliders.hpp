@@ -42,10 +42,11 @@ class Collider {
     return false;
   }
   /// A mesh collider's surface at the prepared step's end: its tree (refitted there), vertex
-  /// positions and unit outward vertex normals; null for analytic colliders.
+  /// positions and unit outward vertex normals (angle-weighted); null (zero) for analytic
+  /// colliders.
   virtual const AabbTree* end_tree() const { return nullptr; }
   virtual const Points* end_vertices() const { return nullptr; }
-  virtual const std::vector<Vec3>* end_vertex_normals() const { return nullptr; }
+  virtual Vec3 end_vertex_normal(int /*v*/) const { return Vec3::Zero(); }
   virtual const std::vector<std::array<int, 3>>* triangle_list() const { return nullptr; }
   /// The surface at time t as triangles (output frames, checks).
   virtual void surface(double t, Points& positions, Triangles& triangles) const = 0;
