@@ -347,16 +347,19 @@ class MeshCollider : public Collider {
     if (best_face < 0 || best > reach) return false;
     const Vec3 pseudo = pseudo_normal(best_face, hit.feature, end);
     const Vec3 away = p - hit.point;
-    double side = away.dot(pseudo) >= 0 ? 1.0 : -1.0;
+    // The free side: outside a closed surface (where its normals point); for an open one the
+    // side the node was on when last clear of it. Positive distances and the normal are on it.
+    const double actual = away.dot(pseudo) >= 0 ? 1.0 : -1.0;
+    double free = 1.0;
     if (!closed_) {
-      // An open surface has no inside: a node keeps the side it was on when clear of it.
       if (side_.size() <= static_cast<size_t>(node)) side_.resize(node + 1, 0);
       signed char& kept = side_[node];
-      if (kept == 0 || (!end && best > 2 * spec().thickness)) kept = static_cast<signed char>(side);
-      side = kept;
+      if (kept == 0 || (!end && best > 2 * spec().thickness)) kept = static_cast<signed char>(actual);
+      free = kept;
     }
-    out.distance = side * best;
-    out.normal = best > 1e-12 ? Vec3(side * away / best) : Vec3(side * pseudo);
+    const double sign = actual * free;
+    out.distance = sign * best;
+    out.normal = best > 1e-12 ? Vec3(sign * away / best) : Vec3(free * pseudo.normalized());
     out.point = hit.point;
     const auto& t = list_[best_face];
     Vec3 before = Vec3::Zero(), after = Vec3::Zero();

@@ -3,7 +3,11 @@
 // motions carrying cloth, and mesh colliders telling inside from outside.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 
 #include "collision/colliders.hpp"
 #include "weft/simulation.hpp"
@@ -227,4 +231,31 @@ TEST(MeshCollider, ClosedMeshTellsInsideFromOutsideEverywhere) {
     EXPECT_NEAR(a.distance, b.distance, 1e-12) << p.transpose();
     if (std::abs(a.distance) > 1e-9) EXPECT_LT((a.normal - b.normal).norm(), 1e-9) << p.transpose();
   }
+}
+
+// An open mesh (a square plate of two triangles) holds the cloth on the side it falls from,
+// whichever way its triangles are wound.
+TEST(MeshCollider, OpenPlateHoldsTheClothOnItsSideWhicheverWayItIsWound) {
+  const std::string obj = ::testing::TempDir() + "weft_open_plate_" + std::to_string(::getpid()) + ".obj";
+  for (bool up : {true, false}) {
+    {
+      std::ofstream out(obj);
+      out << "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n"
+          << (up ? "f 1 3 2\nf 1 4 3\n" : "f 1 2 3\nf 1 3 4\n");  // normals +y, or -y
+    }
+    Scene s = patch(0.1, 5, Vec3(-0.05, 0.02, -0.05));
+    ColliderSpec spec;
+    spec.shape = ColliderShape::kMesh;
+    spec.obj_path = obj;
+    spec.thickness = kThickness;
+    spec.closed = false;
+    s.colliders.push_back(spec);
+    Simulation sim(s);
+    const RunResult r = run_simulation(sim);
+    ASSERT_EQ(r.status, "ok") << r.message;
+    for (int i = 0; i < sim.model().num_vertices(); ++i)
+      EXPECT_NEAR(sim.state().x[3 * i + 1], kThickness, 1e-6) << (up ? "up" : "down") << " node " << i;
+    EXPECT_EQ(sim.statistics().fail_safe_moves, 0) << (up ? "up" : "down");
+  }
+  std::remove(obj.c_str());
 }
