@@ -90,6 +90,7 @@ PcgSettings Integrator::pcg_settings() const {
   ps.node_order = system_.solver_order();
   ps.ssor_omega = settings_.ssor_relaxation;
   ps.ssor_single_precision = settings_.ssor_single_precision;
+  ps.ssor_whole_blocks = !handlers_.empty();
   return ps;
 }
 

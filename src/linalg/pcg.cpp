@@ -47,7 +47,7 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
   const int free_nodes = static_cast<int>(fixed.size() - ws.fixed_nodes.size());
   const double omega = settings.ssor_omega > 0 ? settings.ssor_omega : ssor_relaxation_for(free_nodes);
   SsorOperator& S = ws.ssor;
-  S.assign(A, fixed, omega, settings.node_order);
+  S.assign(A, fixed, omega, settings.node_order, settings.ssor_whole_blocks);
   const long size = S.vector_size();
   VecX& x4 = ws.x4;
   VecX& b4 = ws.b4;
@@ -134,7 +134,7 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
   const int free_nodes = static_cast<int>(fixed.size() - ws.fixed_nodes.size());
   const double omega = settings.ssor_omega > 0 ? settings.ssor_omega : ssor_relaxation_for(free_nodes);
   SsorOperatorT<float>& S = ws.ssor_single;
-  S.assign(A, fixed, omega, settings.node_order);
+  S.assign(A, fixed, omega, settings.node_order, settings.ssor_whole_blocks);
   const long size = S.vector_size();
   for (Eigen::VectorXf* v : {&ws.fr, &ws.fz, &ws.fp, &ws.fq, &ws.ft, &ws.fw, &ws.fdx}) v->resize(size);
   float* rp = ws.fr.data();

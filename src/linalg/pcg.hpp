@@ -33,6 +33,9 @@ struct PcgSettings {
   /// residual whenever a check finds it above the tolerance, and finishes in double precision
   /// should a restart not halve it. The stopping rule is the same.
   bool ssor_single_precision = false;
+  /// kSsor: store every block whole (SsorOperatorT::assign's all_whole), for systems with
+  /// contact constraints.
+  bool ssor_whole_blocks = false;
 };
 
 struct PcgResult {

@@ -429,7 +429,6 @@ void SsorOperatorT<T>::build_rows(Rows& rows, const std::vector<char>& whole_slo
 template <class T>
 void SsorOperatorT<T>::build(const BlockMatrix& A, const std::vector<char>& fixed,
                          const std::vector<int>* base) {
-  if (pattern_ != A.pattern) whole_ever_.clear();
   pattern_ = A.pattern;
   blocks_ = A.pattern->num_blocks();
   n_ = A.pattern->num_nodes();
@@ -456,12 +455,7 @@ void SsorOperatorT<T>::build(const BlockMatrix& A, const std::vector<char>& fixe
   for (int m = 0; m < n_; ++m) where[b[m]] = m;
   const double* a = A.block.front().data();
   std::vector<char> whole_slot(blocks_);
-  // A slot once laid out whole stays whole: a block that stops being a multiple of the identity
-  // now and then (contact constraints project the blocks of the nodes they hold) would
-  // otherwise lay the operator out again each time.
-  if (whole_ever_.size() != static_cast<size_t>(blocks_)) whole_ever_.assign(blocks_, 0);
-  for (int s = 0; s < blocks_; ++s) whole_slot[s] = whole_ever_[s] || !is_multiple_of_identity(a + 9L * s);
-  whole_ever_ = whole_slot;
+  for (int s = 0; s < blocks_; ++s) whole_slot[s] = all_whole_ || !is_multiple_of_identity(a + 9L * s);
   // The stretch: at least n / kLanes; a little more when that lines the lanes' patterns up
   // (on a grid, within two rows).
   const int shortest = std::max(1, (n_ + kLanes - 1) / kLanes);
@@ -513,11 +507,12 @@ void SsorOperatorT<T>::build(const BlockMatrix& A, const std::vector<char>& fixe
 
 template <class T>
 WEFT_HOT_KERNEL void SsorOperatorT<T>::assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega,
-                          const std::vector<int>* base) {
-  const bool same = pattern_ == A.pattern && blocks_ == A.pattern->num_blocks() &&
+                          const std::vector<int>* base, bool all_whole) {
+  const bool same = all_whole == all_whole_ && pattern_ == A.pattern && blocks_ == A.pattern->num_blocks() &&
                     n_ == A.pattern->num_nodes() && fixed_ == fixed &&
                     (base ? *base == base_ : base_.empty()) &&
                     (constant_slots_ == A.constant_slots || !constant_slots_);
+  all_whole_ = all_whole;
   if (!same) build(A, fixed, base);
   omega_ = omega;
   const double* a = A.block.front().data();

@@ -50,8 +50,11 @@ class SsorOperatorT {
   /// being one. `base` (a permutation of the nodes, neighbours close together, e.g. rows of a
   /// mesh) is the order whose stretches are solved side by side; the nodes' numbering when
   /// null.
+  /// `all_whole`: keep every block whole, none as a scalar (for matrices whose blocks change
+  /// shape from solve to solve, as contact constraints make them: the layout then never
+  /// changes, and depends on nothing but the pattern).
   void assign(const BlockMatrix& A, const std::vector<char>& fixed, double omega,
-              const std::vector<int>* base = nullptr);
+              const std::vector<int>* base = nullptr, bool all_whole = false);
 
   int num_nodes() const { return n_; }
   int num_groups() const { return groups_; }
@@ -145,8 +148,7 @@ class SsorOperatorT {
   int groups_ = 0;
   double omega_ = 1.0;
   std::vector<char> fixed_;
-  /// Per slot: laid out whole by an earlier layout of this pattern (kept whole since).
-  std::vector<char> whole_ever_;
+  bool all_whole_ = false;  ///< assign's all_whole of the last layout
   std::vector<int> base_;  ///< the base order of the last layout (empty: the numbering)
   /// order_[p]: the node at position p; slot_[p] = kLanes * group + lane; node_slot_[i] the
   /// slot of node i.

@@ -72,3 +72,34 @@ TEST(CheckpointState, AnotherSceneOrADamagedFileIsRefusedNamingTheFile) {
   EXPECT_THROW(restore_checkpoint(flipped, "ckpt.weft", c), InputError);
   EXPECT_THROW(checkpoint_header("not a checkpoint", "ckpt.weft"), InputError);
 }
+
+// With contacts the checkpoint also holds which contacts pulled and which stuck, so a restored
+// run with friction and colliders steps to the same bits.
+TEST(CheckpointState, RestoredSimulationWithContactsStepsToTheSameBits) {
+  Scene scene = swing("bdf2");
+  scene.cloth.pin_vertices.clear();
+  scene.cloth.pin_grid_nodes.clear();
+  ColliderSpec sphere;
+  sphere.shape = ColliderShape::kSphere;
+  sphere.centre = Vec3(0.2, 0.5, -0.2);
+  sphere.radius = 0.25;
+  sphere.friction = 0.5;
+  ColliderSpec floor;
+  floor.shape = ColliderShape::kPlane;
+  floor.point = Vec3(0, 0.3, 0);
+  floor.friction = 0.8;
+  scene.colliders = {sphere, floor};
+  Simulation a(scene);
+  a.advance_to(0.3);
+  ASSERT_GT(a.statistics().contacts, 0);
+  const std::string bytes = checkpoint_bytes({}, a, RunResult{});
+  Simulation b(scene);
+  restore_checkpoint(bytes, "mem", b);
+  a.advance_to(0.4);
+  b.advance_to(0.4);
+  EXPECT_TRUE(same_bits(a.state().x, b.state().x));
+  EXPECT_TRUE(same_bits(a.state().v, b.state().v));
+  EXPECT_EQ(a.state().contact_work, b.state().contact_work);
+  EXPECT_EQ(a.statistics().contacts, b.statistics().contacts);
+  EXPECT_EQ(a.statistics().released_contacts, b.statistics().released_contacts);
+}
