@@ -222,13 +222,15 @@ ColliderSpec parse_collider(const nlohmann::json& j, const std::string& file, co
   auto allow = [&](std::initializer_list<const char*> own) {
     std::vector<const char*> all(common);
     all.insert(all.end(), own.begin(), own.end());
-    for (const auto& [key, value] : j.items())
-      if (std::find_if(all.begin(), all.end(), [&](const char* a) { return key == a; }) == all.end()) {
+    for (const auto& item : j.items()) {
+      const std::string& key = item.key();
+      if (std::find_if(all.begin(), all.end(), [&key](const char* a) { return key == a; }) == all.end()) {
         std::string expected;
         for (const char* a : all) expected += (expected.empty() ? "" : ", ") + std::string(a);
         throw InputError(file + ": key " + path + "." + key + ": unknown key for a " + type + " collider (expected " +
                          expected + ")");
       }
+    }
   };
   if (r.has("thickness")) c.thickness = r.number_in("thickness", 0, kMaxThickness_m, true);
   if (r.has("friction")) c.friction = r.number_in("friction", 0, kMaxFriction, false);
