@@ -104,7 +104,7 @@ PcgSettings Integrator::pcg_settings() const {
 Integrator::DynamicState Integrator::dynamic_state() const {
   return {history_.snapshot(), history_alpha_,           history_beta_,          history_dt_b_,
           history_t_,          pcg_.ssor_residual_ratio, pcg_.ssor_single_fallbacks, multigrid_setup_blocks_,
-          pulling_, stuck_, guard_rung_, guard_calm_steps_};
+          pulling_, stuck_, guard_rung_, guard_calm_steps_, guard_depth_, guard_depth_calm_steps_};
 }
 
 void Integrator::restore(const DynamicState& d) {
@@ -133,8 +133,12 @@ void Integrator::restore(const DynamicState& d) {
   stuck_ = d.contact_stuck;
   if (d.guard_rung < 0 || d.guard_rung >= static_cast<int>(guard_alphas_.size()) || d.guard_calm_steps < 0)
     throw std::invalid_argument("the guard's alpha does not fit these settings");
+  if (d.guard_depth < 0 || d.guard_depth > kGuardMaxSplits || d.guard_depth_calm_steps < 0)
+    throw std::invalid_argument("the guard's step depth does not fit these settings");
   guard_rung_ = d.guard_rung;
   guard_calm_steps_ = d.guard_calm_steps;
+  guard_depth_ = d.guard_depth;
+  guard_depth_calm_steps_ = d.guard_depth_calm_steps;
 }
 
 double Integrator::guard_alpha() const { return guard_alphas_[guard_rung_]; }
@@ -211,9 +215,7 @@ void Integrator::single_step(State& s, double dt, StepStatistics& stats) {
       break;
     case Method::AlphaFamily:
       if (settings_.guard) {
-        guard_raised_now_ = false;
-        guarded_step(s, dt, stats);
-        if (guard_raised_now_) ++stats.guard_raised_steps;
+        guarded_parts(s, dt, stats);
       } else {
         linear_step(s, dt, alpha, 0.0, dt, stats);
       }
@@ -250,6 +252,23 @@ double Integrator::kinetic_energy(const VecX& v) const {
 // the step still breaks it, with the next larger alpha (numerical dissipation of order
 // (2 alpha - 1), only while it is needed). The start's energy comes with the step's assembly;
 // the end's costs one evaluation without Jacobians.
+void Integrator::guarded_parts(State& s, double dt, StepStatistics& stats) {
+  // A step the last steps had to halve starts halved as often (no attempt at the full step to
+  // discard); the depth goes back up one halving after every kGuardRelaxSteps steps that needed
+  // no deeper one.
+  guard_raised_now_ = false;
+  const int depth = guard_depth_;
+  const int parts = 1 << depth;
+  for (int k = 0; k < parts; ++k) guarded_step(s, dt / parts, stats, depth);
+  if (guard_raised_now_) ++stats.guard_raised_steps;
+  if (guard_depth_ > depth) {
+    guard_depth_calm_steps_ = 0;
+  } else if (guard_depth_ > 0 && ++guard_depth_calm_steps_ >= kGuardRelaxSteps) {
+    --guard_depth_;
+    guard_depth_calm_steps_ = 0;
+  }
+}
+
 void Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int splits) {
   guard_start_ = s;
   const std::vector<char> pulling = pulling_, stuck = stuck_;
@@ -274,6 +293,7 @@ void Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
       pulling_ = pulling;
       stuck_ = stuck;
       ++stats.guard_split_steps;
+      guard_depth_ = std::max(guard_depth_, splits + 1);
       guarded_step(s, 0.5 * dt, stats, splits + 1);
       guarded_step(s, 0.5 * dt, stats, splits + 1);
       return;
@@ -288,6 +308,7 @@ void Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
     guard_calm_steps_ = 0;
     ++stats.guard_redone_steps;
   }
+  ++stats.guard_parts;
   if (guard_rung_ > 0) {
     guard_raised_now_ = true;
     stats.guard_max_alpha = std::max(stats.guard_max_alpha, guard_alphas_[guard_rung_]);

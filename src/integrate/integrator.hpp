@@ -124,7 +124,8 @@ struct StepStatistics {
   long guard_redone_steps = 0;   ///< attempts the energy guard took again with a larger alpha
   long guard_raised_steps = 0;   ///< accepted steps taken (in part) with an alpha above the scene's
   double guard_max_alpha = 0;    ///< the largest alpha of an accepted guarded step (0: none)
-  long guard_split_steps = 0;    ///< guarded steps taken again as two halves
+  long guard_split_steps = 0;    ///< guarded steps (or parts) taken again as two halves
+  long guard_parts = 0;          ///< parts the guarded steps were taken in, halvings included
 };
 
 class Integrator {
@@ -165,6 +166,8 @@ class Integrator {
     std::vector<char> contact_stuck;           ///< per node: stuck by friction (empty: none yet)
     int guard_rung = 0;        ///< the guard's alpha: its index in the rungs (0: the scene's)
     int guard_calm_steps = 0;  ///< steps since the guard last raised or lowered it
+    int guard_depth = 0;       ///< halvings the next guarded step starts with
+    int guard_depth_calm_steps = 0;  ///< steps since the depth last changed
   };
   DynamicState dynamic_state() const;
   /// Restores a dynamic state taken from an integrator of the same system and settings
@@ -177,7 +180,9 @@ class Integrator {
   void single_step(State& s, double dt, StepStatistics& stats);
   /// An alpha-family step checked by the energy guard, taken again with larger alphas until
   /// it puts no energy in (or alpha reaches 1).
-  void guarded_step(State& s, double dt, StepStatistics& stats, int splits = 0);
+  void guarded_step(State& s, double dt, StepStatistics& stats, int splits);
+  /// A guarded step of dt as 2^depth parts (DynamicState::guard_depth).
+  void guarded_parts(State& s, double dt, StepStatistics& stats);
   double kinetic_energy(const VecX& v) const;
   void linear_step(State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
   void rk4_step(State& s, double dt, StepStatistics& stats);
@@ -234,6 +239,7 @@ class Integrator {
   /// The guard's rungs: the scene's alpha, then the kGuardAlphas above it.
   std::vector<double> guard_alphas_;
   int guard_rung_ = 0, guard_calm_steps_ = 0;  ///< DynamicState::guard_rung, guard_calm_steps
+  int guard_depth_ = 0, guard_depth_calm_steps_ = 0;  ///< DynamicState::guard_depth, ..._calm_steps
   State guard_start_;        ///< the guarded step's start, to take it again from
   bool guard_raised_now_ = false;  ///< a part of this step was taken above the scene's alpha
 };

@@ -202,7 +202,7 @@ void Simulation::save(BinaryWriter& out) const {
   for (long c : {stats_.steps, stats_.rejected_steps, stats_.cg_iterations, stats_.cg_solves, stats_.cg_failures,
                  stats_.contacts, stats_.max_contacts, stats_.released_contacts, stats_.fail_safe_moves,
                  stats_.contact_passes, stats_.failed_contact_steps, stats_.halved_steps, stats_.guard_redone_steps,
-                 stats_.guard_raised_steps, stats_.guard_split_steps})
+                 stats_.guard_raised_steps, stats_.guard_split_steps, stats_.guard_parts})
     out.i64(c);
   out.f64(stats_.guard_max_alpha);
   for (double d : {stats_.assembly_seconds, stats_.solve_seconds, stats_.detection_seconds, stats_.response_seconds})
@@ -233,8 +233,7 @@ void Simulation::save(BinaryWriter& out) const {
     out.i64(static_cast<std::int64_t>(flags->size()));
     for (char c : *flags) out.i64(c);
   }
-  out.i64(in.guard_rung);
-  out.i64(in.guard_calm_steps);
+  for (int g : {in.guard_rung, in.guard_calm_steps, in.guard_depth, in.guard_depth_calm_steps}) out.i64(g);
 }
 
 void Simulation::restore(BinaryReader& in) {
@@ -256,7 +255,7 @@ void Simulation::restore(BinaryReader& in) {
   for (long* c : {&st.steps, &st.rejected_steps, &st.cg_iterations, &st.cg_solves, &st.cg_failures, &st.contacts,
                   &st.max_contacts, &st.released_contacts, &st.fail_safe_moves, &st.contact_passes,
                   &st.failed_contact_steps, &st.halved_steps, &st.guard_redone_steps, &st.guard_raised_steps,
-                  &st.guard_split_steps})
+                  &st.guard_split_steps, &st.guard_parts})
     *c = in.i64();
   st.guard_max_alpha = in.f64();
   for (double* d : {&st.assembly_seconds, &st.solve_seconds, &st.detection_seconds, &st.response_seconds}) *d = in.f64();
@@ -292,8 +291,8 @@ void Simulation::restore(BinaryReader& in) {
       in.fail("checkpoint is damaged (contact flags for " + std::to_string(count) + " nodes)");
     for (std::int64_t k = 0; k < count; ++k) flags->push_back(in.i64() != 0);
   }
-  id.guard_rung = static_cast<int>(in.i64());
-  id.guard_calm_steps = static_cast<int>(in.i64());
+  for (int* g : {&id.guard_rung, &id.guard_calm_steps, &id.guard_depth, &id.guard_depth_calm_steps})
+    *g = static_cast<int>(in.i64());
   try {
     system_->restore(sys);
     integrator_->restore(id);
@@ -436,7 +435,8 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
   }
   if (sc.integrator.guard) {
     const StepStatistics& st = r.steps;
-    j["guard"] = {{"split_steps", st.guard_split_steps},
+    j["guard"] = {{"parts_per_step", st.steps ? static_cast<double>(st.guard_parts) / st.steps : 0.0},
+                  {"split_steps", st.guard_split_steps},
                   {"redone_steps", st.guard_redone_steps},
                   {"raised_steps", st.guard_raised_steps},
                   {"raised_fraction", st.steps ? static_cast<double>(st.guard_raised_steps) / st.steps : 0.0},
