@@ -270,12 +270,15 @@ void Integrator::guarded_parts(State& s, double dt, StepStatistics& stats) {
 }
 
 void Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int splits) {
+  auto tg = Clock::now();
   guard_start_ = s;
   const std::vector<char> pulling = pulling_, stuck = stuck_;
   const int top = static_cast<int>(guard_alphas_.size()) - 1;
   for (;;) {
     const double alpha = guard_alphas_[guard_rung_];
+    stats.guard_seconds += seconds_since(tg);
     linear_step(s, dt, alpha, 0.0, dt, stats);
+    tg = Clock::now();
     const double kinetic0 = kinetic_energy(guard_start_.v);
     const double e0 = kinetic0 + step_.elastic_energy + step_.gravity_energy;
     const double scale = std::max(energy_scale_, kinetic0 + step_.elastic_energy);
@@ -285,6 +288,8 @@ void Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
                         (s.contact_work - guard_start_.contact_work);
     // A non-finite end is a step that put energy in too.
     if (gain <= kGuardTolerance * scale) break;
+    stats.guard_seconds += seconds_since(tg);
+    tg = Clock::now();
     if (splits < kGuardMaxSplits) {
       // Halving the step divides kappa by 4 and the elements' turn within the step by 2 while
       // keeping the step second order: on the stiff swing it dissipates a third of what
@@ -308,6 +313,7 @@ void Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
     guard_calm_steps_ = 0;
     ++stats.guard_redone_steps;
   }
+  stats.guard_seconds += seconds_since(tg);
   ++stats.guard_parts;
   if (guard_rung_ > 0) {
     guard_raised_now_ = true;

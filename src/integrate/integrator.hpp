@@ -126,6 +126,7 @@ struct StepStatistics {
   double guard_max_alpha = 0;    ///< the largest alpha of an accepted guarded step (0: none)
   long guard_split_steps = 0;    ///< guarded steps (or parts) taken again as two halves
   long guard_parts = 0;          ///< parts the guarded steps were taken in, halvings included
+  double guard_seconds = 0;      ///< the guard's own work: saving the start, the energy check
 };
 
 class Integrator {

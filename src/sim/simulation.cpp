@@ -205,7 +205,8 @@ void Simulation::save(BinaryWriter& out) const {
                  stats_.guard_raised_steps, stats_.guard_split_steps, stats_.guard_parts})
     out.i64(c);
   out.f64(stats_.guard_max_alpha);
-  for (double d : {stats_.assembly_seconds, stats_.solve_seconds, stats_.detection_seconds, stats_.response_seconds})
+  for (double d : {stats_.assembly_seconds, stats_.solve_seconds, stats_.detection_seconds, stats_.response_seconds,
+                   stats_.guard_seconds})
     out.f64(d);
   out.f64(gravity0_);
   out.f64(total0_);
@@ -258,7 +259,9 @@ void Simulation::restore(BinaryReader& in) {
                   &st.guard_split_steps, &st.guard_parts})
     *c = in.i64();
   st.guard_max_alpha = in.f64();
-  for (double* d : {&st.assembly_seconds, &st.solve_seconds, &st.detection_seconds, &st.response_seconds}) *d = in.f64();
+  for (double* d : {&st.assembly_seconds, &st.solve_seconds, &st.detection_seconds, &st.response_seconds,
+                    &st.guard_seconds})
+    *d = in.f64();
   const double gravity0 = in.f64(), total0 = in.f64(), energy_scale = in.f64();
 
   ClothSystem::DynamicState sys;
@@ -437,6 +440,7 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
     const StepStatistics& st = r.steps;
     j["guard"] = {{"parts_per_step", st.steps ? static_cast<double>(st.guard_parts) / st.steps : 0.0},
                   {"split_steps", st.guard_split_steps},
+                  {"seconds", st.guard_seconds},
                   {"redone_steps", st.guard_redone_steps},
                   {"raised_steps", st.guard_raised_steps},
                   {"raised_fraction", st.steps ? static_cast<double>(st.guard_raised_steps) / st.steps : 0.0},
