@@ -69,7 +69,7 @@ const RegisterCommand register_convergence{CommandSpec{
       sub.add_option("--fit-points", o.fit_points, "Finest admissible points in each slope fit")
           ->capture_default_str();
       sub.footer(
-          "Methods: forward-euler, backward-euler, implicit-midpoint, bdf2, bdf2-alpha "
+          "Methods: forward-euler, backward-euler, implicit-midpoint-plain, bdf2, bdf2-alpha "
           "(1/sqrt(3)), rk4.\n"
           "Error: RMS vertex distance at --time from the RK45 reference. Unstable points are "
           "recorded and\n"

@@ -73,7 +73,7 @@ weft::app::RegisterCommand reg{{"experiment", "stability",
         ->capture_default_str();
     sub.add_option("--methods", a->methods,
                    "Comma-separated NAME or NAME:ALPHA (e.g. implicit-midpoint,alpha:2/3,bdf2-alpha); default: "
-                   "forward-euler, backward-euler, implicit-midpoint, alpha:0.6, alpha:2/3, bdf2, bdf2-alpha");
+                   "forward-euler, backward-euler, implicit-midpoint-plain, implicit-midpoint, alpha:0.6, alpha:2/3, bdf2, bdf2-alpha");
     sub.add_option("--dts", s.dts, "Comma-separated time steps in seconds")->delimiter(',')->capture_default_str();
     sub.add_option("--ratios", s.ratios, "Comma-separated adaptive damping ratios (fractions of critical)")
         ->delimiter(',')

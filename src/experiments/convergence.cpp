@@ -48,7 +48,7 @@ std::vector<ConvergenceMethod> convergence_methods(double zeta) {
   return {
       {{"forward-euler", "forward-euler", std::nullopt, zeta}, 1},
       {{"backward-euler", "backward-euler", std::nullopt, zeta}, 1},
-      {{"implicit-midpoint", "implicit-midpoint", std::nullopt, zeta}, 2},
+      {{"implicit-midpoint", "implicit-midpoint-plain", std::nullopt, zeta}, 2},
       {{"bdf2", "bdf2", std::nullopt, zeta}, 2},
       {{"bdf2-alpha", "bdf2-alpha", inv_sqrt3, zeta}, 2},
       {{"rk4", "rk4", std::nullopt, zeta}, 4},

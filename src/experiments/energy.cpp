@@ -53,7 +53,7 @@ std::vector<EnergyConfiguration> energy_configurations(double zeta) {
   const double inv_sqrt3 = 1.0 / std::sqrt(3.0);
   return {
       {{kBackwardEuler, "backward-euler", std::nullopt, 0.0}, "rk45"},
-      {{kMidpoint, "implicit-midpoint", std::nullopt, zeta}, "rk45-damped"},
+      {{kMidpoint, "implicit-midpoint-plain", std::nullopt, zeta}, "rk45-damped"},
       {{"bdf2", "bdf2", std::nullopt, 0.0}, "rk45"},
       {{"bdf2-alpha-damped", "bdf2-alpha", inv_sqrt3, zeta}, "rk45-damped"},
       {{"rk45-damped", "rk45", std::nullopt, zeta}, ""},

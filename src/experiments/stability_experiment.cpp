@@ -105,7 +105,8 @@ std::string percent(double ratio) { return format_number(100 * ratio) + "%"; }
 std::vector<StabilityMethod> default_stability_methods() {
   return {{"forward Euler", "forward-euler", std::nullopt},
           {"backward Euler", "backward-euler", std::nullopt},
-          {"Implicit Midpoint", "implicit-midpoint", std::nullopt},
+          {"Implicit Midpoint", "implicit-midpoint-plain", std::nullopt},
+          {"guarded Implicit Midpoint", "implicit-midpoint", std::nullopt},
           {"alpha 0.6", "alpha", 0.6},
           {"alpha 2/3", "alpha", 2.0 / 3.0},
           {"BDF-2", "bdf2", std::nullopt},

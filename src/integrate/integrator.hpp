@@ -35,7 +35,25 @@ struct IntegratorSettings {
   /// Steps whose right-hand sides and solutions the linear solves' warm start combines
   /// (SolutionHistory); 0 starts each solve from the previous step's dv.
   int warm_start_history = 3;
+  /// The energy guard (alpha family only; docs/guarded-midpoint.md): a step that puts energy
+  /// into the cloth is taken again from its start as two halves (kGuardMaxSplits times at
+  /// most), then with a larger alpha (kGuardAlphas), which relaxes back to `alpha`.
+  bool guard = false;
 };
+
+/// The alphas a guarded step climbs through when a step puts energy in even after
+/// kGuardMaxSplits halvings, after the scene's own (only those above it). 0.6 keeps a second-order-like accuracy (METHOD.md 3: the step is
+/// stable when lambda > (1 - 2 alpha) kappa, so alpha 0.6 needs no damping at all), 1 is
+/// backward Euler, stable whatever the stiffness.
+constexpr double kGuardAlphas[] = {0.6, 0.75, 1.0};
+/// A step puts energy in when its mechanical energy change plus its viscous work exceeds the
+/// contacts' work by more than this fraction of the energy scale (Integrator::set_energy_scale,
+/// or the state's kinetic plus elastic energy where larger).
+constexpr double kGuardTolerance = 1e-4;
+/// How many times a guarded step that puts energy in is halved before alpha is raised.
+constexpr int kGuardMaxSplits = 4;
+/// Steps without a redo after which a raised alpha goes down one rung.
+constexpr int kGuardRelaxSteps = 5;
 
 /// Free nodes from which the automatic choice is multigrid rather than SSOR: below, SSOR's
 /// iterations (two triangular solves each) win over the V-cycle's and the per-step coarse
@@ -67,6 +85,7 @@ struct MethodInfo {
   std::optional<double> fixed_alpha;  ///< alpha implied by the name, if any
   double default_alpha;
   std::string description;
+  bool guard = false;  ///< IntegratorSettings::guard
 };
 const std::vector<MethodInfo>& method_table();
 /// Looks a method up by name; nullptr when unknown.
@@ -102,6 +121,12 @@ struct StepStatistics {
   long halved_steps = 0;         ///< steps taken again as two halves for that reason
   double detection_seconds = 0;  ///< finding contacts
   double response_seconds = 0;   ///< constraints, friction and the fail-safe
+  long guard_redone_steps = 0;   ///< attempts the energy guard took again with a larger alpha
+  long guard_raised_steps = 0;   ///< accepted steps taken (in part) with an alpha above the scene's
+  double guard_max_alpha = 0;    ///< the largest alpha of an accepted guarded step (0: none)
+  long guard_split_steps = 0;    ///< guarded steps (or parts) taken again as two halves
+  long guard_parts = 0;          ///< parts the guarded steps were taken in, halvings included
+  double guard_seconds = 0;      ///< the guard's own work: saving the start, the energy check
 };
 
 class Integrator {
@@ -122,6 +147,10 @@ class Integrator {
   Preconditioner preconditioner() const { return preconditioner_; }
   /// The SSOR relaxation the solves use (the setting, or the automatic one for this system).
   double ssor_relaxation() const;
+  /// The energy (J) the guard's tolerance is a fraction of: the scene's energy scale.
+  void set_energy_scale(double e) { energy_scale_ = e; }
+  /// The alpha the next guarded step starts from.
+  double guard_alpha() const;
 
   /// What later steps depend on beyond the State and the system (checkpoints): the warm-start
   /// history and the linear step it belongs to, the SSOR residual ratio the next solve
@@ -136,6 +165,10 @@ class Integrator {
     std::vector<Mat3> multigrid_setup_blocks;  ///< empty: no hierarchy built yet
     std::vector<char> contact_pulling;         ///< per node: its contact pulled (empty: none yet)
     std::vector<char> contact_stuck;           ///< per node: stuck by friction (empty: none yet)
+    int guard_rung = 0;        ///< the guard's alpha: its index in the rungs (0: the scene's)
+    int guard_calm_steps = 0;  ///< steps since the guard last raised or lowered it
+    int guard_depth = 0;       ///< halvings the next guarded step starts with
+    int guard_depth_calm_steps = 0;  ///< steps since the depth last changed
   };
   DynamicState dynamic_state() const;
   /// Restores a dynamic state taken from an integrator of the same system and settings
@@ -146,6 +179,12 @@ class Integrator {
  private:
   PcgSettings pcg_settings() const;
   void single_step(State& s, double dt, StepStatistics& stats);
+  /// An alpha-family step checked by the energy guard, taken again with larger alphas until
+  /// it puts no energy in (or alpha reaches 1).
+  void guarded_step(State& s, double dt, StepStatistics& stats, int splits);
+  /// A guarded step of dt as 2^depth parts (DynamicState::guard_depth).
+  void guarded_parts(State& s, double dt, StepStatistics& stats);
+  double kinetic_energy(const VecX& v) const;
   void linear_step(State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
   void rk4_step(State& s, double dt, StepStatistics& stats);
   bool rk45_try(State& s, double h, double& error_norm, StepStatistics& stats);
@@ -196,6 +235,14 @@ class Integrator {
   std::vector<char> released_now_;  ///< per node: let go in this step
   std::vector<char> keep_held_;     ///< per node: let go and back in this step: held to its end
   VecX x_start_, rhs_unconstrained_;
+
+  double energy_scale_ = 0;  ///< set_energy_scale
+  /// The guard's rungs: the scene's alpha, then the kGuardAlphas above it.
+  std::vector<double> guard_alphas_;
+  int guard_rung_ = 0, guard_calm_steps_ = 0;  ///< DynamicState::guard_rung, guard_calm_steps
+  int guard_depth_ = 0, guard_depth_calm_steps_ = 0;  ///< DynamicState::guard_depth, ..._calm_steps
+  State guard_start_;        ///< the guarded step's start, to take it again from
+  bool guard_raised_now_ = false;  ///< a part of this step was taken above the scene's alpha
 };
 
 }  // namespace weft

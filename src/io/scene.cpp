@@ -39,6 +39,7 @@ void set_method(Scene& scene, const std::string& name, std::optional<double> alp
   if (!info) throw InputError(where + ": unknown method '" + name + "' (expected one of: " + method_names() + ")");
   scene.method_name = name;
   scene.integrator.method = info->method;
+  scene.integrator.guard = info->guard;
   if (info->fixed_alpha) {
     if (alpha && std::abs(*alpha - *info->fixed_alpha) > 1e-15)
       throw InputError(where + ": method '" + name + "' fixes alpha = " + nlohmann::json(*info->fixed_alpha).dump() +

@@ -115,6 +115,7 @@ void Simulation::set_energy_reference() {
     hi = hi.cwiseMax(node(state_.x, i));
   }
   energy_scale_ = e0.kinetic + e0.elastic + model_->mass.sum() * scene_.gravity.norm() * (hi - lo).norm() + 1e-12;
+  integrator_->set_energy_scale(energy_scale_);
 }
 
 namespace {
@@ -175,6 +176,7 @@ std::uint64_t Simulation::fingerprint() const {
   w.i64(static_cast<int>(integrator_->preconditioner()));
   w.i64(is.ssor_single_precision);
   w.i64(is.warm_start_history);
+  w.i64(is.guard);
   w.f64(system_->damping_settings().damping_ratio);
   w.f64(system_->damping_settings().reference_dt);
   const Material& m = model_->material;
@@ -199,9 +201,12 @@ void Simulation::save(BinaryWriter& out) const {
   out.f64(s.rk45_step);
   for (long c : {stats_.steps, stats_.rejected_steps, stats_.cg_iterations, stats_.cg_solves, stats_.cg_failures,
                  stats_.contacts, stats_.max_contacts, stats_.released_contacts, stats_.fail_safe_moves,
-                 stats_.contact_passes, stats_.failed_contact_steps, stats_.halved_steps})
+                 stats_.contact_passes, stats_.failed_contact_steps, stats_.halved_steps, stats_.guard_redone_steps,
+                 stats_.guard_raised_steps, stats_.guard_split_steps, stats_.guard_parts})
     out.i64(c);
-  for (double d : {stats_.assembly_seconds, stats_.solve_seconds, stats_.detection_seconds, stats_.response_seconds})
+  out.f64(stats_.guard_max_alpha);
+  for (double d : {stats_.assembly_seconds, stats_.solve_seconds, stats_.detection_seconds, stats_.response_seconds,
+                   stats_.guard_seconds})
     out.f64(d);
   out.f64(gravity0_);
   out.f64(total0_);
@@ -229,6 +234,7 @@ void Simulation::save(BinaryWriter& out) const {
     out.i64(static_cast<std::int64_t>(flags->size()));
     for (char c : *flags) out.i64(c);
   }
+  for (int g : {in.guard_rung, in.guard_calm_steps, in.guard_depth, in.guard_depth_calm_steps}) out.i64(g);
 }
 
 void Simulation::restore(BinaryReader& in) {
@@ -249,9 +255,13 @@ void Simulation::restore(BinaryReader& in) {
   StepStatistics st;
   for (long* c : {&st.steps, &st.rejected_steps, &st.cg_iterations, &st.cg_solves, &st.cg_failures, &st.contacts,
                   &st.max_contacts, &st.released_contacts, &st.fail_safe_moves, &st.contact_passes,
-                  &st.failed_contact_steps, &st.halved_steps})
+                  &st.failed_contact_steps, &st.halved_steps, &st.guard_redone_steps, &st.guard_raised_steps,
+                  &st.guard_split_steps, &st.guard_parts})
     *c = in.i64();
-  for (double* d : {&st.assembly_seconds, &st.solve_seconds, &st.detection_seconds, &st.response_seconds}) *d = in.f64();
+  st.guard_max_alpha = in.f64();
+  for (double* d : {&st.assembly_seconds, &st.solve_seconds, &st.detection_seconds, &st.response_seconds,
+                    &st.guard_seconds})
+    *d = in.f64();
   const double gravity0 = in.f64(), total0 = in.f64(), energy_scale = in.f64();
 
   ClothSystem::DynamicState sys;
@@ -284,6 +294,8 @@ void Simulation::restore(BinaryReader& in) {
       in.fail("checkpoint is damaged (contact flags for " + std::to_string(count) + " nodes)");
     for (std::int64_t k = 0; k < count; ++k) flags->push_back(in.i64() != 0);
   }
+  for (int* g : {&id.guard_rung, &id.guard_calm_steps, &id.guard_depth, &id.guard_depth_calm_steps})
+    *g = static_cast<int>(in.i64());
   try {
     system_->restore(sys);
     integrator_->restore(id);
@@ -295,6 +307,7 @@ void Simulation::restore(BinaryReader& in) {
   gravity0_ = gravity0;
   total0_ = total0;
   energy_scale_ = energy_scale;
+  integrator_->set_energy_scale(energy_scale_);
 }
 
 EnergyRow Simulation::energies() {
@@ -422,6 +435,16 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
                      {"detection_seconds", st.detection_seconds},
                      {"response_seconds", st.response_seconds},
                      {"work_J", r.energy.empty() ? 0.0 : r.energy.back().contact_work}};
+  }
+  if (sc.integrator.guard) {
+    const StepStatistics& st = r.steps;
+    j["guard"] = {{"parts_per_step", st.steps ? static_cast<double>(st.guard_parts) / st.steps : 0.0},
+                  {"split_steps", st.guard_split_steps},
+                  {"seconds", st.guard_seconds},
+                  {"redone_steps", st.guard_redone_steps},
+                  {"raised_steps", st.guard_raised_steps},
+                  {"raised_fraction", st.steps ? static_cast<double>(st.guard_raised_steps) / st.steps : 0.0},
+                  {"max_alpha", std::max(sc.integrator.alpha, st.guard_max_alpha)}};
   }
   j["damping_ratio"] = r.damping_ratio;
   j["kappa"] = stats_json(r.damping.membrane_kappa);

@@ -74,12 +74,12 @@ TEST(StabilityExperiment, FivePercentStabilisesImplicitMidpointWhereZeroBlowsUp)
   s.stretch_modulus_N_m = 50;
   s.shear_modulus_N_m = 5;
   s.duration_s = 1.5;
-  const auto undamped = weft::run_stability_cell(s, method("implicit-midpoint"), 0.02, 0.0);
+  const auto undamped = weft::run_stability_cell(s, method("implicit-midpoint-plain"), 0.02, 0.0);
   EXPECT_GT(undamped.kappa_max, 100);
   EXPECT_LT(undamped.kappa_max, 200);
   EXPECT_FALSE(undamped.stable);
   EXPECT_EQ(undamped.reason, "energy");
-  const auto damped = weft::run_stability_cell(s, method("implicit-midpoint"), 0.02, 0.05);
+  const auto damped = weft::run_stability_cell(s, method("implicit-midpoint-plain"), 0.02, 0.05);
   EXPECT_TRUE(damped.stable) << damped.reason << " at " << damped.unstable_time;
   EXPECT_LT(damped.final_energy_ratio, 0.01);
 }
@@ -112,7 +112,7 @@ class StabilityExperimentCommand : public weft::test::CommandTest {
 TEST_F(StabilityExperimentCommand, ReducedGridWritesCsvAndTables) {
   const fs::path out = folder_ / "out";
   const auto [code, text] = run("--out '" + out.string() +
-                                "' --methods backward-euler,implicit-midpoint --dts 0.01,0.02 --ratios 0,0.05 "
+                                "' --methods backward-euler,implicit-midpoint-plain --dts 0.01,0.02 --ratios 0,0.05 "
                                 "--resolution 6 --duration 0.5 -q");
   ASSERT_EQ(code, 0) << text;
   std::ifstream csv(out / "stability.csv");
