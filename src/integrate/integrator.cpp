@@ -546,7 +546,15 @@ void Integrator::contact_velocities(State& s, double dt, double dt_b) {
 void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics& stats) {
   const auto tr = Clock::now();
   ContactReport report;
+  v_before_fail_safe_ = s.v;
   for (ContactHandler* h : handlers_) h->finish_step(x_start_, s.x, s.v, t0, dt, report);
+  if (report.fail_safe_moves > 0 && s.dv_prev.size() == s.v.size() && s.dx_prev.size() == s.v.size()) {
+    // The history as if the nodes had moved at their corrected velocities (as for the contact
+    // velocities): BDF-2 would otherwise repeat a third of an approach the fail-safe stopped.
+    v_before_fail_safe_ = s.v - v_before_fail_safe_;
+    s.dv_prev += v_before_fail_safe_;
+    s.dx_prev += dt * v_before_fail_safe_;
+  }
   if (!report.ok) ++stats.failed_contact_steps;
   last_step_ok_ = report.ok;
   stats.fail_safe_moves += report.fail_safe_moves;

@@ -196,6 +196,7 @@ class Integrator {
   std::vector<char> released_now_;  ///< per node: let go in this step
   std::vector<char> keep_held_;     ///< per node: let go and back in this step: held to its end
   VecX x_start_, rhs_unconstrained_;
+  VecX v_before_fail_safe_;  ///< scratch of finish_contacts
 };
 
 }  // namespace weft

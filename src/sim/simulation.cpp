@@ -1,6 +1,7 @@
 #include "weft/simulation.hpp"
 
 #include "collision/colliders.hpp"
+#include "collision/self_contact.hpp"
 #include "sim/checkpoint.hpp"
 #include "weft/error.hpp"
 
@@ -82,6 +83,12 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
     for (const auto& c : colliders_) list.push_back(c.get());
     contacts_ = std::make_unique<ColliderContacts>(std::move(list), model_->mass, model_->fixed);
     integrator_->add_contact_handler(contacts_.get());
+  }
+  // Cloth-cloth contact after the colliders': its fail-safe sees their corrections.
+  if (scene.cloth.self_collision) {
+    self_contacts_ = std::make_unique<SelfContacts>(model_->mesh.triangles, model_->initial_positions(), model_->mass,
+                                                    model_->fixed, scene.cloth.thickness, scene.cloth.friction);
+    integrator_->add_contact_handler(self_contacts_.get());
   }
   state_.x = model_->initial_positions();
   state_.v = VecX::Zero(state_.x.size());
@@ -181,6 +188,8 @@ std::uint64_t Simulation::fingerprint() const {
     w.f64(d);
   for (double d : {scene_.duration, scene_.frame_interval}) w.f64(d);
   w.raw(scene_.gravity.data(), 3 * sizeof(double));
+  w.i64(scene_.cloth.self_collision);
+  for (double d : {scene_.cloth.thickness, scene_.cloth.friction}) w.f64(d);
   return fnv1a(w.bytes().data(), w.bytes().size());
 }
 
@@ -228,6 +237,13 @@ void Simulation::save(BinaryWriter& out) const {
     out.i64(static_cast<std::int64_t>(flags->size()));
     for (char c : *flags) out.i64(c);
   }
+  // The cloth-cloth fail-safe keeps nothing between steps but its counts (for summary.json).
+  SelfContactStatistics self;
+  if (self_contacts_) self = self_contacts_->statistics();
+  for (long c : {self.repulsions, self.collision_impulses, self.impact_zones, self.zone_nodes,
+                 self.failed_steps})
+    out.i64(c);
+  out.f64(self.seconds);
 }
 
 void Simulation::restore(BinaryReader& in) {
@@ -283,6 +299,11 @@ void Simulation::restore(BinaryReader& in) {
       in.fail("checkpoint is damaged (contact flags for " + std::to_string(count) + " nodes)");
     for (std::int64_t k = 0; k < count; ++k) flags->push_back(in.i64() != 0);
   }
+  SelfContactStatistics self;
+  for (long* c : {&self.repulsions, &self.collision_impulses, &self.impact_zones, &self.zone_nodes,
+                  &self.failed_steps})
+    *c = in.i64();
+  self.seconds = in.f64();
   try {
     system_->restore(sys);
     integrator_->restore(id);
@@ -294,6 +315,7 @@ void Simulation::restore(BinaryReader& in) {
   gravity0_ = gravity0;
   total0_ = total0;
   energy_scale_ = energy_scale;
+  if (self_contacts_) self_contacts_->set_statistics(self);
 }
 
 EnergyRow Simulation::energies() {
@@ -408,7 +430,7 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
     j["message"] = r.message;
   }
   j["frames"] = r.energy.size();
-  if (!sim.colliders().empty()) {
+  if (!sim.colliders().empty() || sim.self_contacts()) {
     const StepStatistics& st = r.steps;
     j["contacts"] = {{"colliders", sim.colliders().size()},
                      {"node_contacts_mean", st.steps ? static_cast<double>(st.contacts) / st.steps : 0.0},
@@ -421,6 +443,17 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
                      {"detection_seconds", st.detection_seconds},
                      {"response_seconds", st.response_seconds},
                      {"work_J", r.energy.empty() ? 0.0 : r.energy.back().contact_work}};
+    if (const SelfContacts* self = sim.self_contacts()) {
+      const SelfContactStatistics& ss = self->statistics();
+      j["contacts"]["self"] = {{"thickness", self->thickness()},
+                               {"friction", self->friction()},
+                               {"repulsions", ss.repulsions},
+                               {"collision_impulses", ss.collision_impulses},
+                               {"impact_zones", ss.impact_zones},
+                               {"impact_zone_nodes", ss.zone_nodes},
+                               {"failed_steps", ss.failed_steps},
+                               {"seconds", ss.seconds}};
+    }
   }
   j["damping_ratio"] = r.damping_ratio;
   j["kappa"] = stats_json(r.damping.membrane_kappa);
