@@ -76,15 +76,23 @@ SelfContacts::SelfContacts(const std::vector<std::array<int, 3>>& triangles, con
 
 template <class VertexFace, class EdgeEdge>
 void SelfContacts::for_each_candidate(const VecX& xa, const VecX& xb, double margin, bool only_changed,
-                                      VertexFace&& vertex_face, EdgeEdge&& edge_edge) const {
-  auto box_of = [&](std::initializer_list<int> nodes) {
+                                      VertexFace&& vertex_face, EdgeEdge&& edge_edge) {
+  const int n = static_cast<int>(fixed_.size());
+  std::vector<Box>& vb = vertex_box_;
+  std::vector<Box>& eb = edge_box_;
+  vb.resize(n);
+  for (int i = 0; i < n; ++i) {
     Box b;
-    for (int i : nodes) {
-      b.add(node(xa, i));
-      b.add(node(xb, i));
-    }
-    return grown(b, margin);
-  };
+    b.add(node(xa, i));
+    b.add(node(xb, i));
+    vb[i] = grown(b, margin);
+  }
+  eb.resize(edges_.size());
+  for (size_t e = 0; e < edges_.size(); ++e) {
+    eb[e] = vb[edges_[e][0]];
+    eb[e].add(vb[edges_[e][1]].lo);
+    eb[e].add(vb[edges_[e][1]].hi);
+  }
   tree_.for_each_self_pair([&](int g, int h) {
     const auto& tg = triangles_[g];
     const auto& th = triangles_[h];
@@ -94,15 +102,16 @@ void SelfContacts::for_each_candidate(const VecX& xa, const VecX& xb, double mar
     for (int pass = 0; pass < 2; ++pass) {
       const int a = pass ? h : g, b = pass ? g : h;
       for (int v : owned_vertices_[a])
-        if (!contains(triangles_[b], v) && box_of({v}).overlaps(tree_.triangle_box(b))) vertex_face(v, b);
+        if (!contains(triangles_[b], v) && vb[v].overlaps(tree_.triangle_box(b))) vertex_face(v, b);
     }
     for (int e : owned_edges_[g]) {
       const auto& p = edges_[e];
-      const Box be = box_of({p[0], p[1]});
+      const Box& be = eb[e];
+      if (!be.overlaps(tree_.triangle_box(h))) continue;
       for (int e2 : owned_edges_[h]) {
         const auto& q = edges_[e2];
         if (p[0] == q[0] || p[0] == q[1] || p[1] == q[0] || p[1] == q[1]) continue;
-        if (be.overlaps(box_of({q[0], q[1]}))) edge_edge(e, e2);
+        if (be.overlaps(eb[e2])) edge_edge(e, e2);
       }
     }
   });
@@ -248,7 +257,7 @@ size_t SelfContacts::find_collisions(const VecX& x0, double dt, bool skip_zones)
 
 bool SelfContacts::apply(const Stencil& s, double target) {
   double w = 0;
-  for (int k = 0; k < 4; ++k) w += s.weight[k] * s.weight[k] * inverse_mass_[s.node[k]];
+  for (int k = 0; k < 4; ++k) w += s.weight[k] * s.weight[k] * step_inverse_mass_[s.node[k]];
   if (!(w > 0)) return false;
   const Vec3 v = relative_velocity(s);
   const double vn = v.dot(s.normal);
@@ -261,11 +270,17 @@ bool SelfContacts::apply(const Stencil& s, double target) {
   const double slide = tangential.norm();
   if (friction_ > 0 && slide > 0) change -= std::min(friction_ * normal_change, slide) / slide * tangential;
   // The impulse weight_k change / w on node k changes the relative velocity by exactly
-  // `change`, and its parts sum to zero (the weights do): momentum is kept.
+  // `change`, and its parts sum to zero (the weights do): momentum is kept. A light node of
+  // small weight against heavy ones would take many times the change; the impulse is then cut
+  // so that no node's velocity changes by more than kMaxVelocityChangeRatio times it, and
+  // what is left to later passes and the impact zones.
+  double largest = 0;
+  for (int k = 0; k < 4; ++k) largest = std::max(largest, std::abs(s.weight[k]) * step_inverse_mass_[s.node[k]] / w);
+  const double scale = std::min(1.0, kMaxVelocityChangeRatio / largest) / w;
   for (int k = 0; k < 4; ++k) {
     const int i = s.node[k];
-    if (inverse_mass_[i] == 0) continue;
-    node(u_, i) += (s.weight[k] * inverse_mass_[i] / w) * change;
+    if (step_inverse_mass_[i] == 0) continue;
+    node(u_, i) += (s.weight[k] * step_inverse_mass_[i] * scale) * change;
     changed_[i] = 1;
   }
   return true;
@@ -302,11 +317,11 @@ void SelfContacts::rigidify_zones(const VecX& x0, double dt, bool stop) {
     double mass = 0;
     Vec3 centre = Vec3::Zero(), velocity = Vec3::Zero();
     for (int i : nodes) {
-      if (inverse_mass_[i] == 0) {
+      if (step_inverse_mass_[i] == 0) {
         pinned = true;
         break;
       }
-      const double m = 1 / inverse_mass_[i];
+      const double m = 1 / step_inverse_mass_[i];
       mass += m;
       centre += m * node(x0, i);
       velocity += m * node(u_, i);
@@ -320,7 +335,7 @@ void SelfContacts::rigidify_zones(const VecX& x0, double dt, bool stop) {
       Mat3 inertia = Mat3::Zero();
       Vec3 momentum = Vec3::Zero();
       for (int i : nodes) {
-        const double m = 1 / inverse_mass_[i];
+        const double m = 1 / step_inverse_mass_[i];
         const Vec3 r = node(x0, i) - centre;
         inertia += m * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
         momentum += m * r.cross(Vec3(node(u_, i)) - velocity);
@@ -336,13 +351,12 @@ void SelfContacts::rigidify_zones(const VecX& x0, double dt, bool stop) {
       }
     }
     // A zone turning by more than a radian in a step, holding a pinned node or past the rigid
-    // rounds is stopped: its nodes stay where they are.
+    // rounds is stopped: all its nodes stay where they are.
     const double angle = omega.norm() * dt;
     const bool stopped = pinned || stop || zone_stopped_[root] || angle > 1.0;
     zone_stopped_[root] = stopped;
     const Mat3 R = angle > 0 ? Eigen::AngleAxisd(angle, omega / omega.norm()).toRotationMatrix() : Mat3::Identity();
     for (int i : nodes) {
-      if (inverse_mass_[i] == 0) continue;
       Vec3 u = Vec3::Zero();
       if (!stopped) {
         // Rotated positions rather than omega x r: the zone ends the step as a rigid copy of
@@ -363,6 +377,10 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
   const auto start = std::chrono::steady_clock::now();
   const int n = static_cast<int>(fixed_.size());
   u_ = (x1 - x0) / dt;
+  step_inverse_mass_ = inverse_mass_;
+  if (held_ && held_->size() == static_cast<size_t>(n))
+    for (int i = 0; i < n; ++i)
+      if ((*held_)[i] && node(u_, i).norm() <= kHeldRestSpeed) step_inverse_mass_[i] = 0;
   u_start_ = u_;
   changed_.assign(n, 1);
 

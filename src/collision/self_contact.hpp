@@ -17,6 +17,11 @@ constexpr int kSelfCollisionPasses = 4;
 /// Rounds of rigid impact zones (each one grows the zones by what is still found) before the
 /// zones are stopped instead (the last resort).
 constexpr int kRigidZoneRounds = 8;
+/// The speed (m/s) below which a node held against a collider counts as immovable.
+constexpr double kHeldRestSpeed = 0.1;
+/// The most an impulse may change a node's velocity, as a multiple of the change of the
+/// pair's relative velocity it makes (see SelfContacts::apply).
+constexpr double kMaxVelocityChangeRatio = 2;
 /// The distance continuous detection keeps primitives apart, as a fraction of the thickness.
 constexpr double kCollisionDistanceFraction = 0.1;
 /// The share of the missing thickness a repulsion restores per step: enough to lift layers
@@ -56,6 +61,15 @@ class SelfContacts : public ContactHandler {
   /// ok = false when zones had to be stopped to clear the step.
   void finish_step(const VecX& x0, VecX& x1, VecX& v1, double t, double dt, ContactReport& report) override;
 
+  /// Per-node flags (n entries, read at every step; null or another size: none) of nodes the
+  /// handlers before this one hold against a collider in the step. Those moving slower than
+  /// kHeldRestSpeed count as infinitely heavy, so that layers resting on cloth that rests on a
+  /// collider do not drive it in step after step (the collider would push it back out, and the
+  /// two would pump energy into the layers). Faster ones keep their mass: a node the collider's
+  /// prediction carries onto the collider through cloth lying in between must not act as a
+  /// moving wall on that cloth.
+  void set_held_nodes(const std::vector<char>* flags) { held_ = flags; }
+
   double thickness() const { return thickness_; }
   double friction() const { return friction_; }
   const SelfContactStatistics& statistics() const { return stats_; }
@@ -77,7 +91,7 @@ class SelfContacts : public ContactHandler {
   /// same way; `only_changed`: only pairs with a node whose u changed since the last detection.
   template <class VertexFace, class EdgeEdge>
   void for_each_candidate(const VecX& xa, const VecX& xb, double margin, bool only_changed, VertexFace&& vertex_face,
-                          EdgeEdge&& edge_edge) const;
+                          EdgeEdge&& edge_edge);
   /// Pairs within the thickness at x0 into pairs_.
   void find_proximities(const VecX& x0);
   /// Pairs that come within their collision distance along x0 -> x0 + dt u into pairs_ (with
@@ -95,7 +109,8 @@ class SelfContacts : public ContactHandler {
   std::vector<std::array<int, 3>> triangles_;
   std::vector<std::array<int, 2>> edges_;
   std::vector<std::vector<int>> owned_vertices_, owned_edges_;  ///< per triangle
-  VecX inverse_mass_;
+  VecX inverse_mass_;                        ///< 0 for pinned nodes
+  const std::vector<char>* held_ = nullptr;
   std::vector<char> fixed_;
   double thickness_, friction_;
   AabbTree tree_;
@@ -103,6 +118,8 @@ class SelfContacts : public ContactHandler {
 
   // Scratch of one step (rewritten by every call).
   VecX u_, u_start_, x_end_;
+  VecX step_inverse_mass_;           ///< inverse_mass_, 0 for held nodes too
+  std::vector<Box> vertex_box_, edge_box_;  ///< of the detection under way
   std::vector<char> changed_;        ///< per node: u changed since the last detection
   std::vector<Stencil> pairs_;
   std::vector<int> parent_;          ///< impact zones: union-find over nodes

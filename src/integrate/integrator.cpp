@@ -548,11 +548,11 @@ void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics&
   ContactReport report;
   v_before_fail_safe_ = s.v;
   for (ContactHandler* h : handlers_) h->finish_step(x_start_, s.x, s.v, t0, dt, report);
-  if (report.fail_safe_moves > 0 && s.dv_prev.size() == s.v.size() && s.dx_prev.size() == s.v.size()) {
-    // The history as if the nodes had moved at their corrected velocities (as for the contact
-    // velocities): BDF-2 would otherwise repeat a third of an approach the fail-safe stopped.
+  if (report.fail_safe_moves > 0 && s.dx_prev.size() == s.v.size()) {
+    // BDF-2's last displacement as if the nodes had moved at their corrected velocities, or it
+    // would repeat a third of an approach the fail-safe stopped; its last change of velocity
+    // is left alone, or it would repeat a third of the fail-safe's impulse.
     v_before_fail_safe_ = s.v - v_before_fail_safe_;
-    s.dv_prev += v_before_fail_safe_;
     s.dx_prev += dt * v_before_fail_safe_;
   }
   if (!report.ok) ++stats.failed_contact_steps;

@@ -88,6 +88,7 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
   if (scene.cloth.self_collision) {
     self_contacts_ = std::make_unique<SelfContacts>(model_->mesh.triangles, model_->initial_positions(), model_->mass,
                                                     model_->fixed, scene.cloth.thickness, scene.cloth.friction);
+    if (contacts_) self_contacts_->set_held_nodes(&contacts_->touching());
     integrator_->add_contact_handler(self_contacts_.get());
   }
   state_.x = model_->initial_positions();
