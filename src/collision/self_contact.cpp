@@ -390,7 +390,7 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
   for (int sweep = 0; sweep < 3; ++sweep) {
     long applied = 0;
     for (const Stencil& s : pairs_)
-      if (apply(s, kRepulsionRate * (s.distance - s.gap) / dt)) ++applied;
+      if (apply(s, (s.distance - s.gap) / std::max(kRepulsionTime, dt))) ++applied;
     stats_.repulsions += applied;
     if (applied == 0) break;
   }

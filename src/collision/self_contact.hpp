@@ -24,9 +24,10 @@ constexpr double kHeldRestSpeed = 0.1;
 constexpr double kMaxVelocityChangeRatio = 2;
 /// The distance continuous detection keeps primitives apart, as a fraction of the thickness.
 constexpr double kCollisionDistanceFraction = 0.1;
-/// The share of the missing thickness a repulsion restores per step: enough to lift layers
-/// back to the thickness within a few dozen steps, small enough not to make them jump.
-constexpr double kRepulsionRate = 0.1;
+/// The time (s) over which a repulsion restores the missing thickness (at least a step): layers
+/// are lifted back within a few dozen 5 ms steps without jumping, and the push's speed does
+/// not grow as the step shrinks.
+constexpr double kRepulsionTime = 0.05;
 
 /// Counts of what the fail-safe did (accumulated over the steps it ran; checkpoints keep them).
 struct SelfContactStatistics {
