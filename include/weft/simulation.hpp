@@ -17,6 +17,7 @@ class BinaryWriter;
 class BinaryReader;
 class Collider;
 class ColliderContacts;
+class SelfContacts;
 
 /// Energies at one output frame (METHOD.md 6), in joules.
 struct EnergyRow {
@@ -51,6 +52,8 @@ class Simulation {
   const std::vector<std::unique_ptr<Collider>>& colliders() const { return colliders_; }
   /// The walking bodies of the body colliders (Scene::bodies order).
   const std::vector<std::unique_ptr<WalkingBody>>& bodies() const { return bodies_; }
+  /// Cloth-cloth contact handling; null when the scene turns self_collision off.
+  const SelfContacts* self_contacts() const { return self_contacts_.get(); }
   /// Replaces positions and velocities (e.g. a perturbed start) and makes it the reference of
   /// the energy accounting: time 0, no dissipation yet, no BDF-2 history.
   void reset_state(const VecX& x, const VecX& v);
@@ -82,6 +85,7 @@ class Simulation {
   std::vector<std::unique_ptr<WalkingBody>> bodies_;
   std::vector<std::unique_ptr<Collider>> colliders_;
   std::unique_ptr<ColliderContacts> contacts_;
+  std::unique_ptr<SelfContacts> self_contacts_;
   State state_;
   StepStatistics stats_;
   Evaluation eval_;

@@ -473,6 +473,7 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
   best_gap_.assign(n, 0);
   std::vector<int>& slot = slot_;  // the node's contact in out
   slot.assign(n, -1);
+  touching_.assign(n, 0);
   prepared_t_ = t;
   prepared_dt_ = dt;
   for (Collider* c : colliders_) {
@@ -500,6 +501,7 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
       contact.friction = c->spec().friction;
       contact.penetrating = s.distance < 0;
       best_gap_[i] = gap;
+      touching_[i] = 1;
       if (slot[i] >= 0) {
         out[slot[i]] = contact;
       } else {
@@ -532,6 +534,7 @@ void ColliderContacts::detect_end(const VecX& x0, const VecX& x1, double /*t*/, 
       contact.friction = c->spec().friction;
       contact.penetrating = s.distance < 0;
       best_gap_[i] = s.distance;
+      touching_[i] = 1;
       if (slot[i] >= 0) {
         out[slot[i]] = contact;
       } else {
@@ -548,6 +551,7 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
     for (Collider* c : colliders_) c->prepare(t, t + dt);
     prepared_t_ = t;
     prepared_dt_ = dt;
+    touching_.assign(n, 0);  // no detection for this step (explicit methods)
   }
   for (Collider* c : colliders_) {
     const double thickness = c->spec().thickness;
@@ -567,6 +571,7 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
         node(v1, i) += (surface_speed - vn) * s.normal;
         report.work += 0.5 * mass_[i] * (node(v1, i).squaredNorm() - v_old.squaredNorm());
       }
+      touching_[i] = 1;
       ++report.fail_safe_moves;
     }
     if (c->end_tree() && !triangles_.empty()) push_faces_off_vertices(*c, x1, v1, dt, report);

@@ -77,6 +77,9 @@ class ColliderContacts : public ContactHandler {
   void detect_end(const VecX& x0, const VecX& x1, double t, double dt, const std::vector<char>& held,
                   std::vector<NodeContact>& out) override;
   void finish_step(const VecX& x0, VecX& x1, VecX& v1, double t, double dt, ContactReport& report) override;
+  /// Per node: held against a collider or moved by the fail-safe in the step last detected
+  /// (cloth-cloth contact treats such nodes as immovable, so it cannot push them into a collider).
+  const std::vector<char>& touching() const { return touching_; }
 
  private:
   std::vector<Collider*> colliders_;
@@ -84,6 +87,7 @@ class ColliderContacts : public ContactHandler {
   const std::vector<char>& fixed_;
   std::vector<double> best_gap_;  ///< per node: the gap of its contact so far
   std::vector<int> slot_;         ///< per node: its contact's index in the output, or -1
+  std::vector<char> touching_;    ///< touching()
   double prepared_t_ = -1, prepared_dt_ = -1;  ///< the step the colliders are prepared for
   /// Moves cloth faces that a mesh collider's vertex (a nose, a finger) came within the
   /// thickness of, or poked through, back out along that vertex's normal.

@@ -654,7 +654,15 @@ void Integrator::contact_velocities(State& s, double dt, double dt_b) {
 void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics& stats) {
   const auto tr = Clock::now();
   ContactReport report;
+  v_before_fail_safe_ = s.v;
   for (ContactHandler* h : handlers_) h->finish_step(x_start_, s.x, s.v, t0, dt, report);
+  if (report.fail_safe_moves > 0 && s.dx_prev.size() == s.v.size()) {
+    // BDF-2's last displacement as if the nodes had moved at their corrected velocities, or it
+    // would repeat a third of an approach the fail-safe stopped; its last change of velocity
+    // is left alone, or it would repeat a third of the fail-safe's impulse.
+    v_before_fail_safe_ = s.v - v_before_fail_safe_;
+    s.dx_prev += dt * v_before_fail_safe_;
+  }
   if (!report.ok) ++stats.failed_contact_steps;
   last_step_ok_ = report.ok;
   stats.fail_safe_moves += report.fail_safe_moves;

@@ -1,6 +1,7 @@
 #include "weft/simulation.hpp"
 
 #include "collision/colliders.hpp"
+#include "collision/self_contact.hpp"
 #include "sim/checkpoint.hpp"
 #include "weft/error.hpp"
 
@@ -83,6 +84,13 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
     contacts_ = std::make_unique<ColliderContacts>(std::move(list), model_->mass, model_->fixed,
                                                    model_->mesh.triangles);
     integrator_->add_contact_handler(contacts_.get());
+  }
+  // Cloth-cloth contact after the colliders': its fail-safe sees their corrections.
+  if (scene.cloth.self_collision) {
+    self_contacts_ = std::make_unique<SelfContacts>(model_->mesh.triangles, model_->initial_positions(), model_->mass,
+                                                    model_->fixed, scene.cloth.thickness, scene.cloth.friction);
+    if (contacts_) self_contacts_->set_held_nodes(&contacts_->touching());
+    integrator_->add_contact_handler(self_contacts_.get());
   }
   state_.x = model_->initial_positions();
   state_.v = VecX::Zero(state_.x.size());
@@ -184,6 +192,8 @@ std::uint64_t Simulation::fingerprint() const {
     w.f64(d);
   for (double d : {scene_.duration, scene_.frame_interval}) w.f64(d);
   w.raw(scene_.gravity.data(), 3 * sizeof(double));
+  w.i64(scene_.cloth.self_collision);
+  for (double d : {scene_.cloth.thickness, scene_.cloth.friction}) w.f64(d);
   return fnv1a(w.bytes().data(), w.bytes().size());
 }
 
@@ -235,6 +245,13 @@ void Simulation::save(BinaryWriter& out) const {
     for (char c : *flags) out.i64(c);
   }
   for (int g : {in.guard_rung, in.guard_calm_steps, in.guard_depth, in.guard_depth_calm_steps}) out.i64(g);
+  // The cloth-cloth fail-safe keeps nothing between steps but its counts (for summary.json).
+  SelfContactStatistics self;
+  if (self_contacts_) self = self_contacts_->statistics();
+  for (long c : {self.repulsions, self.collision_impulses, self.impact_zones, self.zone_nodes,
+                 self.failed_steps})
+    out.i64(c);
+  out.f64(self.seconds);
 }
 
 void Simulation::restore(BinaryReader& in) {
@@ -296,6 +313,11 @@ void Simulation::restore(BinaryReader& in) {
   }
   for (int* g : {&id.guard_rung, &id.guard_calm_steps, &id.guard_depth, &id.guard_depth_calm_steps})
     *g = static_cast<int>(in.i64());
+  SelfContactStatistics self;
+  for (long* c : {&self.repulsions, &self.collision_impulses, &self.impact_zones, &self.zone_nodes,
+                  &self.failed_steps})
+    *c = in.i64();
+  self.seconds = in.f64();
   try {
     system_->restore(sys);
     integrator_->restore(id);
@@ -308,6 +330,7 @@ void Simulation::restore(BinaryReader& in) {
   total0_ = total0;
   energy_scale_ = energy_scale;
   integrator_->set_energy_scale(energy_scale_);
+  if (self_contacts_) self_contacts_->set_statistics(self);
 }
 
 EnergyRow Simulation::energies() {
@@ -422,7 +445,7 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
     j["message"] = r.message;
   }
   j["frames"] = r.energy.size();
-  if (!sim.colliders().empty()) {
+  if (!sim.colliders().empty() || sim.self_contacts()) {
     const StepStatistics& st = r.steps;
     j["contacts"] = {{"colliders", sim.colliders().size()},
                      {"node_contacts_mean", st.steps ? static_cast<double>(st.contacts) / st.steps : 0.0},
@@ -435,6 +458,17 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
                      {"detection_seconds", st.detection_seconds},
                      {"response_seconds", st.response_seconds},
                      {"work_J", r.energy.empty() ? 0.0 : r.energy.back().contact_work}};
+    if (const SelfContacts* self = sim.self_contacts()) {
+      const SelfContactStatistics& ss = self->statistics();
+      j["contacts"]["self"] = {{"thickness", self->thickness()},
+                               {"friction", self->friction()},
+                               {"repulsions", ss.repulsions},
+                               {"collision_impulses", ss.collision_impulses},
+                               {"impact_zones", ss.impact_zones},
+                               {"impact_zone_nodes", ss.zone_nodes},
+                               {"failed_steps", ss.failed_steps},
+                               {"seconds", ss.seconds}};
+    }
   }
   if (sc.integrator.guard) {
     const StepStatistics& st = r.steps;

@@ -193,6 +193,9 @@ TEST_F(ExperimentCommand, MidpointWithFivePercentDampingDissipatesLessThanBackwa
 /// premise of the orders in METHOD.md 2. (On the swinging cloth compressed elements are
 /// projected, which leaves linearised Implicit Midpoint and BDF-2 first order as dt -> 0:
 /// docs/results.md.)
+// The drum measures the integrators' orders: no contact handling (BDF-2 at the finest step
+// blows up there, and self-collision's impulses would hold it bounded instead of letting the
+// run be flagged unstable).
 void write_drum_scene(const fs::path& folder) {
   const int n = 6;
   const double size = 0.5, stretch = 1.05;
@@ -220,7 +223,7 @@ void write_drum_scene(const fs::path& folder) {
     "cloth": {"mesh": {"obj": "drum.obj", "uv_scale": 1},
       "material": {"surface_density": 0.15, "weft": 100, "warp": 100, "shear": 10, "bending_rigidity": 1e-4, "viscosity": 0.0},
       "pins": {"vertices": [)"
-      << pins << "]}}}";
+      << pins << "]}, \"self_collision\": false}}";
 }
 
 TEST_F(ExperimentCommand, ConvergenceSlopesMatchTheOrdersOfTheMethods) {

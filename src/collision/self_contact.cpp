@@ -1,0 +1,459 @@
+#include "collision/self_contact.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <optional>
+#include <stdexcept>
+
+#include "collision/geometry.hpp"
+
+namespace weft {
+
+namespace {
+
+Box grown(Box b, double margin) {
+  b.lo -= Vec3::Constant(margin);
+  b.hi += Vec3::Constant(margin);
+  return b;
+}
+
+bool contains(const std::array<int, 3>& t, int v) { return t[0] == v || t[1] == v || t[2] == v; }
+
+// A unit normal for a pair whose closest points (nearly) coincide: `fallback` (a face normal or
+// the edges' common normal), turned so that the pair's relative velocity approaches along it
+// (the impulse then stops the approach whichever side the pair came from).
+bool degenerate_normal(const Vec3& fallback, const Vec3& relative_velocity, Vec3& n) {
+  const double len = fallback.norm();
+  if (!(len > 0)) return false;
+  n = fallback / len;
+  if (n.dot(relative_velocity) > 0) n = -n;
+  return true;
+}
+
+}  // namespace
+
+SelfContacts::SelfContacts(const std::vector<std::array<int, 3>>& triangles, const VecX& rest_positions,
+                           const VecX& mass, const std::vector<char>& fixed, double thickness, double friction)
+    : triangles_(triangles), fixed_(fixed), thickness_(thickness), friction_(friction) {
+  if (!(thickness > 0)) throw std::invalid_argument("SelfContacts: the thickness must be positive");
+  const int n = static_cast<int>(fixed.size());
+  if (mass.size() != n || rest_positions.size() != 3 * n)
+    throw std::invalid_argument("SelfContacts: masses, pins and positions of different sizes");
+  inverse_mass_ = VecX::Zero(n);
+  for (int i = 0; i < n; ++i)
+    if (!fixed[i] && mass[i] > 0) inverse_mass_[i] = 1 / mass[i];
+  // Each vertex and each edge is tested through one triangle holding it, its owner (the first).
+  // A primitive's box lies inside every box of a triangle holding it, so a pair of primitives
+  // whose boxes overlap comes from a pair of owners whose boxes overlap: every pair is visited
+  // once, with no list to sort and deduplicate.
+  const int faces = static_cast<int>(triangles.size());
+  owned_vertices_.resize(faces);
+  owned_edges_.resize(faces);
+  std::vector<char> seen(n, 0);
+  std::map<std::pair<int, int>, int> edge_id;
+  for (int f = 0; f < faces; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int v = triangles[f][k];
+      if (v < 0 || v >= n) throw std::invalid_argument("SelfContacts: a triangle's vertex is out of range");
+      if (!seen[v]) {
+        seen[v] = 1;
+        owned_vertices_[f].push_back(v);
+      }
+      const int w = triangles[f][(k + 1) % 3];
+      const auto key = std::minmax(v, w);
+      if (edge_id.emplace(key, static_cast<int>(edges_.size())).second) {
+        owned_edges_[f].push_back(static_cast<int>(edges_.size()));
+        edges_.push_back({key.first, key.second});
+      }
+    }
+  // The tree's shape comes from the rest positions, so it is the same however the run started
+  // (a resumed run visits the pairs in the same order and gives the same bits).
+  tree_ = AabbTree(triangles_, rest_positions.data());
+}
+
+template <class VertexFace, class EdgeEdge>
+void SelfContacts::for_each_candidate(const VecX& xa, const VecX& xb, double margin, bool only_changed,
+                                      VertexFace&& vertex_face, EdgeEdge&& edge_edge) {
+  const int n = static_cast<int>(fixed_.size());
+  std::vector<Box>& vb = vertex_box_;
+  std::vector<Box>& eb = edge_box_;
+  vb.resize(n);
+  for (int i = 0; i < n; ++i) {
+    Box b;
+    b.add(node(xa, i));
+    b.add(node(xb, i));
+    vb[i] = grown(b, margin);
+  }
+  eb.resize(edges_.size());
+  for (size_t e = 0; e < edges_.size(); ++e) {
+    eb[e] = vb[edges_[e][0]];
+    eb[e].add(vb[edges_[e][1]].lo);
+    eb[e].add(vb[edges_[e][1]].hi);
+  }
+  tree_.for_each_self_pair([&](int g, int h) {
+    const auto& tg = triangles_[g];
+    const auto& th = triangles_[h];
+    if (only_changed && !(changed_[tg[0]] || changed_[tg[1]] || changed_[tg[2]] || changed_[th[0]] ||
+                          changed_[th[1]] || changed_[th[2]]))
+      return;  // the same trajectories as at the last detection
+    for (int pass = 0; pass < 2; ++pass) {
+      const int a = pass ? h : g, b = pass ? g : h;
+      for (int v : owned_vertices_[a])
+        if (!contains(triangles_[b], v) && vb[v].overlaps(tree_.triangle_box(b))) vertex_face(v, b);
+    }
+    for (int e : owned_edges_[g]) {
+      const auto& p = edges_[e];
+      const Box& be = eb[e];
+      if (!be.overlaps(tree_.triangle_box(h))) continue;
+      for (int e2 : owned_edges_[h]) {
+        const auto& q = edges_[e2];
+        if (p[0] == q[0] || p[0] == q[1] || p[1] == q[0] || p[1] == q[1]) continue;
+        if (be.overlaps(eb[e2])) edge_edge(e, e2);
+      }
+    }
+  });
+}
+
+void SelfContacts::find_proximities(const VecX& x0) {
+  pairs_.clear();
+  const double h = thickness_;
+  tree_.refit(x0.data(), 0.5 * h);
+  for_each_candidate(
+      x0, x0, 0.5 * h, false,
+      [&](int v, int f) {
+        const auto& t = triangles_[f];
+        const PointTriangleClosest c = closest_point_triangle(node(x0, v), node(x0, t[0]), node(x0, t[1]), node(x0, t[2]));
+        if (c.distance >= h) return;
+        Stencil s;
+        s.node = {v, t[0], t[1], t[2]};
+        s.weight = {1, -c.weights[0], -c.weights[1], -c.weights[2]};
+        s.gap = c.distance;
+        s.distance = h;
+        if (c.distance > 1e-9 * h) {
+          s.normal = (node(x0, v) - c.point) / c.distance;
+        } else {
+          const Vec3 face = (node(x0, t[1]) - node(x0, t[0])).cross(node(x0, t[2]) - node(x0, t[0]));
+          if (!degenerate_normal(face, relative_velocity(s), s.normal)) return;
+        }
+        pairs_.push_back(s);
+      },
+      [&](int e, int e2) {
+        const auto& p = edges_[e];
+        const auto& q = edges_[e2];
+        const SegmentSegmentClosest c =
+            closest_points_segments(node(x0, p[0]), node(x0, p[1]), node(x0, q[0]), node(x0, q[1]));
+        if (c.distance >= h) return;
+        Stencil s;
+        s.node = {p[0], p[1], q[0], q[1]};
+        s.weight = {1 - c.s, c.s, -(1 - c.t), -c.t};
+        s.gap = c.distance;
+        s.distance = h;
+        if (c.distance > 1e-9 * h) {
+          s.normal = (c.point_p - c.point_q) / c.distance;
+        } else {
+          const Vec3 common = (node(x0, p[1]) - node(x0, p[0])).cross(node(x0, q[1]) - node(x0, q[0]));
+          if (!degenerate_normal(common, relative_velocity(s), s.normal)) return;
+        }
+        pairs_.push_back(s);
+      });
+}
+
+Vec3 SelfContacts::relative_velocity(const Stencil& s) const {
+  Vec3 v = Vec3::Zero();
+  for (int k = 0; k < 4; ++k) v += s.weight[k] * node(u_, s.node[k]);
+  return v;
+}
+
+size_t SelfContacts::find_collisions(const VecX& x0, double dt, bool skip_zones) {
+  pairs_.clear();
+  const double delta = kCollisionDistanceFraction * thickness_;
+  x_end_ = x0 + dt * u_;
+  tree_.refit(x0.data(), x_end_.data(), 0.5 * delta);
+  const VecX& x1 = x_end_;
+  auto same_zone = [&](const std::array<int, 4>& nodes) {
+    if (!skip_zones) return false;
+    const int z = zone_of(nodes[0]);
+    return zone_of(nodes[1]) == z && zone_of(nodes[2]) == z && zone_of(nodes[3]) == z;
+  };
+  // The pair's own distance: the collision distance, or half the distance it starts at when
+  // it starts closer (a pair the repulsions could not lift is only kept from crossing).
+  auto hit_time = [&](auto&& ccd, auto&& start_distance) -> std::optional<std::pair<double, double>> {
+    const std::optional<double> t = ccd(delta);
+    if (!t) return std::nullopt;
+    if (*t > 0) return std::make_pair(*t, delta);
+    const double own = 0.5 * std::min(2 * delta, start_distance());
+    const std::optional<double> t_own = own < delta ? ccd(own) : t;
+    if (!t_own) return std::nullopt;
+    return std::make_pair(*t_own, own);
+  };
+  auto at = [&](int i, double t) -> Vec3 { return node(x0, i) + t * (node(x1, i) - node(x0, i)); };
+  // Normal at the hit and separation along it at the step's start; the closest points'
+  // direction, or for touching points the geometric normal turned to the side of the start.
+  auto finish = [&](Stencil& s, const Vec3& offset, double distance, const Vec3& fallback) {
+    Vec3 start = Vec3::Zero();
+    for (int k = 0; k < 4; ++k) start += s.weight[k] * node(x0, s.node[k]);
+    if (distance > 1e-9 * thickness_) {
+      s.normal = offset / distance;
+    } else {
+      const double len = fallback.norm();
+      if (!(len > 0)) return false;
+      s.normal = fallback / len;
+      if (s.normal.dot(start) < 0) s.normal = -s.normal;
+    }
+    s.gap = s.normal.dot(start);
+    return true;
+  };
+  for_each_candidate(
+      x0, x1, 0.5 * delta, true,
+      [&](int v, int f) {
+        const auto& t = triangles_[f];
+        Stencil s;
+        s.node = {v, t[0], t[1], t[2]};
+        if (same_zone(s.node)) return;
+        const auto hit = hit_time(
+            [&](double d) {
+              return vertex_face_ccd(node(x0, v), node(x1, v), node(x0, t[0]), node(x1, t[0]), node(x0, t[1]),
+                                     node(x1, t[1]), node(x0, t[2]), node(x1, t[2]), d);
+            },
+            [&] {
+              return closest_point_triangle(node(x0, v), node(x0, t[0]), node(x0, t[1]), node(x0, t[2])).distance;
+            });
+        if (!hit) return;
+        const double th = hit->first;
+        const Vec3 a = at(t[0], th), b = at(t[1], th), c = at(t[2], th), p = at(v, th);
+        const PointTriangleClosest cl = closest_point_triangle(p, a, b, c);
+        s.weight = {1, -cl.weights[0], -cl.weights[1], -cl.weights[2]};
+        s.distance = hit->second;
+        if (finish(s, p - cl.point, cl.distance, (b - a).cross(c - a))) pairs_.push_back(s);
+      },
+      [&](int e, int e2) {
+        const auto& p = edges_[e];
+        const auto& q = edges_[e2];
+        Stencil s;
+        s.node = {p[0], p[1], q[0], q[1]};
+        if (same_zone(s.node)) return;
+        const auto hit = hit_time(
+            [&](double d) {
+              return edge_edge_ccd(node(x0, p[0]), node(x1, p[0]), node(x0, p[1]), node(x1, p[1]), node(x0, q[0]),
+                                   node(x1, q[0]), node(x0, q[1]), node(x1, q[1]), d);
+            },
+            [&] {
+              return closest_points_segments(node(x0, p[0]), node(x0, p[1]), node(x0, q[0]), node(x0, q[1])).distance;
+            });
+        if (!hit) return;
+        const double th = hit->first;
+        const Vec3 p0 = at(p[0], th), p1 = at(p[1], th), q0 = at(q[0], th), q1 = at(q[1], th);
+        const SegmentSegmentClosest cl = closest_points_segments(p0, p1, q0, q1);
+        s.weight = {1 - cl.s, cl.s, -(1 - cl.t), -cl.t};
+        s.distance = hit->second;
+        if (finish(s, cl.point_p - cl.point_q, cl.distance, (p1 - p0).cross(q1 - q0))) pairs_.push_back(s);
+      });
+  std::fill(changed_.begin(), changed_.end(), 0);
+  return pairs_.size();
+}
+
+bool SelfContacts::apply(const Stencil& s, double target) {
+  double w = 0;
+  for (int k = 0; k < 4; ++k) w += s.weight[k] * s.weight[k] * step_inverse_mass_[s.node[k]];
+  if (!(w > 0)) return false;
+  const Vec3 v = relative_velocity(s);
+  const double vn = v.dot(s.normal);
+  if (vn >= target) return false;
+  // The change of the relative velocity: along the normal up to the target, and Coulomb
+  // friction taking at most friction times that off the tangential part, never reversing it.
+  const double normal_change = target - vn;
+  Vec3 change = normal_change * s.normal;
+  const Vec3 tangential = v - vn * s.normal;
+  const double slide = tangential.norm();
+  if (friction_ > 0 && slide > 0) change -= std::min(friction_ * normal_change, slide) / slide * tangential;
+  // The impulse weight_k change / w on node k changes the relative velocity by exactly
+  // `change`, and its parts sum to zero (the weights do): momentum is kept. A light node of
+  // small weight against heavy ones would take many times the change; the impulse is then cut
+  // so that no node's velocity changes by more than kMaxVelocityChangeRatio times it, and
+  // what is left to later passes and the impact zones.
+  double largest = 0;
+  for (int k = 0; k < 4; ++k) largest = std::max(largest, std::abs(s.weight[k]) * step_inverse_mass_[s.node[k]] / w);
+  const double scale = std::min(1.0, kMaxVelocityChangeRatio / largest) / w;
+  for (int k = 0; k < 4; ++k) {
+    const int i = s.node[k];
+    if (step_inverse_mass_[i] == 0) continue;
+    node(u_, i) += (s.weight[k] * step_inverse_mass_[i] * scale) * change;
+    changed_[i] = 1;
+  }
+  return true;
+}
+
+int SelfContacts::zone_of(int i) const {
+  while (parent_[i] != i) i = parent_[i];
+  return i;
+}
+
+void SelfContacts::merge(int a, int b) {
+  a = zone_of(a);
+  b = zone_of(b);
+  if (a == b) return;
+  if (a > b) std::swap(a, b);  // the lower node number is the root: independent of the order
+  parent_[b] = a;
+  zone_stopped_[a] = zone_stopped_[a] || zone_stopped_[b];
+  zone_dirty_[a] = 1;
+}
+
+void SelfContacts::rigidify_zones(const VecX& x0, double dt, bool stop) {
+  const int n = static_cast<int>(fixed_.size());
+  // Path compression once per round, then the members of every zone that grew.
+  for (int i = 0; i < n; ++i) parent_[i] = zone_of(i);
+  std::vector<std::vector<int>>& members = zone_members_;
+  for (auto& m : members) m.clear();
+  for (int i = 0; i < n; ++i)
+    if (zone_dirty_[parent_[i]]) members[parent_[i]].push_back(i);
+  for (int root = 0; root < n; ++root) {
+    if (!zone_dirty_[root]) continue;
+    zone_dirty_[root] = 0;
+    const std::vector<int>& nodes = members[root];
+    bool pinned = false;
+    double mass = 0;
+    Vec3 centre = Vec3::Zero(), velocity = Vec3::Zero();
+    for (int i : nodes) {
+      if (step_inverse_mass_[i] == 0) {
+        pinned = true;
+        break;
+      }
+      const double m = 1 / step_inverse_mass_[i];
+      mass += m;
+      centre += m * node(x0, i);
+      velocity += m * node(u_, i);
+    }
+    Vec3 omega = Vec3::Zero();
+    if (!pinned && !stop && !zone_stopped_[root]) {
+      centre /= mass;
+      velocity /= mass;
+      // The angular velocity keeping the zone's angular momentum about its centre of mass:
+      // I omega = L, I possibly singular (a zone on a line) and then solved in its range.
+      Mat3 inertia = Mat3::Zero();
+      Vec3 momentum = Vec3::Zero();
+      for (int i : nodes) {
+        const double m = 1 / step_inverse_mass_[i];
+        const Vec3 r = node(x0, i) - centre;
+        inertia += m * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
+        momentum += m * r.cross(Vec3(node(u_, i)) - velocity);
+      }
+      const Eigen::SelfAdjointEigenSolver<Mat3> eig(inertia);
+      const double largest = eig.eigenvalues().maxCoeff();
+      for (int k = 0; k < 3; ++k) {
+        const double lambda = eig.eigenvalues()[k];
+        if (lambda > 1e-12 * largest) {
+          const Vec3 axis = eig.eigenvectors().col(k);
+          omega += axis * (axis.dot(momentum) / lambda);
+        }
+      }
+    }
+    // A zone turning by more than a radian in a step, holding a pinned node or past the rigid
+    // rounds is stopped: all its nodes stay where they are.
+    const double angle = omega.norm() * dt;
+    const bool stopped = pinned || stop || zone_stopped_[root] || angle > 1.0;
+    zone_stopped_[root] = stopped;
+    const Mat3 R = angle > 0 ? Eigen::AngleAxisd(angle, omega / omega.norm()).toRotationMatrix() : Mat3::Identity();
+    for (int i : nodes) {
+      Vec3 u = Vec3::Zero();
+      if (!stopped) {
+        // Rotated positions rather than omega x r: the zone ends the step as a rigid copy of
+        // its start, and in between an invertible affine image of it, so it cannot cross itself.
+        const Vec3 r = node(x0, i) - centre;
+        u = (centre + dt * velocity + R * r - Vec3(node(x0, i))) / dt;
+      }
+      if (u != node(u_, i)) {
+        node(u_, i) = u;
+        changed_[i] = 1;
+      }
+    }
+  }
+}
+
+void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/, double dt, ContactReport& report) {
+  if (!(dt > 0)) return;
+  const auto start = std::chrono::steady_clock::now();
+  const int n = static_cast<int>(fixed_.size());
+  u_ = (x1 - x0) / dt;
+  step_inverse_mass_ = inverse_mass_;
+  if (held_ && held_->size() == static_cast<size_t>(n))
+    for (int i = 0; i < n; ++i)
+      if ((*held_)[i] && node(u_, i).norm() <= kHeldRestSpeed) step_inverse_mass_[i] = 0;
+  u_start_ = u_;
+  changed_.assign(n, 1);
+
+  // 1. Repulsions: pairs within the thickness at the start stop approaching and are pushed a
+  // share of the way back to it (a few Gauss-Seidel sweeps, as the pairs share nodes).
+  find_proximities(x0);
+  for (int sweep = 0; sweep < 3; ++sweep) {
+    long applied = 0;
+    for (const Stencil& s : pairs_)
+      if (apply(s, (s.distance - s.gap) / std::max(kRepulsionTime, dt))) ++applied;
+    stats_.repulsions += applied;
+    if (applied == 0) break;
+  }
+
+  // 2. Continuous collisions: impulses on the pairs found, until a pass finds none. Each pair
+  // is to end the step at twice its collision distance along the normal, or keep approaching
+  // no faster than before.
+  std::fill(changed_.begin(), changed_.end(), 1);
+  bool clear = false;
+  for (int pass = 0; pass < kSelfCollisionPasses && !clear; ++pass) {
+    clear = find_collisions(x0, dt, false) == 0;
+    for (const Stencil& s : pairs_) {
+      if (apply(s, (2 * s.distance - s.gap) / dt)) {
+        ++stats_.collision_impulses;
+      } else {
+        for (int i : s.node) changed_[i] = 1;  // found but not changed: look again
+      }
+    }
+  }
+
+  // 3. Impact zones: the nodes of the pairs still found are merged into zones moving rigidly,
+  // and zones grow by what is found next; past the rigid rounds they are stopped instead, which
+  // always ends (at worst every node of the cloth stands still) and marks the step invalid.
+  bool stopped = false;
+  if (!clear) {
+    parent_.resize(n);
+    std::iota(parent_.begin(), parent_.end(), 0);
+    zone_stopped_.assign(n, 0);
+    zone_dirty_.assign(n, 0);
+    zone_members_.resize(n);
+    clear = find_collisions(x0, dt, true) == 0;
+    for (int round = 0; !clear; ++round) {
+      for (const Stencil& s : pairs_)
+        for (int k = 1; k < 4; ++k) merge(s.node[0], s.node[k]);
+      stopped = stopped || round >= kRigidZoneRounds;
+      rigidify_zones(x0, dt, round >= kRigidZoneRounds);
+      clear = find_collisions(x0, dt, true) == 0;
+    }
+    std::vector<int> size(n, 0);
+    for (int i = 0; i < n; ++i) ++size[zone_of(i)];
+    for (int i = 0; i < n; ++i)
+      if (size[i] > 1) {
+        ++stats_.impact_zones;
+        stats_.zone_nodes += size[i];
+      }
+    if (stopped) {
+      ++stats_.failed_steps;
+      report.ok = false;
+    }
+  }
+
+  // The step's end on the nodes whose mean velocity changed; v1 changes as u did.
+  for (int i = 0; i < n; ++i) {
+    const Vec3 du = node(u_, i) - node(u_start_, i);
+    if (du == Vec3::Zero()) continue;
+    node(x1, i) = node(x0, i) + dt * node(u_, i);
+    const Vec3 v_old = node(v1, i);
+    node(v1, i) += du;
+    report.work += 0.5 * (inverse_mass_[i] > 0 ? 1 / inverse_mass_[i] : 0.0) *
+                   (node(v1, i).squaredNorm() - v_old.squaredNorm());
+    ++report.fail_safe_moves;
+  }
+  stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace weft

@@ -1,0 +1,132 @@
+#pragma once
+// Cloth-cloth contact (docs/collisions.md, "Self-collision"): after the solve, a fail-safe on
+// the step's displacement in the spirit of Bridson, Fedkiw and Anderson 2002 (repulsions,
+// continuous-collision impulses, rigid impact zones) that ends every accepted step with no
+// cloth-cloth contact found by continuous detection along the straight trajectories.
+#include <array>
+#include <cstddef>
+#include <vector>
+
+#include "collision/aabb_tree.hpp"
+#include "integrate/contact.hpp"
+
+namespace weft {
+
+/// Passes of continuous detection and impulses before impact zones take over.
+constexpr int kSelfCollisionPasses = 4;
+/// Rounds of rigid impact zones (each one grows the zones by what is still found) before the
+/// zones are stopped instead (the last resort).
+constexpr int kRigidZoneRounds = 8;
+/// The speed (m/s) below which a node held against a collider counts as immovable.
+constexpr double kHeldRestSpeed = 0.1;
+/// The most an impulse may change a node's velocity, as a multiple of the change of the
+/// pair's relative velocity it makes (see SelfContacts::apply).
+constexpr double kMaxVelocityChangeRatio = 2;
+/// The distance continuous detection keeps primitives apart, as a fraction of the thickness.
+constexpr double kCollisionDistanceFraction = 0.1;
+/// The time (s) over which a repulsion restores the missing thickness (at least a step): layers
+/// are lifted back within a few dozen 5 ms steps without jumping, and the push's speed does
+/// not grow as the step shrinks.
+constexpr double kRepulsionTime = 0.05;
+
+/// Counts of what the fail-safe did (accumulated over the steps it ran; checkpoints keep them).
+struct SelfContactStatistics {
+  long repulsions = 0;          ///< impulses on pairs within the thickness at the step's start
+  long collision_impulses = 0;  ///< impulses on pairs continuous detection found over the step
+  long impact_zones = 0;        ///< rigid impact zones formed (counted in the step they end in)
+  long zone_nodes = 0;          ///< nodes in those zones
+  long failed_steps = 0;        ///< steps whose zones had to be stopped, reported invalid (taken
+                                ///< again at half the size)
+  double seconds = 0;           ///< time in the fail-safe
+};
+
+/// Cloth-cloth contact handling (integrate/contact.hpp) for one cloth mesh. It holds no
+/// constraints in the solve (detect and detect_end add nothing) and keeps no state between
+/// steps but its statistics.
+class SelfContacts : public ContactHandler {
+ public:
+  /// `triangles` (#F vertex triples), `rest_positions` (3n, m: they shape the bounding-volume
+  /// tree), `mass` (n, kg) and `fixed` (n, pinned nodes, which do not move and count as
+  /// infinitely heavy); `thickness` (m, > 0): the separation the repulsions keep; `friction`:
+  /// the Coulomb coefficient between layers. Throws std::invalid_argument for sizes that do
+  /// not fit or a thickness that is not positive.
+  SelfContacts(const std::vector<std::array<int, 3>>& triangles, const VecX& rest_positions, const VecX& mass,
+               const std::vector<char>& fixed, double thickness, double friction);
+
+  void detect(const VecX&, const VecX&, double, double, std::vector<NodeContact>&) override {}
+  void detect_end(const VecX&, const VecX&, double, double, const std::vector<char>&,
+                  std::vector<NodeContact>&) override {}
+  /// With u = (x1 - x0) / dt: repulsions on pairs within the thickness at x0, then impulses on
+  /// the pairs continuous detection finds along x0 -> x0 + dt u, then rigid impact zones;
+  /// x1 = x0 + dt u and v1 changed by the change of u on the nodes it changed. Reports
+  /// ok = false when zones had to be stopped to clear the step.
+  void finish_step(const VecX& x0, VecX& x1, VecX& v1, double t, double dt, ContactReport& report) override;
+
+  /// Per-node flags (n entries, read at every step; null or another size: none) of nodes the
+  /// handlers before this one hold against a collider in the step. Those moving slower than
+  /// kHeldRestSpeed count as infinitely heavy, so that layers resting on cloth that rests on a
+  /// collider do not drive it in step after step (the collider would push it back out, and the
+  /// two would pump energy into the layers). Faster ones keep their mass: a node the collider's
+  /// prediction carries onto the collider through cloth lying in between must not act as a
+  /// moving wall on that cloth.
+  void set_held_nodes(const std::vector<char>* flags) { held_ = flags; }
+
+  double thickness() const { return thickness_; }
+  double friction() const { return friction_; }
+  const SelfContactStatistics& statistics() const { return stats_; }
+  void set_statistics(const SelfContactStatistics& s) { stats_ = s; }
+
+  /// A vertex-face or edge-edge pair: four nodes and their weights in the relative position
+  /// (vertex-face: 1, -w_a, -w_b, -w_c; edge-edge: 1 - s, s, -(1 - t), -t), which sum to 0.
+  struct Stencil {
+    std::array<int, 4> node{};
+    std::array<double, 4> weight{};
+    Vec3 normal = Vec3::UnitZ();  ///< unit, from the second primitive towards the first
+    double gap = 0;               ///< separation along the normal at the step's start (m)
+    double distance = 0;          ///< the distance the pair is kept at (m)
+  };
+
+ private:
+  /// Calls vertex_face(v, f) and edge_edge(e, e2) for the pairs of primitives sharing no node
+  /// whose boxes (holding them at xa and xb, grown by `margin`) overlap, the tree refitted the
+  /// same way; `only_changed`: only pairs with a node whose u changed since the last detection.
+  template <class VertexFace, class EdgeEdge>
+  void for_each_candidate(const VecX& xa, const VecX& xb, double margin, bool only_changed, VertexFace&& vertex_face,
+                          EdgeEdge&& edge_edge);
+  /// Pairs within the thickness at x0 into pairs_.
+  void find_proximities(const VecX& x0);
+  /// Pairs that come within their collision distance along x0 -> x0 + dt u into pairs_ (with
+  /// `skip_zones`, not those inside one impact zone); their number.
+  size_t find_collisions(const VecX& x0, double dt, bool skip_zones);
+  Vec3 relative_velocity(const Stencil& s) const;
+  /// Changes u so the pair's relative normal velocity is at least `target`, with friction;
+  /// true when it changed anything.
+  bool apply(const Stencil& s, double target);
+  int zone_of(int i) const;
+  void merge(int a, int b);
+  /// Gives every zone that grew its rigid motion (or stops it: `stop`, a pinned node).
+  void rigidify_zones(const VecX& x0, double dt, bool stop);
+
+  std::vector<std::array<int, 3>> triangles_;
+  std::vector<std::array<int, 2>> edges_;
+  std::vector<std::vector<int>> owned_vertices_, owned_edges_;  ///< per triangle
+  VecX inverse_mass_;                        ///< 0 for pinned nodes
+  const std::vector<char>* held_ = nullptr;
+  std::vector<char> fixed_;
+  double thickness_, friction_;
+  AabbTree tree_;
+  SelfContactStatistics stats_;
+
+  // Scratch of one step (rewritten by every call).
+  VecX u_, u_start_, x_end_;
+  VecX step_inverse_mass_;           ///< inverse_mass_, 0 for held nodes too
+  std::vector<Box> vertex_box_, edge_box_;  ///< of the detection under way
+  std::vector<char> changed_;        ///< per node: u changed since the last detection
+  std::vector<Stencil> pairs_;
+  std::vector<int> parent_;          ///< impact zones: union-find over nodes
+  std::vector<char> zone_stopped_;   ///< per zone root: stopped
+  std::vector<char> zone_dirty_;     ///< per zone root: grew since its motion was set
+  std::vector<std::vector<int>> zone_members_;
+};
+
+}  // namespace weft
