@@ -130,6 +130,7 @@ void SelfContacts::find_proximities(const VecX& x0) {
         Stencil s;
         s.node = {v, t[0], t[1], t[2]};
         s.weight = {1, -c.weights[0], -c.weights[1], -c.weights[2]};
+        s.vertex_face = true;
         s.gap = c.distance;
         s.distance = h;
         if (c.distance > 1e-9 * h) {
@@ -159,6 +160,41 @@ void SelfContacts::find_proximities(const VecX& x0) {
         }
         pairs_.push_back(s);
       });
+}
+
+void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt, std::vector<NodeContact>& out) {
+  if (!(dt > 0)) return;
+  const int n = static_cast<int>(fixed_.size());
+  u_ = v;  // the approach direction of pairs whose closest points coincide
+  find_proximities(x);
+  has_contact_.assign(n, 0);
+  for (const NodeContact& c : out) has_contact_[c.node] = 1;
+  closest_pair_.assign(n, -1);
+  for (size_t k = 0; k < pairs_.size(); ++k) {
+    const Stencil& s = pairs_[k];
+    if (!s.vertex_face) continue;
+    const int i = s.node[0];
+    if (fixed_[i] || has_contact_[i]) continue;
+    if (closest_pair_[i] < 0 || s.gap < pairs_[closest_pair_[i]].gap) closest_pair_[i] = static_cast<int>(k);
+  }
+  const double push = 1 / std::max(kRepulsionTime, dt);
+  for (int i = 0; i < n; ++i) {
+    if (closest_pair_[i] < 0) continue;
+    const Stencil& s = pairs_[closest_pair_[i]];
+    NodeContact c;
+    c.node = i;
+    c.normal = s.normal;
+    c.surface_velocity = Vec3::Zero();
+    for (int k = 1; k < 4; ++k) c.surface_velocity -= s.weight[k] * node(v, s.node[k]);
+    // The vertex follows a face that draws back, but is not driven by one that comes at it: the
+    // constraint only ever pushes (one that pulls is let go), so following every approach of a
+    // face that jitters would rectify the jitter into work on the cloth. An approaching face is
+    // left to the fail-safe's impulses, which act on both sides and keep momentum.
+    c.surface_velocity -= c.normal * std::max(0.0, c.normal.dot(c.surface_velocity));
+    c.normal_displacement = dt * (c.normal.dot(c.surface_velocity) + (s.distance - s.gap) * push);
+    c.friction = friction_;
+    out.push_back(c);
+  }
 }
 
 Vec3 SelfContacts::relative_velocity(const Stencil& s) const {
@@ -255,7 +291,7 @@ size_t SelfContacts::find_collisions(const VecX& x0, double dt, bool skip_zones)
   return pairs_.size();
 }
 
-bool SelfContacts::apply(const Stencil& s, double target) {
+bool SelfContacts::apply(const Stencil& s, double target, bool with_friction) {
   double w = 0;
   for (int k = 0; k < 4; ++k) w += s.weight[k] * s.weight[k] * step_inverse_mass_[s.node[k]];
   if (!(w > 0)) return false;
@@ -268,7 +304,7 @@ bool SelfContacts::apply(const Stencil& s, double target) {
   Vec3 change = normal_change * s.normal;
   const Vec3 tangential = v - vn * s.normal;
   const double slide = tangential.norm();
-  if (friction_ > 0 && slide > 0) change -= std::min(friction_ * normal_change, slide) / slide * tangential;
+  if (with_friction && friction_ > 0 && slide > 0) change -= std::min(friction_ * normal_change, slide) / slide * tangential;
   // The impulse weight_k change / w on node k changes the relative velocity by exactly
   // `change`, and its parts sum to zero (the weights do): momentum is kept. A light node of
   // small weight against heavy ones would take many times the change; the impulse is then cut
@@ -390,20 +426,23 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
   for (int sweep = 0; sweep < 3; ++sweep) {
     long applied = 0;
     for (const Stencil& s : pairs_)
-      if (apply(s, (s.distance - s.gap) / std::max(kRepulsionTime, dt))) ++applied;
+      if (apply(s, (s.distance - s.gap) / std::max(kRepulsionTime, dt), true)) ++applied;
     stats_.repulsions += applied;
     if (applied == 0) break;
   }
 
   // 2. Continuous collisions: impulses on the pairs found, until a pass finds none. Each pair
   // is to end the step at twice its collision distance along the normal, or keep approaching
-  // no faster than before.
+  // no faster than before. These impulses are frictionless: they act on the step's mean
+  // velocity, which under BDF-2 carries the last step's displacement, and stopping its
+  // tangential part along with the collision pumped energy into layers resting on each other.
+  // Friction between layers comes with the repulsions, on every pair within the thickness.
   std::fill(changed_.begin(), changed_.end(), 1);
   bool clear = false;
   for (int pass = 0; pass < kSelfCollisionPasses && !clear; ++pass) {
     clear = find_collisions(x0, dt, false) == 0;
     for (const Stencil& s : pairs_) {
-      if (apply(s, (2 * s.distance - s.gap) / dt)) {
+      if (apply(s, (2 * s.distance - s.gap) / dt, false)) {
         ++stats_.collision_impulses;
       } else {
         for (int i : s.node) changed_[i] = 1;  // found but not changed: look again

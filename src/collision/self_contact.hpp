@@ -1,5 +1,6 @@
 #pragma once
-// Cloth-cloth contact (docs/collisions.md, "Self-collision"): after the solve, a fail-safe on
+// Cloth-cloth contact (docs/collisions.md, "Self-collision"): vertex-face constraints in the
+// solve for layers already within the thickness, then, after the solve, a fail-safe on
 // the step's displacement in the spirit of Bridson, Fedkiw and Anderson 2002 (repulsions,
 // continuous-collision impulses, rigid impact zones) that ends every accepted step with no
 // cloth-cloth contact found by continuous detection along the straight trajectories.
@@ -40,9 +41,9 @@ struct SelfContactStatistics {
   double seconds = 0;           ///< time in the fail-safe
 };
 
-/// Cloth-cloth contact handling (integrate/contact.hpp) for one cloth mesh. It holds no
-/// constraints in the solve (detect and detect_end add nothing) and keeps no state between
-/// steps but its statistics.
+/// Cloth-cloth contact handling (integrate/contact.hpp) for one cloth mesh: vertex-face
+/// constraints in the solve (detect), then the fail-safe after it (finish_step). It keeps no
+/// state between steps but its statistics.
 class SelfContacts : public ContactHandler {
  public:
   /// `triangles` (#F vertex triples), `rest_positions` (3n, m: they shape the bounding-volume
@@ -53,7 +54,14 @@ class SelfContacts : public ContactHandler {
   SelfContacts(const std::vector<std::array<int, 3>>& triangles, const VecX& rest_positions, const VecX& mass,
                const std::vector<char>& fixed, double thickness, double friction);
 
-  void detect(const VecX&, const VecX&, double, double, std::vector<NodeContact>&) override {}
+  /// Vertices within the thickness of a cloth face at x (and held by no handler before this
+  /// one in `out`) held in the solve against their closest face as against a surface: no
+  /// approach along the pair's normal (a face drawing back is followed at its velocity at the
+  /// start), the missing thickness restored over kRepulsionTime, and the layers' friction. The
+  /// solve then sees the layers it would otherwise drive into each other: a correction after
+  /// the solve alone undoes part of the solve's motion, and under backward Euler and BDF-2
+  /// that fight pumped elastic energy into folded cloth until the run blew up.
+  void detect(const VecX& x, const VecX& v, double t, double dt, std::vector<NodeContact>& out) override;
   void detect_end(const VecX&, const VecX&, double, double, const std::vector<char>&,
                   std::vector<NodeContact>&) override {}
   /// With u = (x1 - x0) / dt: repulsions on pairs within the thickness at x0, then impulses on
@@ -84,6 +92,7 @@ class SelfContacts : public ContactHandler {
     Vec3 normal = Vec3::UnitZ();  ///< unit, from the second primitive towards the first
     double gap = 0;               ///< separation along the normal at the step's start (m)
     double distance = 0;          ///< the distance the pair is kept at (m)
+    bool vertex_face = false;     ///< node[0] is a vertex, the others a face's
   };
 
  private:
@@ -99,9 +108,9 @@ class SelfContacts : public ContactHandler {
   /// `skip_zones`, not those inside one impact zone); their number.
   size_t find_collisions(const VecX& x0, double dt, bool skip_zones);
   Vec3 relative_velocity(const Stencil& s) const;
-  /// Changes u so the pair's relative normal velocity is at least `target`, with friction;
-  /// true when it changed anything.
-  bool apply(const Stencil& s, double target);
+  /// Changes u so the pair's relative normal velocity is at least `target`, with Coulomb
+  /// friction on its tangential part when `with_friction`; true when it changed anything.
+  bool apply(const Stencil& s, double target, bool with_friction);
   int zone_of(int i) const;
   void merge(int a, int b);
   /// Gives every zone that grew its rigid motion (or stops it: `stop`, a pinned node).
@@ -127,6 +136,8 @@ class SelfContacts : public ContactHandler {
   std::vector<char> zone_stopped_;   ///< per zone root: stopped
   std::vector<char> zone_dirty_;     ///< per zone root: grew since its motion was set
   std::vector<std::vector<int>> zone_members_;
+  std::vector<char> has_contact_;    ///< detect: per node, a contact in `out` already
+  std::vector<int> closest_pair_;    ///< detect: per node, its closest vertex-face pair or -1
 };
 
 }  // namespace weft
