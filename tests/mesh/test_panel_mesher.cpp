@@ -21,9 +21,10 @@ using test::kPanelPi;
 
 double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 
+// Measured from the ring's first point, so that far from the origin no digits are lost.
 double signed_area(const std::vector<Vec2>& ring) {
   double twice = 0;
-  for (size_t i = 0; i < ring.size(); ++i) twice += cross2(ring[i], ring[(i + 1) % ring.size()]);
+  for (size_t i = 1; i + 1 < ring.size(); ++i) twice += cross2(ring[i] - ring[0], ring[i + 1] - ring[0]);
   return 0.5 * twice;
 }
 
@@ -292,6 +293,22 @@ TEST(PanelMesher, OutlinesWithHoles) {
   two.holes.push_back(test::sampled_circle({0.12, 0.2}, 0.06, h));
   two.holes.push_back(test::reversed(test::sampled_polygon({{0.25, 0.1}, {0.33, 0.1}, {0.33, 0.3}, {0.25, 0.3}}, h)));
   expect_quality(check_panel_mesh(two, mesh_panel(two, options), options, "two_holes"), options);
+}
+
+TEST(PanelMesher, FarFromTheOriginAndAtSmallScale) {
+  // Translated a kilometre away, and shrunk a hundredfold with its target: the same mesh
+  // properties hold (the predicates do not depend on the coordinates' magnitude).
+  for (const auto& [offset, scale] : {std::pair{Vec2(1000, -2000), 1.0}, std::pair{Vec2(0, 0), 0.01}}) {
+    std::mt19937 rng(11);
+    PanelMeshOptions options;
+    options.target_edge_m *= scale;
+    PanelOutline outline{test::random_star(rng, 0.2 * scale, options.target_edge_m),
+                         {test::reversed(test::sampled_circle(Vec2::Zero(), 0.05 * scale, options.target_edge_m))}};
+    for (auto* ring : {&outline.outer, &outline.holes[0]})
+      for (Vec2& p : *ring) p += offset;
+    const PanelMesh mesh = mesh_panel(outline, options);
+    expect_quality(check_panel_mesh(outline, mesh, options, "moved_" + std::to_string(scale)), options);
+  }
 }
 
 TEST(PanelMesher, SharpCornerIsLeftButEverythingElseMeetsTheAngle) {
