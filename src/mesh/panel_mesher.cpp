@@ -5,6 +5,7 @@
 #include <deque>
 #include <limits>
 #include <queue>
+#include <sstream>
 #include <string>
 #include <unordered_set>
 
@@ -37,6 +38,12 @@ Vec2 circumcentre(const Vec2& a, const Vec2& b, const Vec2& c) {
   const Vec2 offset(ac.y() * ab.squaredNorm() - ab.y() * ac.squaredNorm(),
                     ab.x() * ac.squaredNorm() - ac.x() * ab.squaredNorm());
   return a + offset / d;
+}
+
+std::string number_text(double x) {
+  std::ostringstream s;
+  s << x;
+  return s.str();
 }
 
 // Where a walk towards a point ended.
@@ -362,7 +369,7 @@ class Refiner {
     apex_tan_ = std::tan(0.5 * (min_angle + kPi / 3));
   }
 
-  static constexpr double kCircumradiusPerEdge = 0.7;
+  static constexpr double kCircumradiusPerEdge = 0.75;
 
   void run() {
     for (int t = 0; t < static_cast<int>(mesh_.triangles.size()); ++t) consider(t);
@@ -379,7 +386,7 @@ class Refiner {
       mesh_.changed.clear();
       if (static_cast<long>(mesh_.points.size()) - 3 > options_.max_vertices)
         throw InputError("panel mesh: more than max_vertices = " + std::to_string(options_.max_vertices) +
-                         " vertices needed at target_edge_m = " + std::to_string(options_.target_edge_m) +
+                         " vertices needed at target_edge_m = " + number_text(options_.target_edge_m) +
                          "; expected a larger target_edge_m or max_vertices");
     }
   }
@@ -529,10 +536,10 @@ class Refiner {
 
 void check_options(const PanelMeshOptions& options) {
   if (!(options.target_edge_m > 0) || !std::isfinite(options.target_edge_m))
-    throw InputError("panel mesh: target_edge_m = " + std::to_string(options.target_edge_m) +
+    throw InputError("panel mesh: target_edge_m = " + number_text(options.target_edge_m) +
                      "; expected a positive length in metres");
   if (!(options.min_angle_deg > 0 && options.min_angle_deg <= 34))
-    throw InputError("panel mesh: min_angle_deg = " + std::to_string(options.min_angle_deg) +
+    throw InputError("panel mesh: min_angle_deg = " + number_text(options.min_angle_deg) +
                      "; expected an angle in (0, 34] degrees");
   if (options.max_vertices < 3)
     throw InputError("panel mesh: max_vertices = " + std::to_string(options.max_vertices) +

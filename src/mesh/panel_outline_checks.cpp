@@ -1,8 +1,10 @@
 #include "mesh/panel_outline_checks.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <sstream>
+#include <tuple>
 
 #include "mesh/exact_predicates.hpp"
 #include "weft/error.hpp"
@@ -41,6 +43,20 @@ bool closed_segments_meet(const Vec2& a, const Vec2& b, const Vec2& c, const Vec
   if (abc * abd < 0 && cda * cdb < 0) return true;
   return on_closed_segment(a, b, c) || on_closed_segment(a, b, d) ||
          on_closed_segment(c, d, a) || on_closed_segment(c, d, b);
+}
+
+// A point where two segments that meet have in common.
+Vec2 meeting_point(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d) {
+  // Neighbours share an end: the point where one folds back over the other says more.
+  const std::array<std::tuple<Vec2, Vec2, Vec2>, 4> ends{std::tuple{c, a, b}, std::tuple{d, a, b},
+                                                         std::tuple{a, c, d}, std::tuple{b, c, d}};
+  for (const auto& [p, q, r] : ends)
+    if (on_closed_segment(q, r, p) && p != q && p != r) return p;
+  for (const auto& [p, q, r] : ends)
+    if (on_closed_segment(q, r, p)) return p;
+  const Vec2 ab = b - a, cd = d - c;
+  const double t = ((c - a).x() * cd.y() - (c - a).y() * cd.x()) / (ab.x() * cd.y() - ab.y() * cd.x());
+  return a + t * ab;
 }
 
 // Even-odd test; p is not on the ring (the segment checks rule that out).
@@ -100,13 +116,6 @@ void check_panel_outline(const PanelOutline& outline) {
       refuse(outline_point_name(all[k].ring, all[k].index) + " repeats " +
              outline_point_name(all[k - 1].ring, all[k - 1].index) + " at " +
              point_text(all[k].p) + "; expected distinct points (no closing point)");
-  for (int r = 0; r < rings; ++r) {
-    const double area = signed_area(ring_points(outline, r));
-    if (!(std::abs(area) > 0))
-      refuse((r == 0 ? std::string("the outer boundary") : "hole " + std::to_string(r - 1)) +
-             " has zero area");
-  }
-
   // Segments against segments, swept along x so that only overlapping x ranges are compared.
   std::vector<Segment> segments;
   for (int r = 0; r < rings; ++r) {
@@ -117,6 +126,9 @@ void check_panel_outline(const PanelOutline& outline) {
   std::sort(segments.begin(), segments.end(), [](const Segment& s, const Segment& t) {
     return std::min(s.a.x(), s.b.x()) < std::min(t.a.x(), t.b.x());
   });
+  bool found = false;
+  std::tuple<int, int, int, int> found_order;
+  size_t found_first = 0, found_second = 0;  // indices into segments
   for (size_t i = 0; i < segments.size(); ++i) {
     const Segment& s = segments[i];
     const double s_max_x = std::max(s.a.x(), s.b.x());
@@ -134,22 +146,41 @@ void check_panel_outline(const PanelOutline& outline) {
       } else {
         meet = closed_segments_meet(s.a, s.b, t.a, t.b);
       }
-      if (meet) {
-        const auto& s_pts = ring_points(outline, s.ring);
-        const auto& t_pts = ring_points(outline, t.ring);
-        const int s_next = (s.index + 1) % static_cast<int>(s_pts.size());
-        const int t_next = (t.index + 1) % static_cast<int>(t_pts.size());
-        const Segment& first = std::make_pair(s.ring, s.index) < std::make_pair(t.ring, t.index) ? s : t;
-        const Segment& second = &first == &s ? t : s;
-        const int first_next = &first == &s ? s_next : t_next;
-        const int second_next = &first == &s ? t_next : s_next;
-        refuse("segment from " + outline_point_name(first.ring, first.index) + " to point " +
-               std::to_string(first_next) + " meets segment from " +
-               outline_point_name(second.ring, second.index) + " to point " +
-               std::to_string(second_next) + " near " + point_text(second.a) +
-               "; expected a simple outline (no crossing or touching segments)");
+      if (!meet) continue;
+      // Of all meeting pairs, the one named first in outline order is reported, whatever the
+      // sort left in which order.
+      const bool s_first = std::make_pair(s.ring, s.index) < std::make_pair(t.ring, t.index);
+      const Segment& first = s_first ? s : t;
+      const Segment& second = s_first ? t : s;
+      const size_t first_index = s_first ? i : j, second_index = s_first ? j : i;
+      const auto order = std::make_tuple(first.ring, first.index, second.ring, second.index);
+      if (!found || order < found_order) {
+        found = true;
+        found_order = order;
+        found_first = first_index;
+        found_second = second_index;
       }
     }
+  }
+  if (found) {
+    const Segment& first = segments[found_first];
+    const Segment& second = segments[found_second];
+    auto next_index = [&](const Segment& s) {
+      return (s.index + 1) % static_cast<int>(ring_points(outline, s.ring).size());
+    };
+    refuse("segment from " + outline_point_name(first.ring, first.index) + " to point " +
+           std::to_string(next_index(first)) + " meets segment from " +
+           outline_point_name(second.ring, second.index) + " to point " +
+           std::to_string(next_index(second)) + " at " +
+           point_text(meeting_point(first.a, first.b, second.a, second.b)) +
+           "; expected a simple outline (no crossing or touching segments)");
+  }
+  // A simple ring always encloses some area; this guards the meshing against the impossible.
+  for (int r = 0; r < rings; ++r) {
+    const double area = signed_area(ring_points(outline, r));
+    if (!(std::abs(area) > 0))
+      refuse((r == 0 ? std::string("the outer boundary") : "hole " + std::to_string(r - 1)) +
+             " has zero area");
   }
 
   for (int h = 1; h < rings; ++h) {
