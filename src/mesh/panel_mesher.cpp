@@ -370,6 +370,7 @@ class Refiner {
   }
 
   static constexpr double kCircumradiusPerEdge = 0.75;
+  static constexpr double kSegmentRadiusFactor = 0.6;
 
   void run() {
     for (int t = 0; t < static_cast<int>(mesh_.triangles.size()); ++t) consider(t);
@@ -415,7 +416,12 @@ class Refiner {
     const double twice_area = cross(b - a, c - a);
     const double radius = edge[0] * edge[1] * edge[2] / (2 * twice_area);
     const int shortest = static_cast<int>(std::min_element(edge.begin(), edge.end()) - edge.begin());
-    bool bad = radius > circumradius_max_;
+    // A triangle standing on a boundary segment cannot be smaller than the equilateral one on
+    // it (circumradius length / sqrt(3)); with segments kept, a long one sets the bound.
+    double radius_max = circumradius_max_;
+    for (int k = 0; k < 3; ++k)
+      if (!options_.split_boundary && (T.segment[k] || T.n[k] < 0)) radius_max = std::max(radius_max, kSegmentRadiusFactor * edge[k]);
+    bool bad = radius > radius_max;
     if (!bad && radius > ratio_max_ * edge[shortest]) {
       // The smallest angle sits opposite the shortest edge; at a sharp input corner it is
       // forced by the outline and refining would only cut the corner finer and finer.
@@ -488,7 +494,7 @@ class Refiner {
     if (options_.split_boundary)
       split_segment(seg_t, seg_k);
     else
-      insert_apex(t, centre, radius, seg_t, seg_k);
+      insert_apex(centre, radius, seg_t, seg_k);
   }
 
   void split_segment(int t, int k) {
@@ -502,8 +508,9 @@ class Refiner {
   }
 
   // Instead of a circumcentre too close to (or beyond) a segment, the apex of a well-shaped
-  // triangle standing on the segment, if that removes triangle t and fits.
-  void insert_apex(int t, const Vec2& centre, double radius, int seg_t, int seg_k) {
+  // triangle standing on the segment, if it lies in the bad triangle's circumcircle (so the
+  // triangle goes) and has room.
+  void insert_apex(const Vec2& centre, double radius, int seg_t, int seg_k) {
     const Triangle& S = mesh_.triangles[seg_t];
     const Vec2 a = mesh_.points[S.v[next(seg_k)]];
     const Vec2 b = mesh_.points[S.v[prev(seg_k)]];
@@ -522,7 +529,6 @@ class Refiner {
       insert_at(p, where);
       return;
     }
-    (void)t;
   }
 
   Triangulation& mesh_;
