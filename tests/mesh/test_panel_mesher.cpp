@@ -268,6 +268,29 @@ TEST(PanelMesher, RandomStarShapedOutlines) {
   }
 }
 
+TEST(PanelMesher, OutlinesSampledFinerOrCoarserThanTheTarget) {
+  // Stitch sides of different lengths get the same number of points, so segments differ from
+  // the target. Up to 1.3 targets the angle holds everywhere; a triangle on a segment is held
+  // to 0.6 of the segment's length in circumradius when that exceeds 0.75 of the target.
+  for (double spacing_factor : {0.6, 1.3}) {
+    for (unsigned seed = 1; seed <= 3; ++seed) {
+      std::mt19937 rng(seed);
+      PanelMeshOptions options;
+      const PanelOutline outline{test::random_star(rng, 0.2, spacing_factor * options.target_edge_m), {}};
+      double longest_segment = 0;
+      for (size_t i = 0; i < outline.outer.size(); ++i)
+        longest_segment = std::max(longest_segment, (outline.outer[(i + 1) % outline.outer.size()] - outline.outer[i]).norm());
+      const MeshSummary s = check_panel_mesh(outline, mesh_panel(outline, options), options,
+                                             "sampled_" + std::to_string(spacing_factor) + "_" + std::to_string(seed));
+      EXPECT_GE(s.min_angle_deg, options.min_angle_deg);
+      EXPECT_LE(s.max_circumradius_m,
+                std::max(0.75 * options.target_edge_m, 0.6 * longest_segment) * (1 + 1e-9));
+      EXPECT_GT(s.mean_edge_m, 0.8 * options.target_edge_m);
+      EXPECT_LT(s.mean_edge_m, 1.2 * options.target_edge_m);
+    }
+  }
+}
+
 TEST(PanelMesher, ConcaveOutlines) {
   PanelMeshOptions options;
   const double h = options.target_edge_m;
