@@ -15,7 +15,8 @@ using namespace weft;
 
 void BM_PanelMeshSquareMetre(benchmark::State& state) {
   const PanelMeshOptions options;
-  const PanelOutline square{test::sampled_polygon({{0, 0}, {1, 0}, {1, 1}, {0, 1}}, options.target_edge_m), {}};
+  const PanelOutline square{
+      test::sampled_polygon({{0, 0}, {1, 0}, {1, 1}, {0, 1}}, options.target_edge_m), {}};
   size_t triangles = 0;
   for (auto _ : state) {
     const PanelMesh mesh = mesh_panel(square, options);
@@ -31,12 +32,14 @@ void BM_PanelMeshCoat(benchmark::State& state) {
   std::vector<PanelOutline> panels;
   for (unsigned seed = 1; seed <= 8; ++seed) {
     std::mt19937 rng(seed);
-    panels.push_back({test::random_star(rng, std::sqrt(0.16 / test::kPanelPi), options.target_edge_m), {}});
+    panels.push_back(
+        {test::random_star(rng, std::sqrt(0.16 / test::kPanelPi), options.target_edge_m), {}});
   }
   size_t triangles = 0;
   for (auto _ : state) {
     triangles = 0;
-    for (const PanelOutline& panel : panels) triangles += mesh_panel(panel, options).triangles.size();
+    for (const PanelOutline& panel : panels)
+      triangles += mesh_panel(panel, options).triangles.size();
   }
   state.counters["triangles"] = static_cast<double>(triangles);
 }

@@ -71,7 +71,9 @@ class Triangulation {
     for (int v : {a, b, c}) vertex_triangle[v] = 0;
   }
 
-  int orient(int a, int b, const Vec2& p) const { return orientation_sign(points[a], points[b], p); }
+  int orient(int a, int b, const Vec2& p) const {
+    return orientation_sign(points[a], points[b], p);
+  }
 
   int slot_of(int t, int vertex) const {
     const auto& v = triangles[t].v;
@@ -173,7 +175,8 @@ class Triangulation {
     if (u < 0) return false;
     const int d = triangles[u].v[neighbour_slot(u, t)];
     const Vec2& pd = points[d];
-    return orient(T.v[k], T.v[next(k)], pd) > 0 && orientation_sign(points[T.v[k]], pd, points[T.v[prev(k)]]) > 0;
+    return orient(T.v[k], T.v[next(k)], pd) > 0 &&
+           orientation_sign(points[T.v[k]], pd, points[T.v[prev(k)]]) > 0;
   }
 
   bool locally_delaunay(int t, int k) const {
@@ -298,7 +301,8 @@ class Triangulation {
       find_edge(x, y, t, k);
       if (!flippable(t, k)) {
         crossing.emplace_back(x, y);
-        if (++stuck > 4 * crossing.size() + 16) throw std::logic_error("panel mesher: segment recovery stalled");
+        if (++stuck > 4 * crossing.size() + 16)
+          throw std::logic_error("panel mesher: segment recovery stalled");
         continue;
       }
       stuck = 0;
@@ -386,9 +390,10 @@ class Refiner {
       for (int t : mesh_.changed) consider(t);
       mesh_.changed.clear();
       if (static_cast<long>(mesh_.points.size()) - 3 > options_.max_vertices)
-        throw InputError("panel mesh: more than max_vertices = " + std::to_string(options_.max_vertices) +
-                         " vertices needed at target_edge_m = " + number_text(options_.target_edge_m) +
-                         "; expected a larger target_edge_m or max_vertices");
+        throw InputError(
+            "panel mesh: more than max_vertices = " + std::to_string(options_.max_vertices) +
+            " vertices needed at target_edge_m = " + number_text(options_.target_edge_m) +
+            "; expected a larger target_edge_m or max_vertices");
     }
   }
 
@@ -402,8 +407,8 @@ class Refiner {
 
   static unsigned long long key(std::array<int, 3> v) {
     std::sort(v.begin(), v.end());
-    return (static_cast<unsigned long long>(v[0]) << 42) ^ (static_cast<unsigned long long>(v[1]) << 21) ^
-           static_cast<unsigned long long>(v[2]);
+    return (static_cast<unsigned long long>(v[0]) << 42) ^
+           (static_cast<unsigned long long>(v[1]) << 21) ^ static_cast<unsigned long long>(v[2]);
   }
 
   void consider(int t) {
@@ -415,12 +420,14 @@ class Refiner {
     const std::array<double, 3> edge{(c - b).norm(), (a - c).norm(), (b - a).norm()};
     const double twice_area = cross(b - a, c - a);
     const double radius = edge[0] * edge[1] * edge[2] / (2 * twice_area);
-    const int shortest = static_cast<int>(std::min_element(edge.begin(), edge.end()) - edge.begin());
+    const int shortest =
+        static_cast<int>(std::min_element(edge.begin(), edge.end()) - edge.begin());
     // A triangle standing on a boundary segment cannot be smaller than the equilateral one on
     // it (circumradius length / sqrt(3)); with segments kept, a long one sets the bound.
     double radius_max = circumradius_max_;
     for (int k = 0; k < 3; ++k)
-      if (!options_.split_boundary && (T.segment[k] || T.n[k] < 0)) radius_max = std::max(radius_max, kSegmentRadiusFactor * edge[k]);
+      if (!options_.split_boundary && (T.segment[k] || T.n[k] < 0))
+        radius_max = std::max(radius_max, kSegmentRadiusFactor * edge[k]);
     bool bad = radius > radius_max;
     if (!bad && radius > ratio_max_ * edge[shortest]) {
       // The smallest angle sits opposite the shortest edge; at a sharp input corner it is
@@ -447,7 +454,8 @@ class Refiner {
 
   // A segment edge near triangle t (t itself or its neighbours) that p encroaches on.
   bool encroached_near(const Vec2& p, int t, int& seg_t, int& seg_k) const {
-    std::array<int, 4> around{t, mesh_.triangles[t].n[0], mesh_.triangles[t].n[1], mesh_.triangles[t].n[2]};
+    std::array<int, 4> around{t, mesh_.triangles[t].n[0], mesh_.triangles[t].n[1],
+                              mesh_.triangles[t].n[2]};
     for (int u : around) {
       if (u < 0) continue;
       for (int k = 0; k < 3; ++k)
@@ -461,7 +469,8 @@ class Refiner {
 
   double nearest_vertex_distance(const Vec2& p, int t) const {
     double d = std::numeric_limits<double>::infinity();
-    std::array<int, 4> around{t, mesh_.triangles[t].n[0], mesh_.triangles[t].n[1], mesh_.triangles[t].n[2]};
+    std::array<int, 4> around{t, mesh_.triangles[t].n[0], mesh_.triangles[t].n[1],
+                              mesh_.triangles[t].n[2]};
     for (int u : around)
       if (u >= 0)
         for (int v : mesh_.triangles[u].v) d = std::min(d, (mesh_.points[v] - p).norm());
@@ -478,14 +487,16 @@ class Refiner {
 
   void attempt(int t) {
     const Triangle& T = mesh_.triangles[t];
-    const Vec2 centre = circumcentre(mesh_.points[T.v[0]], mesh_.points[T.v[1]], mesh_.points[T.v[2]]);
+    const Vec2 centre =
+        circumcentre(mesh_.points[T.v[0]], mesh_.points[T.v[1]], mesh_.points[T.v[2]]);
     const double radius = (centre - mesh_.points[T.v[0]]).norm();
     const Location where = mesh_.walk(t, centre);
     int seg_t = -1, seg_k = -1;
     if (where.kind == Location::kLost || where.kind == Location::kOnVertex) return;
     if (where.kind == Location::kBlocked) {
       seg_t = where.triangle, seg_k = where.edge;
-    } else if (where.kind == Location::kOnEdge && mesh_.triangles[where.triangle].segment[where.edge]) {
+    } else if (where.kind == Location::kOnEdge &&
+               mesh_.triangles[where.triangle].segment[where.edge]) {
       seg_t = where.triangle, seg_k = where.edge;
     } else if (!encroached_near(centre, where.triangle, seg_t, seg_k)) {
       if (nearest_vertex_distance(centre, where.triangle) > 1e-3 * radius) insert_at(centre, where);
@@ -521,11 +532,14 @@ class Refiner {
       if ((p - centre).norm() >= radius) continue;
       const Location where = mesh_.walk(seg_t, p);
       if (where.kind != Location::kInside &&
-          !(where.kind == Location::kOnEdge && !mesh_.triangles[where.triangle].segment[where.edge]))
+          !(where.kind == Location::kOnEdge &&
+            !mesh_.triangles[where.triangle].segment[where.edge]))
         continue;
       int other_t, other_k;
       if (encroached_near(p, where.triangle, other_t, other_k)) continue;
-      if (nearest_vertex_distance(p, where.triangle) < 0.4 * std::min(length, options_.target_edge_m)) continue;
+      if (nearest_vertex_distance(p, where.triangle) <
+          0.4 * std::min(length, options_.target_edge_m))
+        continue;
       insert_at(p, where);
       return;
     }

@@ -22,9 +22,7 @@ std::string point_text(const Vec2& p) {
   return s.str();
 }
 
-[[noreturn]] void refuse(const std::string& what) {
-  throw InputError("panel outline: " + what);
-}
+[[noreturn]] void refuse(const std::string& what) { throw InputError("panel outline: " + what); }
 
 struct Segment {
   int ring, index;  // joins point index and index + 1 (cyclically) of the ring
@@ -41,8 +39,8 @@ bool closed_segments_meet(const Vec2& a, const Vec2& b, const Vec2& c, const Vec
   const int abc = orientation_sign(a, b, c), abd = orientation_sign(a, b, d);
   const int cda = orientation_sign(c, d, a), cdb = orientation_sign(c, d, b);
   if (abc * abd < 0 && cda * cdb < 0) return true;
-  return on_closed_segment(a, b, c) || on_closed_segment(a, b, d) ||
-         on_closed_segment(c, d, a) || on_closed_segment(c, d, b);
+  return on_closed_segment(a, b, c) || on_closed_segment(a, b, d) || on_closed_segment(c, d, a) ||
+         on_closed_segment(c, d, b);
 }
 
 // A point where two segments that meet have in common.
@@ -55,7 +53,8 @@ Vec2 meeting_point(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d) {
   for (const auto& [p, q, r] : ends)
     if (on_closed_segment(q, r, p)) return p;
   const Vec2 ab = b - a, cd = d - c;
-  const double t = ((c - a).x() * cd.y() - (c - a).y() * cd.x()) / (ab.x() * cd.y() - ab.y() * cd.x());
+  const double t =
+      ((c - a).x() * cd.y() - (c - a).y() * cd.x()) / (ab.x() * cd.y() - ab.y() * cd.x());
   return a + t * ab;
 }
 
@@ -97,7 +96,8 @@ void check_panel_outline(const PanelOutline& outline) {
   std::vector<Named> all;
   for (int r = 0; r < rings; ++r) {
     const auto& pts = ring_points(outline, r);
-    const std::string name = r == 0 ? std::string("the outer boundary") : "hole " + std::to_string(r - 1);
+    const std::string name =
+        r == 0 ? std::string("the outer boundary") : "hole " + std::to_string(r - 1);
     if (pts.size() < 3)
       refuse(name + " has " + std::to_string(pts.size()) + " points; expected at least 3");
     for (int i = 0; i < static_cast<int>(pts.size()); ++i) {
@@ -114,8 +114,8 @@ void check_panel_outline(const PanelOutline& outline) {
   for (size_t k = 1; k < all.size(); ++k)
     if (all[k].p == all[k - 1].p)
       refuse(outline_point_name(all[k].ring, all[k].index) + " repeats " +
-             outline_point_name(all[k - 1].ring, all[k - 1].index) + " at " +
-             point_text(all[k].p) + "; expected distinct points (no closing point)");
+             outline_point_name(all[k - 1].ring, all[k - 1].index) + " at " + point_text(all[k].p) +
+             "; expected distinct points (no closing point)");
   // Segments against segments, swept along x so that only overlapping x ranges are compared.
   std::vector<Segment> segments;
   for (int r = 0; r < rings; ++r) {
@@ -186,8 +186,8 @@ void check_panel_outline(const PanelOutline& outline) {
   for (int h = 1; h < rings; ++h) {
     const Vec2& p = outline.holes[h - 1][0];
     if (!inside_ring(outline.outer, p))
-      refuse("hole " + std::to_string(h - 1) + " lies outside the outer boundary (its point 0 is at " +
-             point_text(p) + ")");
+      refuse("hole " + std::to_string(h - 1) +
+             " lies outside the outer boundary (its point 0 is at " + point_text(p) + ")");
     for (int other = 1; other < rings; ++other)
       if (other != h && inside_ring(outline.holes[other - 1], p))
         refuse("hole " + std::to_string(h - 1) + " lies inside hole " + std::to_string(other - 1));

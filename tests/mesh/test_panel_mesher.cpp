@@ -24,7 +24,8 @@ double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x
 // Measured from the ring's first point, so that far from the origin no digits are lost.
 double signed_area(const std::vector<Vec2>& ring) {
   double twice = 0;
-  for (size_t i = 1; i + 1 < ring.size(); ++i) twice += cross2(ring[i] - ring[0], ring[i + 1] - ring[0]);
+  for (size_t i = 1; i + 1 < ring.size(); ++i)
+    twice += cross2(ring[i] - ring[0], ring[i + 1] - ring[0]);
   return 0.5 * twice;
 }
 
@@ -72,8 +73,9 @@ void write_svg(const PanelOutline& outline, const PanelMesh& mesh, const std::st
   for (const Vec2& p : mesh.vertices) low = low.cwiseMin(p), high = high.cwiseMax(p);
   const double size = (high - low).maxCoeff(), stroke = size / 1500;
   std::ofstream svg(std::filesystem::path(dir) / (name + ".svg"));
-  svg << "<svg xmlns='http://www.w3.org/2000/svg' width='1000' height='1000' viewBox='" << low.x() - 0.02 * size
-      << " " << -high.y() - 0.02 * size << " " << 1.04 * size << " " << 1.04 * size << "'>\n";
+  svg << "<svg xmlns='http://www.w3.org/2000/svg' width='1000' height='1000' viewBox='"
+      << low.x() - 0.02 * size << " " << -high.y() - 0.02 * size << " " << 1.04 * size << " "
+      << 1.04 * size << "'>\n";
   for (const auto& t : mesh.triangles) {
     svg << "<polygon fill='#eef' stroke='black' stroke-width='" << stroke << "' points='";
     for (int v : t) svg << mesh.vertices[v].x() << "," << -mesh.vertices[v].y() << " ";
@@ -138,9 +140,11 @@ MeshSummary check_panel_mesh(const PanelOutline& outline, const PanelMesh& mesh,
     EXPECT_GT(twice, 0) << "triangle " << f;
     area += 0.5 * twice;
     const Vec2 centroid = (a + b + c) / 3;
-    EXPECT_TRUE(inside_polygon(outline.outer, centroid)) << "triangle " << f << " outside the panel";
+    EXPECT_TRUE(inside_polygon(outline.outer, centroid))
+        << "triangle " << f << " outside the panel";
     for (size_t h = 0; h < outline.holes.size(); ++h)
-      EXPECT_FALSE(inside_polygon(outline.holes[h], centroid)) << "triangle " << f << " in hole " << h;
+      EXPECT_FALSE(inside_polygon(outline.holes[h], centroid))
+          << "triangle " << f << " in hole " << h;
     double smallest = 180;
     int smallest_at = -1;
     double product = 1;
@@ -149,7 +153,8 @@ MeshSummary check_panel_mesh(const PanelOutline& outline, const PanelMesh& mesh,
       used[v] = 1;
       ++directed[{v, w}];
       faces_of_edge[{std::min(v, w), std::max(v, w)}].push_back(static_cast<int>(f));
-      const Vec2 e1 = mesh.vertices[w] - mesh.vertices[v], e2 = mesh.vertices[t[(k + 2) % 3]] - mesh.vertices[v];
+      const Vec2 e1 = mesh.vertices[w] - mesh.vertices[v],
+                 e2 = mesh.vertices[t[(k + 2) % 3]] - mesh.vertices[v];
       const double angle = std::atan2(cross2(e1, e2), e1.dot(e2)) * 180 / kPanelPi;
       if (angle < smallest) smallest = angle, smallest_at = v;
       product *= e1.norm();
@@ -170,7 +175,8 @@ MeshSummary check_panel_mesh(const PanelOutline& outline, const PanelMesh& mesh,
 
   // A 2-manifold: no directed edge twice, an edge in at most two triangles; the edges with one
   // triangle are the outline's segments (or, with split_boundary, pieces of them).
-  for (const auto& [edge, n] : directed) EXPECT_EQ(n, 1) << "edge " << edge.first << "-" << edge.second;
+  for (const auto& [edge, n] : directed)
+    EXPECT_EQ(n, 1) << "edge " << edge.first << "-" << edge.second;
   std::map<std::pair<int, int>, int> segments;
   double perimeter = 0;
   int first = 0;
@@ -189,13 +195,15 @@ MeshSummary check_panel_mesh(const PanelOutline& outline, const PanelMesh& mesh,
     const bool segment = segments.count(edge) > 0;
     if (faces.size() == 1) {
       border_length += (mesh.vertices[edge.first] - mesh.vertices[edge.second]).norm();
-      if (!options.split_boundary) EXPECT_TRUE(segment) << "border edge " << edge.first << "-" << edge.second;
+      if (!options.split_boundary)
+        EXPECT_TRUE(segment) << "border edge " << edge.first << "-" << edge.second;
     }
     if (segment) EXPECT_EQ(faces.size(), 1u) << "segment " << edge.first << "-" << edge.second;
   }
   if (!options.split_boundary)
     for (const auto& [edge, unused] : segments)
-      EXPECT_EQ(faces_of_edge.count(edge), 1u) << "segment " << edge.first << "-" << edge.second << " missing";
+      EXPECT_EQ(faces_of_edge.count(edge), 1u)
+          << "segment " << edge.first << "-" << edge.second << " missing";
   EXPECT_NEAR(border_length, perimeter, 1e-9 * perimeter);
   const long euler = static_cast<long>(nv) - static_cast<long>(faces_of_edge.size()) +
                      static_cast<long>(mesh.triangles.size());
@@ -242,7 +250,8 @@ TEST(PanelMesher, SquareKeepsItsBoundaryAndMeetsTheTargets) {
   expect_quality(s, options);
   EXPECT_EQ(s.corner_exempt, 0);  // right angles need no exemption
   // Triangles of edge h cover sqrt(3)/4 h^2 each; with edges about h the count is near.
-  const double equilateral = 0.09 / (std::sqrt(3.0) / 4 * options.target_edge_m * options.target_edge_m);
+  const double equilateral =
+      0.09 / (std::sqrt(3.0) / 4 * options.target_edge_m * options.target_edge_m);
   EXPECT_GT(mesh.triangles.size(), 0.7 * equilateral);
   EXPECT_LT(mesh.triangles.size(), 1.4 * equilateral);
 }
@@ -264,7 +273,8 @@ TEST(PanelMesher, RandomStarShapedOutlines) {
     options.min_angle_deg = seed % 3 ? 25 : 30;
     const PanelOutline outline{test::random_star(rng, 0.2, options.target_edge_m), {}};
     const PanelMesh mesh = mesh_panel(outline, options);
-    expect_quality(check_panel_mesh(outline, mesh, options, "star_" + std::to_string(seed)), options);
+    expect_quality(check_panel_mesh(outline, mesh, options, "star_" + std::to_string(seed)),
+                   options);
   }
 }
 
@@ -276,12 +286,17 @@ TEST(PanelMesher, OutlinesSampledFinerOrCoarserThanTheTarget) {
     for (unsigned seed = 1; seed <= 3; ++seed) {
       std::mt19937 rng(seed);
       PanelMeshOptions options;
-      const PanelOutline outline{test::random_star(rng, 0.2, spacing_factor * options.target_edge_m), {}};
+      const PanelOutline outline{
+          test::random_star(rng, 0.2, spacing_factor * options.target_edge_m), {}};
       double longest_segment = 0;
       for (size_t i = 0; i < outline.outer.size(); ++i)
-        longest_segment = std::max(longest_segment, (outline.outer[(i + 1) % outline.outer.size()] - outline.outer[i]).norm());
-      const MeshSummary s = check_panel_mesh(outline, mesh_panel(outline, options), options,
-                                             "sampled_" + std::to_string(spacing_factor) + "_" + std::to_string(seed));
+        longest_segment =
+            std::max(longest_segment,
+                     (outline.outer[(i + 1) % outline.outer.size()] - outline.outer[i]).norm());
+      const MeshSummary s =
+          check_panel_mesh(outline, mesh_panel(outline, options), options,
+                           "sampled_" + std::to_string(std::lround(10 * spacing_factor)) + "_" +
+                               std::to_string(seed));
       EXPECT_GE(s.min_angle_deg, options.min_angle_deg);
       EXPECT_LE(s.max_circumradius_m,
                 std::max(0.75 * options.target_edge_m, 0.6 * longest_segment) * (1 + 1e-9));
@@ -295,8 +310,10 @@ TEST(PanelMesher, ConcaveOutlines) {
   PanelMeshOptions options;
   const double h = options.target_edge_m;
   const PanelOutline l_shape{
-      test::sampled_polygon({{0, 0}, {0.3, 0}, {0.3, 0.1}, {0.1, 0.1}, {0.1, 0.3}, {0, 0.3}}, h), {}};
-  expect_quality(check_panel_mesh(l_shape, mesh_panel(l_shape, options), options, "l_shape"), options);
+      test::sampled_polygon({{0, 0}, {0.3, 0}, {0.3, 0.1}, {0.1, 0.1}, {0.1, 0.3}, {0, 0.3}}, h),
+      {}};
+  expect_quality(check_panel_mesh(l_shape, mesh_panel(l_shape, options), options, "l_shape"),
+                 options);
   const PanelOutline comb{test::sampled_polygon(test::comb_corners(4, h), h), {}};
   expect_quality(check_panel_mesh(comb, mesh_panel(comb, options), options, "comb"), options);
 }
@@ -307,30 +324,36 @@ TEST(PanelMesher, OutlinesWithHoles) {
   for (unsigned seed = 1; seed <= 4; ++seed) {
     std::mt19937 rng(seed);
     // One hole, clockwise, in a random star (which holds the disc of radius 0.11 m).
-    PanelOutline one{test::random_star(rng, 0.2, h), {test::reversed(test::sampled_circle({0.01, 0}, 0.05, h))}};
-    expect_quality(check_panel_mesh(one, mesh_panel(one, options), options, "hole_" + std::to_string(seed)),
-                   options);
+    PanelOutline one{test::random_star(rng, 0.2, h),
+                     {test::reversed(test::sampled_circle({0.01, 0}, 0.05, h))}};
+    expect_quality(
+        check_panel_mesh(one, mesh_panel(one, options), options, "hole_" + std::to_string(seed)),
+        options);
   }
   // Two holes in a square, one counter-clockwise and one clockwise: either orientation works.
   PanelOutline two = square_outline(0.4, h);
   two.holes.push_back(test::sampled_circle({0.12, 0.2}, 0.06, h));
-  two.holes.push_back(test::reversed(test::sampled_polygon({{0.25, 0.1}, {0.33, 0.1}, {0.33, 0.3}, {0.25, 0.3}}, h)));
+  two.holes.push_back(test::reversed(
+      test::sampled_polygon({{0.25, 0.1}, {0.33, 0.1}, {0.33, 0.3}, {0.25, 0.3}}, h)));
   expect_quality(check_panel_mesh(two, mesh_panel(two, options), options, "two_holes"), options);
 }
 
 TEST(PanelMesher, FarFromTheOriginAndAtSmallScale) {
   // Translated a kilometre away, and shrunk a hundredfold with its target: the same mesh
   // properties hold (the predicates do not depend on the coordinates' magnitude).
-  for (const auto& [offset, scale] : {std::pair{Vec2(1000, -2000), 1.0}, std::pair{Vec2(0, 0), 0.01}}) {
+  for (const auto& [offset, scale] :
+       {std::pair{Vec2(1000, -2000), 1.0}, std::pair{Vec2(0, 0), 0.01}}) {
     std::mt19937 rng(11);
     PanelMeshOptions options;
     options.target_edge_m *= scale;
-    PanelOutline outline{test::random_star(rng, 0.2 * scale, options.target_edge_m),
-                         {test::reversed(test::sampled_circle(Vec2::Zero(), 0.05 * scale, options.target_edge_m))}};
+    PanelOutline outline{
+        test::random_star(rng, 0.2 * scale, options.target_edge_m),
+        {test::reversed(test::sampled_circle(Vec2::Zero(), 0.05 * scale, options.target_edge_m))}};
     for (auto* ring : {&outline.outer, &outline.holes[0]})
       for (Vec2& p : *ring) p += offset;
     const PanelMesh mesh = mesh_panel(outline, options);
-    expect_quality(check_panel_mesh(outline, mesh, options, "moved_" + std::to_string(scale)), options);
+    expect_quality(check_panel_mesh(outline, mesh, options, "moved_" + std::to_string(scale)),
+                   options);
   }
 }
 
@@ -340,14 +363,16 @@ TEST(PanelMesher, SharpCornerIsLeftButEverythingElseMeetsTheAngle) {
   // triangles there join the two sides' outline points whatever their angles.
   PanelMeshOptions options;
   const double tip = 12 * kPanelPi / 180;
-  const PanelOutline wedge{test::sampled_polygon(
-                               {{0, 0}, {0.3, 0}, {0.3 * std::cos(tip), 0.3 * std::sin(tip)}}, options.target_edge_m),
-                           {}};
+  const PanelOutline wedge{
+      test::sampled_polygon({{0, 0}, {0.3, 0}, {0.3 * std::cos(tip), 0.3 * std::sin(tip)}},
+                            options.target_edge_m),
+      {}};
   const MeshSummary s = check_panel_mesh(wedge, mesh_panel(wedge, options), options, "wedge");
   EXPECT_GE(s.corner_exempt, 1);
   for (const PoorTriangle& p : s.poor) {
     EXPECT_TRUE(p.outline_only);
-    EXPECT_LT(p.centroid.x() * std::tan(tip), 2 * options.target_edge_m);  // the wedge's width there
+    EXPECT_LT(p.centroid.x() * std::tan(tip),
+              2 * options.target_edge_m);  // the wedge's width there
   }
   EXPECT_LE(s.max_circumradius_m, 0.75 * options.target_edge_m * (1 + 1e-9));
 }
@@ -358,14 +383,16 @@ TEST(PanelMesher, SplitBoundaryRefinesCoarseOutlines) {
   PanelMeshOptions options;
   options.split_boundary = true;
   options.min_angle_deg = 28;
-  const PanelOutline coarse{test::sampled_polygon({{0, 0}, {0.3, 0}, {0.3, 0.2}, {0.15, 0.25}, {0, 0.2}}, 0.1),
-                            {test::sampled_circle({0.15, 0.1}, 0.05, 0.04)}};
+  const PanelOutline coarse{
+      test::sampled_polygon({{0, 0}, {0.3, 0}, {0.3, 0.2}, {0.15, 0.25}, {0, 0.2}}, 0.1),
+      {test::sampled_circle({0.15, 0.1}, 0.05, 0.04)}};
   const PanelMesh mesh = mesh_panel(coarse, options);
   expect_quality(check_panel_mesh(coarse, mesh, options, "split_boundary"), options);
   int border_vertices = 0;
   std::map<std::pair<int, int>, int> edge_count;
   for (const auto& t : mesh.triangles)
-    for (int k = 0; k < 3; ++k) ++edge_count[{std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])}];
+    for (int k = 0; k < 3; ++k)
+      ++edge_count[{std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])}];
   for (const auto& [edge, n] : edge_count) border_vertices += n == 1;
   EXPECT_GT(border_vertices, mesh.boundary_vertices);  // segments were split
 }

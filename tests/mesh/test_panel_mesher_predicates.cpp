@@ -21,7 +21,9 @@ struct GridPoint {
 
 constexpr double kStep = 1.0 / 1024;
 
-Vec2 to_vec(const GridPoint& p, const Vec2& offset) { return offset + Vec2(p.x * kStep, p.y * kStep); }
+Vec2 to_vec(const GridPoint& p, const Vec2& offset) {
+  return offset + Vec2(p.x * kStep, p.y * kStep);
+}
 
 int sign(Int v) { return v > 0 ? 1 : v < 0 ? -1 : 0; }
 
@@ -29,9 +31,12 @@ int orientation_reference(const GridPoint& a, const GridPoint& b, const GridPoin
   return sign(Int(a.x - c.x) * Int(b.y - c.y) - Int(a.y - c.y) * Int(b.x - c.x));
 }
 
-int incircle_reference(const GridPoint& a, const GridPoint& b, const GridPoint& c, const GridPoint& d) {
-  const Int adx = a.x - d.x, ady = a.y - d.y, bdx = b.x - d.x, bdy = b.y - d.y, cdx = c.x - d.x, cdy = c.y - d.y;
-  return sign((adx * adx + ady * ady) * (bdx * cdy - cdx * bdy) + (bdx * bdx + bdy * bdy) * (cdx * ady - adx * cdy) +
+int incircle_reference(const GridPoint& a, const GridPoint& b, const GridPoint& c,
+                       const GridPoint& d) {
+  const Int adx = a.x - d.x, ady = a.y - d.y, bdx = b.x - d.x, bdy = b.y - d.y, cdx = c.x - d.x,
+            cdy = c.y - d.y;
+  return sign((adx * adx + ady * ady) * (bdx * cdy - cdx * bdy) +
+              (bdx * bdx + bdy * bdy) * (cdx * ady - adx * cdy) +
               (cdx * cdx + cdy * cdy) * (adx * bdy - bdx * ady));
 }
 
@@ -41,7 +46,8 @@ const std::array<Vec2, 3> kOffsets{Vec2(0, 0), Vec2(0.25, -0.375), Vec2(4096, -8
 
 TEST(PanelMesherPredicates, OrientationOfNearlyCollinearPoints) {
   std::mt19937 rng(5);
-  std::uniform_int_distribution<long> coordinate(-(1L << 20), 1L << 20), step(-1, 1), scale(-40, 40);
+  std::uniform_int_distribution<long> coordinate(-(1L << 20), 1L << 20), step(-1, 1),
+      scale(-40, 40);
   int degenerate = 0;
   for (int trial = 0; trial < 3000; ++trial) {
     // c on the line through a and b (a multiple of b - a from a), then nudged by at most one step.
@@ -118,7 +124,8 @@ TEST(PanelMesherPredicates, InCircleOfNearlyCocircularPoints) {
     inside += expected > 0;
     outside += expected < 0;
     for (const Vec2& offset : kOffsets)
-      ASSERT_EQ(incircle_sign(to_vec(p[0], offset), to_vec(p[1], offset), to_vec(p[2], offset), to_vec(p[3], offset)),
+      ASSERT_EQ(incircle_sign(to_vec(p[0], offset), to_vec(p[1], offset), to_vec(p[2], offset),
+                              to_vec(p[3], offset)),
                 expected)
           << "trial " << trial;
   }

@@ -20,7 +20,8 @@ inline std::vector<Vec2> sampled_polygon(const std::vector<Vec2>& corners, doubl
     const Vec2& a = corners[i];
     const Vec2& b = corners[(i + 1) % corners.size()];
     const int pieces = std::max(1, static_cast<int>(std::lround((b - a).norm() / spacing)));
-    for (int k = 0; k < pieces; ++k) points.push_back(a + (b - a) * (static_cast<double>(k) / pieces));
+    for (int k = 0; k < pieces; ++k)
+      points.push_back(a + (b - a) * (static_cast<double>(k) / pieces));
   }
   return points;
 }
@@ -50,7 +51,8 @@ std::vector<Vec2> sampled_closed_curve(const Vec2& centre, Radius radius, double
 }
 
 inline std::vector<Vec2> sampled_circle(const Vec2& centre, double radius, double spacing) {
-  return sampled_closed_curve(centre, [radius](double) { return radius; }, spacing);
+  return sampled_closed_curve(
+      centre, [radius](double) { return radius; }, spacing);
 }
 
 /// A random star-shaped curve: mean radius `radius`, five random harmonics whose amplitudes
