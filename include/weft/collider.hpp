@@ -45,6 +45,8 @@ struct ColliderSpec {
   double radius = 0;                  ///< sphere, capsule
   Vec3 end_a = Vec3::Zero(), end_b = Vec3::Zero();  ///< capsule: the axis' ends
   Vec3 half_extents = Vec3::Zero();   ///< box
+  /// box: radius of its rounded edges and corners (m, 0: sharp), below the smallest half extent
+  double edge_radius = 0;
   Vec3 rotation_deg = Vec3::Zero();   ///< box and mesh: X, then Y, then Z
   std::string obj_path;               ///< mesh: OBJ file (absolute, resolved against the scene)
   double scale = 1.0;                 ///< mesh: metres per OBJ unit

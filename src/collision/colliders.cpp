@@ -4,6 +4,7 @@
 #include "collision/geometry.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -90,6 +91,59 @@ void add_round_surface(const Vec3& centre, double radius, const Mat3& R, const V
     for (int j = 0; j < segments; ++j) {
       tris.emplace_back(at(i, j), at(i + 1, j), at(i + 1, j + 1));
       tris.emplace_back(at(i, j), at(i + 1, j + 1), at(i, j + 1));
+    }
+}
+
+// The box's surface, wound outwards: two triangles per face when its edges are sharp; rounded,
+// each face a grid whose lines near the face's rim sit where the rounding turns by equal angles
+// (up to 45 degrees, the neighbouring face's grid taking the other half), every grid point
+// then put on the rounded surface. Each edge's quarter circle gets 2 * kArcSteps chords, whose
+// vertices lie on the surface, so the chords lie inside it.
+void add_box_surface(const ColliderSpec& s, std::vector<Vec3>& points, std::vector<Eigen::Vector3i>& tris) {
+  constexpr int kArcSteps = 4;
+  const Mat3 R = rotation_from_degrees(s.rotation_deg);
+  const double r = s.edge_radius;
+  const Vec3 inner = s.half_extents - Vec3::Constant(r);
+  std::array<std::vector<double>, 3> lines;
+  for (int k = 0; k < 3; ++k) {
+    std::vector<double>& l = lines[k];
+    if (r > 0) {
+      for (int j = kArcSteps; j >= 1; --j) l.push_back(-inner[k] - r * std::tan(M_PI / 4 * j / kArcSteps));
+      l.push_back(-inner[k]);
+      if (inner[k] > 0) l.push_back(inner[k]);
+      for (int j = 1; j <= kArcSteps; ++j) l.push_back(inner[k] + r * std::tan(M_PI / 4 * j / kArcSteps));
+    } else {
+      l = {-s.half_extents[k], s.half_extents[k]};
+    }
+  }
+  for (int axis = 0; axis < 3; ++axis)
+    for (double side : {-1.0, 1.0}) {
+      const int i = (axis + 1) % 3, j = (axis + 2) % 3;  // e_i x e_j = e_axis
+      const int base = static_cast<int>(points.size());
+      const int ni = static_cast<int>(lines[i].size()), nj = static_cast<int>(lines[j].size());
+      for (int b = 0; b < nj; ++b)
+        for (int a = 0; a < ni; ++a) {
+          Vec3 p;
+          p[axis] = side * s.half_extents[axis];
+          p[i] = lines[i][a];
+          p[j] = lines[j][b];
+          if (r > 0) {
+            const Vec3 c = p.cwiseMax(-inner).cwiseMin(inner);
+            p = c + r * (p - c).normalized();
+          }
+          points.push_back(s.centre + R * p);
+        }
+      for (int b = 0; b + 1 < nj; ++b)
+        for (int a = 0; a + 1 < ni; ++a) {
+          const int v00 = base + b * ni + a, v10 = v00 + 1, v01 = v00 + ni, v11 = v01 + 1;
+          if (side > 0) {
+            tris.emplace_back(v00, v10, v11);
+            tris.emplace_back(v00, v11, v01);
+          } else {
+            tris.emplace_back(v00, v11, v10);
+            tris.emplace_back(v00, v01, v11);
+          }
+        }
     }
 }
 
@@ -182,19 +236,9 @@ class AnalyticCollider : public Collider {
         add_round_surface(s.end_a, s.radius, R, s.end_b - s.end_a, points, tris);
         break;
       }
-      case ColliderShape::kBox: {
-        for (int k = 0; k < 8; ++k) {
-          const Vec3 corner((k & 1) ? 1 : -1, (k & 2) ? 1 : -1, (k & 4) ? 1 : -1);
-          points.push_back(s.centre + box_rotation_ * corner.cwiseProduct(s.half_extents));
-        }
-        // Two triangles per face, wound outwards.
-        const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-        for (const auto& f : faces) {
-          tris.emplace_back(f[0], f[1], f[2]);
-          tris.emplace_back(f[0], f[2], f[3]);
-        }
+      case ColliderShape::kBox:
+        add_box_surface(s, points, tris);
         break;
-      }
       default:
         break;
     }
@@ -222,15 +266,20 @@ class AnalyticCollider : public Collider {
         return round(p, s.end_a + u * ab, s.radius, any_unit_normal_to(axis_));
       }
       case ColliderShape::kBox: {
+        // The box with rounded edges is its inner box (half extents less the radius) grown by
+        // the radius; with radius 0, the box itself.
         const Vec3 q = box_rotation_.transpose() * (p - s.centre);
         const Vec3& h = s.half_extents;
-        const Vec3 clamped = q.cwiseMax(-h).cwiseMin(h);
+        const double r = s.edge_radius;
+        const Vec3 inner = h - Vec3::Constant(r);
+        const Vec3 clamped = q.cwiseMax(-inner).cwiseMin(inner);
         const Vec3 outside = q - clamped;
         if (outside.squaredNorm() > 0) {
           const double d = outside.norm();
-          return {d, box_rotation_ * (outside / d), s.centre + box_rotation_ * clamped};
+          const Vec3 n = outside / d;
+          return {d - r, box_rotation_ * n, s.centre + box_rotation_ * (clamped + r * n)};
         }
-        // Inside: the nearest face.
+        // Inside the inner box: the nearest face.
         int axis = 0;
         double depth = h[0] - std::abs(q[0]);
         for (int k = 1; k < 3; ++k)

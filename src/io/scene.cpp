@@ -262,11 +262,18 @@ ColliderSpec parse_collider(const nlohmann::json& j, const std::string& file, co
     c.end_b = e.vec3_within("b", kMaxLength_m, "m");
     c.radius = positive_length("radius");
   } else if (type == "box") {
-    allow({"centre", "half_extents", "rotation_deg"});
+    allow({"centre", "half_extents", "rotation_deg", "edge_radius"});
     c.shape = ColliderShape::kBox;
     c.centre = r.vec3_within("centre", kMaxLength_m, "m");
     c.half_extents = r.vec3_within("half_extents", kMaxLength_m, "m");
     if (!(c.half_extents.minCoeff() > 0)) r.fail("half_extents", "must all be positive");
+    if (r.has("edge_radius")) {
+      c.edge_radius = r.number_in("edge_radius", 0, kMaxLength_m, false);
+      if (!(c.edge_radius < c.half_extents.minCoeff()))
+        r.fail("edge_radius", "expected a radius below the smallest half extent (" +
+                                  nlohmann::json(c.half_extents.minCoeff()).dump() + " m), got " +
+                                  nlohmann::json(c.edge_radius).dump());
+    }
     if (r.has("rotation_deg")) c.rotation_deg = r.vec3_within("rotation_deg", kMaxRotation_deg, "degrees");
   } else if (type == "mesh") {
     allow({"obj", "scale", "rotation_deg", "translation", "closed"});

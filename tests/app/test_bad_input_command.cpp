@@ -112,6 +112,8 @@ TEST_F(BadInputCommand, ColliderDescriptions) {
   expect_refused("both_motions", with(R"({"type": "plane", "motion": {"linear_velocity": [0, 1, 0], "keyframes": []}})"),
                  "key colliders[0].motion.keyframes: give either keyframes or linear_velocity/angular_velocity_deg/centre, "
                  "not both");
+  expect_refused("edge_radius", with(R"({"type": "box", "centre": [0, 0, 0], "half_extents": [1, 0.25, 1], "edge_radius": 0.25})"),
+                 "key colliders[0].edge_radius: expected a radius below the smallest half extent (0.25 m), got 0.25");
   expect_refused("zero_normal", with(R"({"type": "plane", "normal": [0, 0, 0]})"), "key colliders[0].normal: must not be zero");
   write("bad.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n");
   expect_refused("bad_obj", with(R"({"type": "mesh", "obj": "bad.obj"})"),

@@ -233,6 +233,50 @@ TEST(MeshCollider, ClosedMeshTellsInsideFromOutsideEverywhere) {
   }
 }
 
+// A box with rounded edges is its inner box grown by the radius: the signed distance is the
+// distance to the inner box less the radius outside it, and the nearest face's depth inside
+// it (a point a radius from the inner box is on the surface, whichever face, edge or corner it
+// is nearest). Its drawn surface has every vertex on that surface, wound outwards.
+TEST(BoxCollider, RoundedEdgesAreTheInnerBoxGrownByTheRadius) {
+  ColliderSpec spec;
+  spec.shape = ColliderShape::kBox;
+  spec.centre = Vec3(0.1, 0.2, -0.3);
+  spec.half_extents = Vec3(0.5, 0.2, 0.3);
+  spec.rotation_deg = Vec3(10, 20, 30);
+  spec.edge_radius = 0.05;
+  const auto box = make_analytic_collider(spec);
+  const Mat3 R = rotation_from_degrees(spec.rotation_deg);
+  const Vec3 inner = spec.half_extents - Vec3::Constant(spec.edge_radius);
+  std::srand(11);
+  for (int k = 0; k < 2000; ++k) {
+    const Vec3 q = Vec3::Random().cwiseProduct(spec.half_extents + Vec3::Constant(0.1));
+    const Vec3 p = spec.centre + R * q;
+    SurfacePoint s;
+    ASSERT_TRUE(box->closest(p, 10, false, 0, s));
+    const Vec3 outside = q - q.cwiseMax(-inner).cwiseMin(inner);
+    const double depth = (spec.half_extents - q.cwiseAbs()).minCoeff();
+    const double expected = outside.norm() > 0 ? outside.norm() - spec.edge_radius : -depth;
+    EXPECT_NEAR(s.distance, expected, 1e-12) << q.transpose();
+    EXPECT_NEAR(s.normal.norm(), 1, 1e-12);
+    EXPECT_LT((s.point + s.distance * s.normal - p).norm(), 1e-12) << q.transpose();
+  }
+  Points positions;
+  Triangles triangles;
+  box->surface(0, positions, triangles);
+  ASSERT_GT(triangles.rows(), 12);
+  for (Eigen::Index v = 0; v < positions.rows(); ++v) {
+    SurfacePoint s;
+    ASSERT_TRUE(box->closest(positions.row(v).transpose(), 10, false, 0, s));
+    EXPECT_NEAR(s.distance, 0, 1e-12);
+  }
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
+    const Vec3 a = positions.row(triangles(f, 0)), b = positions.row(triangles(f, 1)), c = positions.row(triangles(f, 2));
+    const Vec3 normal = (b - a).cross(c - a);
+    if (normal.norm() < 1e-12) continue;  // a corner's collapsed grid cell
+    EXPECT_GT(normal.dot((a + b + c) / 3 - spec.centre), 0) << "triangle " << f << " faces inwards";
+  }
+}
+
 // An open mesh (a square plate of two triangles) holds the cloth on the side it falls from,
 // whichever way its triangles are wound.
 TEST(MeshCollider, OpenPlateHoldsTheClothOnItsSideWhicheverWayItIsWound) {
