@@ -31,6 +31,8 @@ constexpr int kMaxCheckSegments = 4000;
 struct Place {
   std::string text;
   Place at(const std::string& more) const { return Place{text + ": " + more}; }
+  /// A key below a JSON path ("FILE: key a.b" -> "FILE: key a.b.KEY").
+  Place key(const std::string& name) const { return Place{text + "." + name}; }
   [[noreturn]] void fail(const std::string& message) const { throw InputError(text + ": " + message); }
 };
 
@@ -155,9 +157,9 @@ Units read_units(const json& top, const std::string& file) {
   const json& props = top["properties"];
   if (!props.is_object()) place.fail("expected an object, got " + describe(props));
   Units units;
-  if (!props.contains("units_in_meter")) place.at("units_in_meter").fail("missing");
+  const Place at_u = place.key("units_in_meter");
+  if (!props.contains("units_in_meter")) at_u.fail("missing");
   const json& u = props["units_in_meter"];
-  const Place at_u = Place{file + ": key properties.units_in_meter"};
   if (!u.is_number() || !(u.get<double>() > 0) || !(u.get<double>() <= 1e9))
     at_u.fail("expected a number in (0, 1e9] (file units in one metre), got " + describe(u));
   units.metres_per_unit = 1.0 / u.get<double>();
@@ -168,11 +170,27 @@ Units read_units(const json& top, const std::string& file) {
     } else if (cc == "absolute") {
       units.relative_controls = false;
     } else {
-      Place{file + ": key properties.curvature_coords"}.fail("expected \"relative\" or \"absolute\", got " +
+      place.key("curvature_coords").fail("expected \"relative\" or \"absolute\", got " +
                                                              describe(cc));
     }
   }
   return units;
+}
+
+/// A point where two segments of a polygon (numbered by their first points) meet.
+Vec2 meeting_point(const std::vector<Vec2>& poly, const std::array<int, 2>& segments) {
+  const size_t n = poly.size();
+  const Vec2& a = poly[static_cast<size_t>(segments[0])];
+  const Vec2& b = poly[(static_cast<size_t>(segments[0]) + 1) % n];
+  const Vec2& c = poly[static_cast<size_t>(segments[1])];
+  const Vec2& d = poly[(static_cast<size_t>(segments[1]) + 1) % n];
+  const auto cross = [](const Vec2& u, const Vec2& v) { return u.x() * v.y() - u.y() * v.x(); };
+  const double denominator = cross(b - a, d - c);
+  if (denominator != 0) return a + std::clamp(cross(c - a, d - c) / denominator, 0.0, 1.0) * (b - a);
+  // Parallel segments that meet overlap: an endpoint of one lies on the other.
+  for (const Vec2* p : {&c, &d})
+    if ((*p - a).dot(*p - b) <= 0) return *p;
+  return a;
 }
 
 /// The panel's outline must be a simple closed curve of positive area.
@@ -196,7 +214,7 @@ void check_outline(const Panel& panel, const Place& place) {
       }
       return -1;
     };
-    const Vec2& p = outline.points_m[static_cast<size_t>(hit[1])];
+    const Vec2 p = meeting_point(outline.points_m, hit);
     place.fail("outline crosses itself: edge " + std::to_string(edge_of(hit[0])) + " meets edge " +
                std::to_string(edge_of(hit[1])) + " near (" + json(p.x()).dump() + ", " + json(p.y()).dump() +
                ") m");
@@ -289,16 +307,16 @@ StitchSide read_side(const json& j, const std::map<std::string, int>& panel_inde
   if (!j.is_object() || !j.contains("panel") || !j.contains("edge"))
     place.fail("expected {\"panel\": NAME, \"edge\": INDEX}, got " + describe(j));
   const json& name = j["panel"];
-  if (!name.is_string()) place.at("panel").fail("expected a panel name, got " + describe(name));
+  if (!name.is_string()) place.key("panel").fail("expected a panel name, got " + describe(name));
   const auto it = panel_index.find(name.get<std::string>());
-  if (it == panel_index.end()) place.at("panel").fail("no panel named '" + name.get<std::string>() + "'");
+  if (it == panel_index.end()) place.key("panel").fail("no panel named '" + name.get<std::string>() + "'");
   StitchSide side;
   side.panel = it->second;
   const Panel& panel = panels[static_cast<size_t>(side.panel)];
   const auto edge = json_util::integer_value(j["edge"]);
-  if (!edge) place.at("edge").fail("expected an edge index, got " + describe(j["edge"]));
+  if (!edge) place.key("edge").fail("expected an edge index, got " + describe(j["edge"]));
   if (*edge < 0 || *edge >= static_cast<long>(panel.edges.size()))
-    place.at("edge").fail("panel '" + panel.name + "' has no edge " + std::to_string(*edge) + " (its edges are 0 to " +
+    place.key("edge").fail("panel '" + panel.name + "' has no edge " + std::to_string(*edge) + " (its edges are 0 to " +
                           std::to_string(panel.edges.size() - 1) + ")");
   side.edge = static_cast<int>(*edge);
   return side;
