@@ -193,8 +193,10 @@ Vec2 meeting_point(const std::vector<Vec2>& poly, const std::array<int, 2>& segm
   return a;
 }
 
-/// The panel's outline must be a simple closed curve of positive area.
-void check_outline(const Panel& panel, const Place& place) {
+/// The panel's outline must be a simple closed curve enclosing some area. Returns whether
+/// its edges run clockwise. Curved edges are sampled finely here, whatever mesh size a
+/// garment later uses.
+bool check_outline(const Panel& panel, const Place& place) {
   std::vector<int> segments;
   for (const PanelEdge& e : panel.edges) {
     const int n = e.curve.kind == CurveKind::straight
@@ -219,7 +221,9 @@ void check_outline(const Panel& panel, const Place& place) {
                std::to_string(edge_of(hit[1])) + " near (" + json(p.x()).dump() + ", " + json(p.y()).dump() +
                ") m");
   }
-  if (!(std::abs(polygon_area_m2(outline.points_m)) > 0)) place.fail("outline encloses no area");
+  const double area_m2 = polygon_area_m2(outline.points_m);
+  if (!(std::abs(area_m2) > 0)) place.fail("outline encloses no area");
+  return outline.reversed ? area_m2 > 0 : area_m2 < 0;
 }
 
 Panel read_panel(const std::string& name, const json& j, const Units& units, bool normalize_translation,
@@ -237,16 +241,6 @@ Panel read_panel(const std::string& name, const json& j, const Units& units, boo
   if (j.contains("translation"))
     panel.translation_m = units.metres_per_unit * three_numbers(j["translation"], place.at("translation"));
   if (j.contains("rotation")) panel.rotation_deg = three_numbers(j["rotation"], place.at("rotation"));
-  if (normalize_translation) {
-    // The format's option: the panel's origin moves to the mean of its corners, and the
-    // translation takes up the difference in x and y.
-    Vec2 mean = Vec2::Zero();
-    for (const Vec2& v : panel.vertices_m) mean += v;
-    mean /= static_cast<double>(panel.vertices_m.size());
-    for (Vec2& v : panel.vertices_m) v -= mean;
-    panel.translation_m.x() += mean.x();
-    panel.translation_m.y() += mean.y();
-  }
 
   if (!j.contains("edges")) place.at("edges").fail("missing");
   const json& edges = j["edges"];
@@ -288,10 +282,21 @@ Panel read_panel(const std::string& name, const json& j, const Units& units, boo
         .fail("ends at vertex " + std::to_string(panel.edges.back().end_vertex) + " but edge 0 starts at vertex " +
               std::to_string(panel.edges.front().start_vertex) + " (the edges must form a closed loop)");
 
-  panel.clockwise = false;
-  const double area = polygon_area_m2(panel_outline(panel, std::vector<int>(panel.edges.size(), 64)).points_m);
-  panel.clockwise = area < 0;
-  check_outline(panel, place);
+  if (normalize_translation) {
+    // The format's option: the panel's origin moves to the mean of its corners, and the
+    // translation takes up the difference in x and y.
+    Vec2 mean = Vec2::Zero();
+    for (const Vec2& v : panel.vertices_m) mean += v;
+    mean /= static_cast<double>(panel.vertices_m.size());
+    for (Vec2& v : panel.vertices_m) v -= mean;
+    for (PanelEdge& e : panel.edges) {
+      EdgeCurve& c = e.curve;
+      for (Vec2* p : {&c.start, &c.end, &c.control[0], &c.control[1], &c.center}) *p -= mean;
+    }
+    panel.translation_m.x() += mean.x();
+    panel.translation_m.y() += mean.y();
+  }
+  panel.clockwise = check_outline(panel, place);
   return panel;
 }
 

@@ -114,6 +114,21 @@ TEST(PatternReader, UnitsPlacementAndUnknownKeys) {
   EXPECT_FALSE(front.clockwise);
 }
 
+TEST(PatternReader, AbsoluteControlPointsAndNormalizedTranslation) {
+  json panel = square_panel();
+  panel["vertices"] = {{100, 0}, {300, 0}, {300, 100}, {100, 100}};
+  panel["translation"] = {10, 20, 30};
+  panel["edges"][0]["curvature"] = {200, -50};
+  json file = pattern_file({{"front", panel}});
+  file["properties"] = {{"curvature_coords", "absolute"}, {"units_in_meter", 100}, {"normalize_panel_translation", true}};
+  const Panel front = parse(file).panels[0];
+  // The corners' mean (2, 0.5) m moves to the origin and into the translation's x and y.
+  EXPECT_NEAR((front.vertices_m[0] - Vec2(-1, -0.5)).norm(), 0, 1e-15);
+  EXPECT_NEAR((front.translation_m - Vec3(2.1, 0.7, 0.3)).norm(), 0, 1e-15);
+  // An absolute control point is a point of the panel, moved with it.
+  EXPECT_NEAR((front.edges[0].curve.control[0] - Vec2(0, -1)).norm(), 0, 1e-15);
+}
+
 TEST(PatternReader, PanelOrderAndNames) {
   json file = pattern_file({{"b", square_panel()}, {"a", square_panel()}, {"c", square_panel()}});
   EXPECT_EQ(parse(file).panels[0].name, "a");  // no panel_order: by name
