@@ -87,6 +87,7 @@ Vec2 curve_point(const EdgeCurve& curve, double t);
 /// Gauss-Legendre quadrature converged to about 1e-12 relative.
 double curve_length_m(const EdgeCurve& curve);
 /// Segments an edge gets at a target segment length: ceil(length / target), at least 1.
+/// Throws std::invalid_argument unless the target is positive.
 int segment_count(const EdgeCurve& curve, double target_length_m);
 /// segments + 1 points at equal arc length along the curve, from start to end (both exact
 /// copies of the curve's endpoints). Requires segments >= 1.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <stdexcept>
 
 #include "garment/pattern.hpp"
 
@@ -164,6 +165,7 @@ double curve_length_m(const EdgeCurve& c) {
 }
 
 int segment_count(const EdgeCurve& curve, double target_length_m) {
+  if (!(target_length_m > 0)) throw std::invalid_argument("segment_count: the target length must be positive");
   const double n = std::ceil(curve_length_m(curve) / target_length_m);
   return std::max(1, static_cast<int>(std::min(n, 1e9)));
 }

@@ -80,6 +80,36 @@ TEST(PatternSamples, OutlinesAreClosedCounterClockwiseAndSimple) {
   }
 }
 
+bool inside_polygon(const std::vector<Vec2>& poly, const Vec2& p) {
+  bool inside = false;
+  for (size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
+    const Vec2 &a = poly[i], &b = poly[j];
+    if ((a.y() > p.y()) != (b.y() > p.y()) && p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
+      inside = !inside;
+  }
+  return inside;
+}
+
+// The samples' circular arcs are the necklines of the hoody and the jumpsuit: a neckline is
+// scooped out of its panel, so each arc's middle lies inside the polygon of the panel's
+// corners. With the arc's "right" flag read the other way round they would all bulge out.
+TEST(PatternSamples, NecklineArcsCurveIntoTheirPanels) {
+  int arcs = 0;
+  for (const std::string& file : sample_files()) {
+    const Pattern pattern = load_pattern(file);
+    for (const Panel& panel : pattern.panels) {
+      std::vector<Vec2> corners;
+      for (const PanelEdge& e : panel.edges) corners.push_back(panel.vertices_m[static_cast<size_t>(e.start_vertex)]);
+      for (size_t e = 0; e < panel.edges.size(); ++e) {
+        if (panel.edges[e].curve.kind != CurveKind::arc) continue;
+        ++arcs;
+        EXPECT_TRUE(inside_polygon(corners, curve_point(panel.edges[e].curve, 0.5))) << file << " " << panel.name << " edge " << e;
+      }
+    }
+  }
+  EXPECT_EQ(arcs, 8);
+}
+
 TEST(PatternSamples, StitchSidesShareCountsPointsAndLengths) {
   int intended_equal = 0;
   for (const std::string& file : sample_files()) {
