@@ -72,12 +72,12 @@ struct Units {
   bool relative_controls = true;
 };
 
-/// A control point in panel coordinates (file units) from the file's form: relative ones are
+/// A control point in panel coordinates (metres) from the file's form: relative ones are
 /// (along, across) the edge, both in edge lengths, "across" to the left of the edge
-/// (the edge direction turned counter-clockwise by 90 degrees).
+/// (the edge direction turned counter-clockwise by 90 degrees); absolute ones are in file units.
 Vec2 control_point(const json& v, const Vec2& start, const Vec2& end, const Units& units, const Place& place) {
   const Vec2 p = pair_of_numbers(v, place);
-  if (!units.relative_controls) return p;
+  if (!units.relative_controls) return units.metres_per_unit * p;
   const Vec2 along = end - start;
   const Vec2 left(-along.y(), along.x());
   return start + p.x() * along + p.y() * left;
@@ -120,12 +120,10 @@ EdgeCurve edge_curve(const json* curvature, const Vec2& start_m, const Vec2& end
   c.end = end_m;
   if (!curvature || curvature->is_null()) return c;
   const Place here = place.at("curvature");
-  // Control points are converted in file units, then scaled.
-  const Vec2 s = start_m / units.metres_per_unit, e = end_m / units.metres_per_unit;
   const json& v = *curvature;
   if (v.is_array()) {
     c.kind = CurveKind::quadratic;
-    c.control[0] = units.metres_per_unit * control_point(v, s, e, units, here);
+    c.control[0] = control_point(v, start_m, end_m, units, here);
     return c;
   }
   if (!v.is_object() || !v.contains("type") || !v["type"].is_string())
@@ -141,7 +139,7 @@ EdgeCurve edge_curve(const json* curvature, const Vec2& start_m, const Vec2& end
                      " curve, got " + describe(params));
     c.kind = n == 1 ? CurveKind::quadratic : CurveKind::cubic;
     for (size_t k = 0; k < n; ++k)
-      c.control[k] = units.metres_per_unit * control_point(params[k], s, e, units, at_params);
+      c.control[k] = control_point(params[k], start_m, end_m, units, at_params);
     return c;
   }
   if (type == "circle") {
