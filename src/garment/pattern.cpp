@@ -19,8 +19,12 @@ namespace {
 using nlohmann::json;
 using json_util::describe;
 
-/// Largest magnitude of a coordinate in file units; beyond it a file is surely broken.
+/// Largest magnitude of a number in file units; beyond it a file is surely broken.
 constexpr double kMaxCoordinate = 1e9;
+/// Farthest a panel's corners and control points may lie from its origin, and the largest
+/// circle radius and translation: a garment's panels measure a few metres, and this bound
+/// keeps the samples of any accepted curve at a target length of millimetres in memory.
+constexpr double kMaxExtent_m = 100;
 /// Curved edges are sampled at about this length for the self-intersection check, within
 /// [kMinCheckSegments, kMaxCheckSegments] segments per edge.
 constexpr double kCheckSegment_m = 0.002;
@@ -58,6 +62,14 @@ Vec3 three_numbers(const json& v, const Place& place) {
               finite_number(v[2], place, "a number"));
 }
 
+/// `p` (metres) within kMaxExtent_m of the panel's origin.
+Vec2 within_extent(const Vec2& p, const Place& place, const char* what) {
+  if (!(p.norm() <= kMaxExtent_m))
+    place.fail(std::string(what) + " (" + json(p.x()).dump() + ", " + json(p.y()).dump() + ") m lies farther than " +
+               json(kMaxExtent_m).dump() + " m from the panel's origin");
+  return p;
+}
+
 /// A flag written as true/false or 1/0.
 bool flag(const json& v, const Place& place) {
   if (v.is_boolean()) return v.get<bool>();
@@ -77,10 +89,10 @@ struct Units {
 /// (the edge direction turned counter-clockwise by 90 degrees); absolute ones are in file units.
 Vec2 control_point(const json& v, const Vec2& start, const Vec2& end, const Units& units, const Place& place) {
   const Vec2 p = pair_of_numbers(v, place);
-  if (!units.relative_controls) return units.metres_per_unit * p;
+  if (!units.relative_controls) return within_extent(units.metres_per_unit * p, place, "control point");
   const Vec2 along = end - start;
   const Vec2 left(-along.y(), along.x());
-  return start + p.x() * along + p.y() * left;
+  return within_extent(start + p.x() * along + p.y() * left, place, "control point");
 }
 
 /// An arc from GarmentCode's circle parameters: radius, large-arc flag, and whether the arc
@@ -92,6 +104,8 @@ void set_arc(EdgeCurve& c, const json& params, double metres_per_unit, const Pla
   const bool large = flag(params[1], place.at("large_arc"));
   const bool right = flag(params[2], place.at("right"));
   const Vec2 chord = c.end - c.start;
+  if (!(radius_m <= kMaxExtent_m))
+    place.fail("radius " + params[0].dump() + " is larger than " + json(kMaxExtent_m).dump() + " m");
   const double half_chord_m = 0.5 * chord.norm();
   // A radius a rounding error short of half the chord is the half circle it was meant to be.
   if (!(radius_m >= half_chord_m * (1 - 1e-9)))
@@ -234,10 +248,16 @@ Panel read_panel(const std::string& name, const json& j, const Units& units, boo
   const json& vertices = j["vertices"];
   if (!vertices.is_array() || vertices.empty())
     place.at("vertices").fail("expected an array of [x, y] points, got " + describe(vertices));
-  for (size_t i = 0; i < vertices.size(); ++i)
-    panel.vertices_m.push_back(units.metres_per_unit * pair_of_numbers(vertices[i], place.at("vertex " + std::to_string(i))));
-  if (j.contains("translation"))
+  for (size_t i = 0; i < vertices.size(); ++i) {
+    const Place at_vertex = place.at("vertex " + std::to_string(i));
+    panel.vertices_m.push_back(within_extent(units.metres_per_unit * pair_of_numbers(vertices[i], at_vertex), at_vertex, "the point"));
+  }
+  if (j.contains("translation")) {
     panel.translation_m = units.metres_per_unit * three_numbers(j["translation"], place.at("translation"));
+    if (!(panel.translation_m.lpNorm<Eigen::Infinity>() <= kMaxExtent_m))
+      place.at("translation").fail("expected coordinates within " + json(kMaxExtent_m).dump() + " m, got " +
+                                   describe(j["translation"]));
+  }
   if (j.contains("rotation")) panel.rotation_deg = three_numbers(j["rotation"], place.at("rotation"));
 
   if (!j.contains("edges")) place.at("edges").fail("missing");

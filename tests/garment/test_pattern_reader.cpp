@@ -265,5 +265,17 @@ TEST(PatternReader, RefusesOpenLoopsAndMissingUnits) {
   EXPECT_EQ(error_of(file), "t.json: key properties.units_in_meter: missing");
 }
 
+TEST(PatternReader, RefusesGeometryBeyondAHundredMetres) {
+  json panel = square_panel();
+  panel["vertices"][2] = {150, 1};
+  EXPECT_EQ(error_of(pattern_file({{"front", panel}})),
+            "t.json: panel 'front': vertex 2: the point (150.0, 1.0) m lies farther than 100.0 m from the panel's origin");
+  panel = square_panel();
+  panel["edges"][0]["curvature"] = {0.5, 500};
+  EXPECT_EQ(error_of(pattern_file({{"front", panel}})),
+            "t.json: panel 'front': edge 0: curvature: control point (0.5, 500.0) m lies farther than 100.0 m from the "
+            "panel's origin");
+}
+
 }  // namespace
 }  // namespace weft
