@@ -84,7 +84,7 @@ Pattern parse_pattern(const std::string& text, const std::string& file);
 /// The point at parameter t in [0, 1] (the curve's own parameter, not arc length).
 Vec2 curve_point(const EdgeCurve& curve, double t);
 /// Exact length for straight edges and arcs (r |sweep|); Bezier lengths by adaptive
-/// Gauss-Legendre quadrature converged to about 1e-12 relative.
+/// Gauss-Legendre quadrature, converged to about 1e-13 of the control polygon's length.
 double curve_length_m(const EdgeCurve& curve);
 /// Segments an edge gets at a target segment length: ceil(length / target), at least 1.
 /// Throws std::invalid_argument unless the target is positive.
