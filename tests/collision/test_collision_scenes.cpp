@@ -101,3 +101,9 @@ TEST(CollisionScenes, SelfCollisionDoesNotStretchAClothRestingOnASphere) {
   }
   EXPECT_LT(elastic[1], 3 * elastic[0] + 1e-3) << "without " << elastic[0] << " J, with " << elastic[1] << " J";
 }
+
+TEST(CollisionScenes, ClothDroppedIntoAFunnelEndsEveryFrameClearOfTheFunnelAndItself) {
+  const Totals t = run_scene("funnel.json", 21, 1.2);
+  EXPECT_EQ(t.cloth_collider, 0u);
+  EXPECT_GT(t.contacts, 0);
+}
