@@ -187,6 +187,7 @@ class AnalyticCollider : public Collider {
   bool closest_to_triangle(const Vec3& a, const Vec3& b, const Vec3& c, SurfacePoint& out,
                            Vec3& weights) const override {
     const ColliderSpec& s = spec();
+    if (s.shape == ColliderShape::kBox) return box_closest_to_triangle(a, b, c, out, weights);
     if (s.shape != ColliderShape::kSphere && s.shape != ColliderShape::kCapsule) return false;
     // In the shape's frame at the step's end: the triangle's point nearest the centre (or the
     // axis: alternate projections between the segment and the triangle, both convex).
@@ -204,6 +205,66 @@ class AnalyticCollider : public Collider {
     out.point = end_ * r.point;
     out.displacement = out.point - start_ * r.point;
     weights = q.weights;
+    return true;
+  }
+
+  // The box's surface point nearest the triangle: the nearest pair of points of the triangle
+  // and the inner box (the box less its edge radius), both convex polytopes, is among the
+  // triangle's corners against the box, the box's corners against the triangle and the edges
+  // of one against the edges of the other; then the rounding. A triangle reaching into the
+  // inner box takes the nearest face of the box at its point found.
+  bool box_closest_to_triangle(const Vec3& a, const Vec3& b, const Vec3& c, SurfacePoint& out, Vec3& weights) const {
+    const ColliderSpec& s = spec();
+    // In the box's own frame (centred, axis-aligned) at the step's end.
+    auto local = [&](const Vec3& p) -> Vec3 { return box_rotation_.transpose() * (end_inverse_ * p - s.centre); };
+    const std::array<Vec3, 3> tri = {local(a), local(b), local(c)};
+    const Vec3 e = s.half_extents - Vec3::Constant(s.edge_radius);
+    double best = std::numeric_limits<double>::infinity();
+    Vec3 on_box = Vec3::Zero(), w = Vec3(1, 0, 0);
+    auto consider = [&](double d, const Vec3& box_point, const Vec3& tri_weights) {
+      if (d < best) {
+        best = d;
+        on_box = box_point;
+        w = tri_weights;
+      }
+    };
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 p = tri[k].cwiseMax(-e).cwiseMin(e);
+      consider((tri[k] - p).norm(), p, Vec3::Unit(k));
+    }
+    for (int k = 0; k < 8; ++k) {
+      const Vec3 corner((k & 1) ? e[0] : -e[0], (k & 2) ? e[1] : -e[1], (k & 4) ? e[2] : -e[2]);
+      const PointTriangleClosest q = closest_point_triangle(corner, tri[0], tri[1], tri[2]);
+      consider(q.distance, corner, q.weights);
+      for (int axis = 0; axis < 3; ++axis) {
+        if (corner[axis] > 0) continue;  // each box edge once, from its lower corner
+        Vec3 other = corner;
+        other[axis] = e[axis];
+        for (int j = 0; j < 3; ++j) {
+          const int j1 = (j + 1) % 3;
+          const SegmentSegmentClosest g = closest_points_segments(tri[j], tri[j1], corner, other);
+          Vec3 tw = Vec3::Zero();
+          tw[j] = 1 - g.s;
+          tw[j1] = g.s;
+          consider(g.distance, g.point_q, tw);
+        }
+      }
+    }
+    const Vec3 tri_point = w[0] * tri[0] + w[1] * tri[1] + w[2] * tri[2];
+    Closest r;
+    if (best > 1e-12) {
+      const Vec3 n = (tri_point - on_box) / best;
+      r = {best - s.edge_radius, n, on_box + s.edge_radius * n};
+    } else {
+      r = closest_local(s.centre + box_rotation_ * tri_point);
+      r.normal = box_rotation_.transpose() * r.normal;
+      r.point = box_rotation_.transpose() * (r.point - s.centre);
+    }
+    out.distance = r.distance;
+    out.normal = end_.linear() * (box_rotation_ * r.normal);
+    out.point = end_ * (s.centre + box_rotation_ * r.point);
+    out.displacement = out.point - start_ * (s.centre + box_rotation_ * r.point);
+    weights = w;
     return true;
   }
 

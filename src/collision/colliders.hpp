@@ -34,7 +34,7 @@ class Collider {
   /// How far any point of the surface moves over the prepared step (m); 0 for a collider
   /// whose queries answer at any distance.
   virtual double step_motion() const { return 0; }
-  /// For a round collider (sphere, capsule): the surface point nearest the triangle (a, b, c)
+  /// For a round collider (sphere, capsule) or a box: the surface point nearest the triangle (a, b, c)
   /// at the step's end, with the triangle's point nearest it (its barycentric weights in
   /// `weights`); false for other colliders.
   virtual bool closest_to_triangle(const Vec3& /*a*/, const Vec3& /*b*/, const Vec3& /*c*/, SurfacePoint& /*out*/,

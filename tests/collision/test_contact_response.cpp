@@ -3,6 +3,8 @@
 // motions carrying cloth, and mesh colliders telling inside from outside.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <unistd.h>
 
 #include <cmath>
@@ -274,6 +276,46 @@ TEST(BoxCollider, RoundedEdgesAreTheInnerBoxGrownByTheRadius) {
     const Vec3 normal = (b - a).cross(c - a);
     if (normal.norm() < 1e-12) continue;  // a corner's collapsed grid cell
     EXPECT_GT(normal.dot((a + b + c) / 3 - spec.centre), 0) << "triangle " << f << " faces inwards";
+  }
+}
+
+// A box's surface point nearest a triangle (what lifts cloth faces off its edges): its distance
+// is the least over the triangle's points, checked against a dense sampling of the triangle,
+// for triangles outside the box, over its rounded edges and corners, and for sharp edges.
+TEST(BoxCollider, SurfacePointNearestATriangleIsTheTrianglesNearest) {
+  for (double radius : {0.0, 0.05}) {
+    ColliderSpec spec;
+    spec.shape = ColliderShape::kBox;
+    spec.half_extents = Vec3(0.3, 0.2, 0.25);
+    spec.rotation_deg = Vec3(0, 30, 0);
+    spec.edge_radius = radius;
+    const auto box = make_analytic_collider(spec);
+    box->prepare(0, 0.01);
+    std::srand(5);
+    int checked = 0;
+    for (int k = 0; k < 300; ++k) {
+      const Vec3 centre = Vec3::Random().cwiseProduct(spec.half_extents + Vec3::Constant(0.08));
+      const Vec3 a = centre + 0.05 * Vec3::Random(), b = centre + 0.05 * Vec3::Random(), c = centre + 0.05 * Vec3::Random();
+      SurfacePoint s;
+      Vec3 w;
+      ASSERT_TRUE(box->closest_to_triangle(a, b, c, s, w));
+      double least = std::numeric_limits<double>::infinity();
+      const int n = 60;
+      for (int i = 0; i <= n; ++i)
+        for (int j = 0; i + j <= n; ++j) {
+          SurfacePoint q;
+          box->closest((i * a + j * b + (n - i - j) * c) / n, 10, true, 0, q);
+          least = std::min(least, q.distance);
+        }
+      if (least <= 0) continue;  // triangles reaching inside are only lifted by their deepest face
+      ++checked;
+      EXPECT_LE(s.distance, least + 1e-9) << k;
+      EXPECT_GE(s.distance, least - 0.004) << k;  // the sampling's spacing of about 2 mm
+      const Vec3 point = w[0] * a + w[1] * b + w[2] * c;
+      EXPECT_NEAR(w.sum(), 1, 1e-12);
+      EXPECT_LT((s.point + s.distance * s.normal - point).norm(), 1e-6) << k;
+    }
+    EXPECT_GT(checked, 50);
   }
 }
 
