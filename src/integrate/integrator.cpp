@@ -655,7 +655,18 @@ void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics&
   const auto tr = Clock::now();
   ContactReport report;
   v_before_fail_safe_ = s.v;
+  x_before_fail_safe_ = s.x;
   for (ContactHandler* h : handlers_) h->finish_step(x_start_, s.x, s.v, t0, dt, report);
+  if (report.fail_safe_moves > 0) {
+    // The fail-safes' work is the whole change of mechanical energy they made: besides the
+    // kinetic energy of their changes of velocity (report.work), moving a vertex changes the
+    // elastic and gravitational energy, which the balance would otherwise book as the
+    // integrator's.
+    system_.evaluate(x_before_fail_safe_, v_before_fail_safe_, false, eval_);
+    const double before = kinetic_energy(v_before_fail_safe_) + eval_.elastic_energy + eval_.gravity_energy;
+    system_.evaluate(s.x, s.v, false, eval_);
+    report.work = kinetic_energy(s.v) + eval_.elastic_energy + eval_.gravity_energy - before;
+  }
   if (report.fail_safe_moves > 0 && s.dx_prev.size() == s.v.size()) {
     // BDF-2's last displacement as if the nodes had moved at their corrected velocities, or it
     // would repeat a third of an approach the fail-safe stopped; its last change of velocity
