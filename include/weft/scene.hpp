@@ -38,6 +38,14 @@ struct GridSpec {
   GridPattern pattern = GridPattern::kAlternatingDiagonals;
 };
 
+/// Cloth vertices moved as one rigid body by a prescribed motion (a clamp that turns or
+/// travels): they follow motion.at(t) applied to their starting positions.
+struct ClampSpec {
+  std::vector<int> vertices;                    ///< explicit vertex indices
+  std::vector<std::pair<int, int>> grid_nodes;  ///< (i, j) on a grid, negative counts from the end
+  RigidMotion motion;
+};
+
 struct ClothSpec {
   std::optional<GridSpec> grid;    ///< either a grid ...
   std::string obj_path;            ///< ... or an OBJ file (absolute, resolved against the scene)
@@ -52,6 +60,7 @@ struct ClothSpec {
   double thickness = 0.003;      ///< m: cloth-cloth separation kept by self-collision
   double friction = 0.3;         ///< Coulomb coefficient of cloth-cloth contact
   bool self_collision = true;
+  std::vector<ClampSpec> clamps;
 };
 
 struct Scene {
@@ -101,5 +110,8 @@ void check_memory_estimate(long vertices, const std::string& what);
 /// The cloth mesh placed in the world (grid generated or OBJ read) and the pinned vertices.
 TriMesh build_cloth_mesh(const ClothSpec& spec);
 std::vector<int> resolve_pins(const ClothSpec& spec, const TriMesh& mesh);
+/// The vertices of each clamp (in spec.clamps' order). Throws InputError for a vertex that
+/// does not exist, or one pinned or in two clamps, naming the key.
+std::vector<std::vector<int>> resolve_clamps(const ClothSpec& spec, const TriMesh& mesh, const std::vector<int>& pins);
 
 }  // namespace weft

@@ -18,6 +18,7 @@ class BinaryReader;
 class Collider;
 class ColliderContacts;
 class SelfContacts;
+class Clamps;
 
 /// Energies at one output frame (METHOD.md 6), in joules.
 struct EnergyRow {
@@ -86,6 +87,7 @@ class Simulation {
   std::vector<std::unique_ptr<Collider>> colliders_;
   std::unique_ptr<ColliderContacts> contacts_;
   std::unique_ptr<SelfContacts> self_contacts_;
+  std::unique_ptr<Clamps> clamps_;
   State state_;
   StepStatistics stats_;
   Evaluation eval_;

@@ -20,6 +20,10 @@ struct NodeContact {
   /// The node is inside the surface itself (not only within the thickness): held even when
   /// the constraint pulled at the previous step.
   bool penetrating = false;
+  /// A node moved by a prescribed motion (a clamp): its whole displacement over the step is
+  /// `displacement` and it leaves the step at `surface_velocity`; never let go, no friction.
+  bool kinematic = false;
+  Vec3 displacement = Vec3::Zero();    ///< kinematic: the node's prescribed dx over the step (m)
 };
 
 /// Per-step figures of contact handling (accumulated in StepStatistics).

@@ -369,7 +369,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     if (pulling_.size() != static_cast<size_t>(n)) pulling_.assign(n, 0);
     size_t kept = 0;
     for (const NodeContact& c : contacts_) {
-      if (pulling_[c.node] && !c.penetrating) {
+      if (pulling_[c.node] && !c.penetrating && !c.kinematic) {
         ++stats.released_contacts;
         continue;
       }
@@ -385,7 +385,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     if (stuck_.size() != static_cast<size_t>(n)) stuck_.assign(n, 0);
     contact_stuck_.resize(contacts_.size());
     for (size_t k = 0; k < contacts_.size(); ++k)
-      contact_stuck_[k] = stuck_[contacts_[k].node] && contacts_[k].friction > 0;
+      contact_stuck_[k] = contacts_[k].kinematic || (stuck_[contacts_[k].node] && contacts_[k].friction > 0);
     std::fill(stuck_.begin(), stuck_.end(), 0);
   }
 
@@ -435,11 +435,12 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
       const Vec3& J = contact_impulse_[k];
       const double normal_impulse = c.normal.dot(J);
       // A stuck contact whose impulse left the friction cone slides.
-      if (contact_stuck_[k] && (J - c.normal * normal_impulse).norm() > c.friction * std::max(normal_impulse, 0.0)) {
+      if (contact_stuck_[k] && !c.kinematic &&
+          (J - c.normal * normal_impulse).norm() > c.friction * std::max(normal_impulse, 0.0)) {
         contact_stuck_[k] = 0;
         changed = true;
       }
-      if (normal_impulse < -kReleaseSpeed * mass[c.node] && !c.penetrating && !keep_held_[c.node]) {
+      if (normal_impulse < -kReleaseSpeed * mass[c.node] && !c.penetrating && !c.kinematic && !keep_held_[c.node]) {
         released_now_[c.node] = 1;
         ++stats.released_contacts;
         changed = true;
@@ -539,7 +540,11 @@ void Integrator::constrain(const State& s, double dt, double alpha, double beta,
     const Mat3 S = contact_filter(k);
     // The prescribed displacement: along the normal, and when stuck the surface's tangential one.
     Vec3 target = c.normal * c.normal_displacement;
-    if (contact_stuck_[k]) target += dt * (c.surface_velocity - c.normal * c.normal.dot(c.surface_velocity));
+    if (c.kinematic) {
+      target = c.displacement;
+    } else if (contact_stuck_[k]) {
+      target += dt * (c.surface_velocity - c.normal * c.normal.dot(c.surface_velocity));
+    }
     if (beta != 0.0) target -= beta * node(s.dx_prev, i);
     contact_dv_[k] = (Mat3::Identity() - S) * ((target / dt_b - node(s.v, i)) / alpha);
     contact_rhs_[k] = node(rhs_, i);
@@ -616,12 +621,14 @@ void Integrator::contact_velocities(State& s, double dt, double dt_b) {
     const int i = c.node;
     const Vec3& J = contact_impulse_[k];
     const double normal_impulse = c.normal.dot(J);
-    if (normal_impulse < -kReleaseSpeed * m[i]) pulling_[i] = 1;
+    if (normal_impulse < -kReleaseSpeed * m[i] && !c.kinematic) pulling_[i] = 1;
     // The work of the constraint's impulse over the step's displacement.
     s.contact_work += J.dot(node(s.x, i) - node(x_start_, i)) / dt;
     const Vec3 v_old = node(s.v, i);
     Vec3 v_new;
-    if (contact_stuck_[k]) {
+    if (c.kinematic) {
+      v_new = c.surface_velocity;
+    } else if (contact_stuck_[k]) {
       // Stuck: the node leaves the step moving with the surface, and stays stuck.
       v_new = c.surface_velocity;
       stuck_[i] = 1;

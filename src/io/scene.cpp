@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -84,9 +85,42 @@ namespace {
 constexpr double kMaxThickness_m = 0.1;  ///< contact thickness: beyond, not a cloth's
 constexpr double kMaxFriction = 10;
 
+// The "vertices" and "grid" keys of a pins or clamp object.
+void parse_node_list(const Reader& p, const ClothSpec& c, std::vector<int>& vertices,
+                     std::vector<std::pair<int, int>>& grid_nodes, const char* what) {
+  if (p.has("vertices")) {
+    const auto& v = p.raw("vertices");
+    if (!v.is_array()) p.fail("vertices", "expected an array of vertex indices, got " + json_util::describe(v));
+    for (const auto& e : v) {
+      const std::optional<long> i = json_util::integer_value(e);
+      if (!i || *i < 0 || *i > std::numeric_limits<int>::max())
+        p.fail("vertices", "expected vertex indices, integers in [0, " +
+                               std::to_string(std::numeric_limits<int>::max()) + "], got " + json_util::describe(e));
+      vertices.push_back(static_cast<int>(*i));
+    }
+  }
+  if (p.has("grid")) {
+    const auto& v = p.raw("grid");
+    if (!c.grid) p.fail("grid", std::string("grid ") + what + " need a grid mesh");
+    if (!v.is_array()) p.fail("grid", "expected an array of [i, j] pairs, got " + json_util::describe(v));
+    for (const auto& e : v) {
+      const std::optional<long> ni = e.is_array() && e.size() == 2 ? json_util::integer_value(e[0]) : std::nullopt;
+      const std::optional<long> nj = e.is_array() && e.size() == 2 ? json_util::integer_value(e[1]) : std::nullopt;
+      if (!ni || !nj) p.fail("grid", "expected [i, j] integer pairs, got " + json_util::describe(e));
+      const long i = *ni, j = *nj;
+      if (i >= c.grid->vertices_u || i < -c.grid->vertices_u || j >= c.grid->vertices_v || j < -c.grid->vertices_v)
+        p.fail("grid", "node " + e.dump() + " is outside the " + std::to_string(c.grid->vertices_u) + " x " +
+                           std::to_string(c.grid->vertices_v) + " grid");
+      grid_nodes.emplace_back(static_cast<int>(i), static_cast<int>(j));
+    }
+  }
+}
+
+RigidMotion parse_motion(const Reader& m);
+
 void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
-  r.allow_only({"mesh", "placement", "material", "bending_model", "pins", "initial_velocity", "thickness", "friction",
-                "self_collision"});
+  r.allow_only({"mesh", "placement", "material", "bending_model", "pins", "clamps", "initial_velocity", "thickness",
+                "friction", "self_collision"});
   if (r.has("thickness")) c.thickness = r.number_in("thickness", 0, kMaxThickness_m, true);
   if (r.has("friction")) c.friction = r.number_in("friction", 0, kMaxFriction, false);
   if (r.has("self_collision")) c.self_collision = r.boolean("self_collision");
@@ -151,31 +185,22 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
   if (r.has("pins")) {
     const Reader p = r.object("pins");
     p.allow_only({"vertices", "grid"});
-    if (p.has("vertices")) {
-      const auto& v = p.raw("vertices");
-      if (!v.is_array()) p.fail("vertices", "expected an array of vertex indices, got " + json_util::describe(v));
-      for (const auto& e : v) {
-        const std::optional<long> i = json_util::integer_value(e);
-        if (!i || *i < 0 || *i > std::numeric_limits<int>::max())
-          p.fail("vertices", "expected vertex indices, integers in [0, " +
-                                 std::to_string(std::numeric_limits<int>::max()) + "], got " + json_util::describe(e));
-        c.pin_vertices.push_back(static_cast<int>(*i));
-      }
-    }
-    if (p.has("grid")) {
-      const auto& v = p.raw("grid");
-      if (!c.grid) p.fail("grid", "grid pins need a grid mesh");
-      if (!v.is_array()) p.fail("grid", "expected an array of [i, j] pairs, got " + json_util::describe(v));
-      for (const auto& e : v) {
-        const std::optional<long> ni = e.is_array() && e.size() == 2 ? json_util::integer_value(e[0]) : std::nullopt;
-        const std::optional<long> nj = e.is_array() && e.size() == 2 ? json_util::integer_value(e[1]) : std::nullopt;
-        if (!ni || !nj) p.fail("grid", "expected [i, j] integer pairs, got " + json_util::describe(e));
-        const long i = *ni, j = *nj;
-        if (i >= c.grid->vertices_u || i < -c.grid->vertices_u || j >= c.grid->vertices_v || j < -c.grid->vertices_v)
-          p.fail("grid", "node " + e.dump() + " is outside the " + std::to_string(c.grid->vertices_u) + " x " +
-                             std::to_string(c.grid->vertices_v) + " grid");
-        c.pin_grid_nodes.emplace_back(static_cast<int>(i), static_cast<int>(j));
-      }
+    parse_node_list(p, c, c.pin_vertices, c.pin_grid_nodes, "pins");
+  }
+  if (r.has("clamps")) {
+    const auto& list = r.raw("clamps");
+    if (!list.is_array()) r.fail("clamps", "expected an array of clamps, got " + json_util::describe(list));
+    for (size_t k = 0; k < list.size(); ++k) {
+      const Reader e(list[k], r.file(), r.path() + ".clamps[" + std::to_string(k) + "]");
+      if (!list[k].is_object())
+        r.fail("clamps", "entry " + std::to_string(k) + ": expected an object, got " + json_util::describe(list[k]));
+      e.allow_only({"vertices", "grid", "motion"});
+      ClampSpec clamp;
+      parse_node_list(e, c, clamp.vertices, clamp.grid_nodes, "clamps");
+      if (clamp.vertices.empty() && clamp.grid_nodes.empty())
+        e.fail(e.has("grid") ? "grid" : "vertices", "a clamp needs at least one vertex");
+      if (e.has("motion")) clamp.motion = parse_motion(e.object("motion"));
+      c.clamps.push_back(std::move(clamp));
     }
   }
 }
@@ -411,6 +436,34 @@ TriMesh build_cloth_mesh(const ClothSpec& spec) {
   for (int i = 0; i < m.num_vertices(); ++i)
     m.positions.row(i) = (R * m.positions.row(i).transpose() + spec.translation).transpose();
   return m;
+}
+
+std::vector<std::vector<int>> resolve_clamps(const ClothSpec& spec, const TriMesh& mesh, const std::vector<int>& pins) {
+  std::vector<char> taken(static_cast<size_t>(mesh.num_vertices()), 0);
+  for (int p : pins) taken[p] = 1;
+  std::vector<std::vector<int>> clamps;
+  for (size_t k = 0; k < spec.clamps.size(); ++k) {
+    const ClampSpec& c = spec.clamps[k];
+    const std::string key = "cloth.clamps[" + std::to_string(k) + "]";
+    std::vector<int> nodes = c.vertices;
+    for (int v : nodes)
+      if (v >= mesh.num_vertices())
+        throw InputError(key + ".vertices: vertex " + std::to_string(v) + " does not exist (the mesh has " +
+                         std::to_string(mesh.num_vertices()) + " vertices)");
+    for (auto [i, j] : c.grid_nodes) {
+      const int nu = spec.grid->vertices_u, nv = spec.grid->vertices_v;
+      nodes.push_back(((j + nv) % nv) * nu + (i + nu) % nu);
+    }
+    std::sort(nodes.begin(), nodes.end());
+    nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+    for (int v : nodes) {
+      if (taken[v])
+        throw InputError(key + ": vertex " + std::to_string(v) + " is already pinned or in another clamp");
+      taken[v] = 1;
+    }
+    clamps.push_back(std::move(nodes));
+  }
+  return clamps;
 }
 
 std::vector<int> resolve_pins(const ClothSpec& spec, const TriMesh& mesh) {

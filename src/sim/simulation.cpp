@@ -1,6 +1,7 @@
 #include "weft/simulation.hpp"
 
 #include "collision/colliders.hpp"
+#include "collision/clamps.hpp"
 #include "collision/self_contact.hpp"
 #include "sim/checkpoint.hpp"
 #include "weft/error.hpp"
@@ -29,8 +30,10 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
   // scene and the mesh they come from.
   const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": cloth" +
                             (scene.cloth.obj_path.empty() ? std::string(" grid") : " mesh " + scene.cloth.obj_path);
+  std::vector<std::vector<int>> clamp_groups;
   try {
     const std::vector<int> pins = resolve_pins(scene.cloth, mesh);
+    clamp_groups = resolve_clamps(scene.cloth, mesh, pins);
     stage("model", kSetupShareMesh);
     model_ = std::make_unique<ClothModel>(build_cloth_model(std::move(mesh), scene.cloth.material, scene.gravity, pins,
                                                             parse_bending_model(scene.cloth.bending_model, "cloth.bending_model")));
@@ -78,24 +81,41 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
       colliders_.push_back(make_analytic_collider(c));
     }
   }
+  // Clamped vertices follow their clamps whatever touches them: the colliders' and the
+  // cloth's contact handling take them as pinned.
+  std::vector<char> held_still = model_->fixed;
+  if (!clamp_groups.empty()) {
+    std::vector<RigidMotion> motions;
+    for (const ClampSpec& c : scene.cloth.clamps) motions.push_back(c.motion);
+    clamps_ = std::make_unique<Clamps>(clamp_groups, std::move(motions), model_->initial_positions(), model_->mass);
+    for (size_t i = 0; i < held_still.size(); ++i) held_still[i] = held_still[i] || clamps_->clamped()[i];
+  }
   if (!colliders_.empty()) {
     std::vector<Collider*> list;
     for (const auto& c : colliders_) list.push_back(c.get());
-    contacts_ = std::make_unique<ColliderContacts>(std::move(list), model_->mass, model_->fixed,
+    contacts_ = std::make_unique<ColliderContacts>(std::move(list), model_->mass, held_still,
                                                    model_->mesh.triangles);
     integrator_->add_contact_handler(contacts_.get());
   }
   // Cloth-cloth contact after the colliders': its fail-safe sees their corrections.
   if (scene.cloth.self_collision) {
     self_contacts_ = std::make_unique<SelfContacts>(model_->mesh.triangles, model_->initial_positions(), model_->mass,
-                                                    model_->fixed, scene.cloth.thickness, scene.cloth.friction);
+                                                    held_still, scene.cloth.thickness, scene.cloth.friction);
     if (contacts_) self_contacts_->set_held_nodes(&contacts_->touching());
     integrator_->add_contact_handler(self_contacts_.get());
   }
+  // The clamps last: their contacts join the others', and they put their vertices on their
+  // paths after every other correction.
+  if (clamps_) integrator_->add_contact_handler(clamps_.get());
   state_.x = model_->initial_positions();
   state_.v = VecX::Zero(state_.x.size());
   for (int i = 0; i < model_->num_vertices(); ++i)
     if (!model_->fixed[i]) node(state_.v, i) = scene.cloth.initial_velocity;
+  for (size_t k = 0; k < clamp_groups.size(); ++k)
+    for (int i : clamp_groups[k]) {
+      node(state_.x, i) = clamps_->position(k, i, 0);
+      node(state_.v, i) = clamps_->velocity(k, i, 0);
+    }
   state_.t = 0;
   set_energy_reference();
   stage("done", 1.0);
@@ -194,6 +214,11 @@ std::uint64_t Simulation::fingerprint() const {
   w.raw(scene_.gravity.data(), 3 * sizeof(double));
   w.i64(scene_.cloth.self_collision);
   for (double d : {scene_.cloth.thickness, scene_.cloth.friction}) w.f64(d);
+  if (clamps_) {
+    for (size_t i = 0; i < clamps_->clamped().size(); ++i) w.i64(clamps_->clamped()[i]);
+    for (const ClampSpec& c : scene_.cloth.clamps)
+      for (double t : {0.0, scene_.duration}) w.raw(c.motion.at(t).matrix().data(), 16 * sizeof(double));
+  }
   return fnv1a(w.bytes().data(), w.bytes().size());
 }
 

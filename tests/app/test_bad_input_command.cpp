@@ -121,4 +121,13 @@ TEST_F(BadInputCommand, ColliderDescriptions) {
   expect_refused("cloth_thickness", scene(std::string(kGrid) + R"(, "thickness": 0)"),
                  "key cloth.thickness: value 0.0 is out of range (0.0, 0.1]");
   expect_refused("self_collision", scene(std::string(kGrid) + R"(, "self_collision": "yes")"), "key cloth.self_collision");
+  expect_refused("clamp_empty", scene(std::string(kGrid) + R"(, "clamps": [{"motion": {"linear_velocity": [1, 0, 0]}}])"),
+                 "key cloth.clamps[0].vertices: a clamp needs at least one vertex");
+  expect_refused("clamp_vertex", scene(std::string(kGrid) + R"(, "clamps": [{"vertices": [25]}])"),
+                 "cloth.clamps[0].vertices: vertex 25 does not exist (the mesh has 25 vertices)");
+  expect_refused("clamp_pinned",
+                 scene(std::string(kGrid) + R"(, "pins": {"vertices": [3]}, "clamps": [{"grid": [[3, 0]]}])"),
+                 "cloth.clamps[0]: vertex 3 is already pinned or in another clamp");
+  expect_refused("clamp_key", scene(std::string(kGrid) + R"(, "clamps": [{"vertices": [1], "speed": 2}])"),
+                 "key cloth.clamps[0].speed: unknown key");
 }
