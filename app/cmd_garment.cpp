@@ -1,6 +1,7 @@
 // `weft garment PATTERN.json --out DIR`: meshes a sewing pattern's panels (docs/garments.md)
 // and writes them laid flat (OBJ), a picture of the panels with their meshes and stitches
 // (SVG) and a summary. Placing the panels around the body and sewing them come later.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -91,7 +92,8 @@ std::string panels_svg(const Pattern& pattern, const GarmentMesh& mesh, const st
       lo = lo.cwiseMin(x + offsets[p]);
       hi = hi.cwiseMax(x + offsets[p]);
     }
-  const double width = (hi.x() - lo.x()) * kPixelsPerMetre + 2 * kMargin;
+  // Wide enough for the title line too (about 8 px a character at 16 px).
+  const double width = std::max((hi.x() - lo.x()) * kPixelsPerMetre + 2 * kMargin, 2 * kMargin + 8.5 * 90);
   const double height = (hi.y() - lo.y()) * kPixelsPerMetre + 2 * kMargin + kTitle;
   // SVG's y runs down; the pattern's runs up.
   auto px = [&](const Vec2& x) {
@@ -150,7 +152,7 @@ std::string panels_svg(const Pattern& pattern, const GarmentMesh& mesh, const st
     for (int v = 0; v < panel.boundary_vertices; ++v) centre += panel.vertices_m[static_cast<size_t>(v)];
     const std::string at = px(centre / panel.boundary_vertices + offsets[p]);
     svg << "<text x=\"" << at.substr(0, at.find(',')) << "\" y=\"" << at.substr(at.find(',') + 1)
-        << "\" font-size=\"18\" text-anchor=\"middle\" dominant-baseline=\"middle\" stroke=\"white\" "
+        << "\" font-size=\"15\" text-anchor=\"middle\" dominant-baseline=\"middle\" stroke=\"white\" "
            "stroke-width=\"4\" paint-order=\"stroke\">"
         << panel.name << "</text>\n";
   }

@@ -111,19 +111,22 @@ std::vector<Vec2> flat_layout_offsets(const GarmentMesh& mesh, double gap_m) {
     box_area += (hi[p] - lo[p]).prod();
   }
   const double row_width = 1.6 * std::sqrt(box_area);
+  // Rows are laid from the top down (reading order), then everything is raised to y >= 0.
   std::vector<Vec2> offsets(n);
-  double x = 0, row_bottom = 0, row_height = 0;
+  double x = 0, row_top = 0, row_height = 0;
   for (size_t p = 0; p < n; ++p) {
     const Vec2 size = hi[p] - lo[p];
     if (x > 0 && x + size.x() > row_width) {
-      row_bottom += row_height + gap_m;
+      row_top -= row_height + gap_m;
       x = 0;
       row_height = 0;
     }
-    offsets[p] = Vec2(x, row_bottom) - lo[p];
+    offsets[p] = Vec2(x - lo[p].x(), row_top - hi[p].y());
     x += size.x() + gap_m;
     row_height = std::max(row_height, size.y());
   }
+  const double bottom = row_top - row_height;
+  for (Vec2& o : offsets) o.y() -= bottom;
   return offsets;
 }
 

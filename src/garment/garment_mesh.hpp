@@ -68,7 +68,7 @@ std::vector<Vec2> material_coordinates(const GarmentPanelMesh& panel);
 /// Offsets that lay the panels flat side by side without overlap: panel p drawn at
 /// vertices_m + offsets[p]. Panels go left to right in rows (in pattern order) separated by
 /// gap_m, a row ending once it is wider than 1.6 times the square root of the panels' total
-/// bounding-box area; the first row at the bottom, bounding boxes from (0, 0) on.
+/// bounding-box area; the first row at the top, the whole layout's bounding box from (0, 0).
 std::vector<Vec2> flat_layout_offsets(const GarmentMesh& mesh, double gap_m = 0.05);
 
 /// Quality figures of one meshed panel.
