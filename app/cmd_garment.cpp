@@ -51,6 +51,28 @@ std::string thousands(long n) {
   return out;
 }
 
+/// A panel name as text in an SVG (panel names are any JSON key).
+std::string xml_text(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '&') out += "&amp;";
+    else if (c == '<') out += "&lt;";
+    else if (c == '>') out += "&gt;";
+    else if (c == '"') out += "&quot;";
+    else if (static_cast<unsigned char>(c) < 0x20) out += ' ';
+    else out += c;
+  }
+  return out;
+}
+
+/// A panel name on an OBJ `o` line, which ends at the line's end.
+std::string obj_name(const std::string& name) {
+  std::string out = name;
+  for (char& c : out)
+    if (static_cast<unsigned char>(c) < 0x20) c = '_';
+  return out;
+}
+
 /// Every panel laid flat at z = 0 at its layout offset, texture coordinates = pattern
 /// coordinates (m), one object per panel.
 std::string panels_obj(const Pattern& pattern, const GarmentMesh& mesh, const std::vector<Vec2>& offsets) {
@@ -60,7 +82,7 @@ std::string panels_obj(const Pattern& pattern, const GarmentMesh& mesh, const st
   int first = 1;  // OBJ indices start at 1
   for (size_t p = 0; p < mesh.panels.size(); ++p) {
     const GarmentPanelMesh& panel = mesh.panels[p];
-    obj << "o " << panel.name << "\n";
+    obj << "o " << obj_name(panel.name) << "\n";
     for (const Vec2& x : panel.vertices_m) {
       const Vec2 laid = x + offsets[p];
       obj << "v " << num(laid.x()) << ' ' << num(laid.y()) << " 0\n";
@@ -109,14 +131,14 @@ std::string panels_svg(const Pattern& pattern, const GarmentMesh& mesh, const st
       << num(height, "%.0f") << "\" viewBox=\"0 0 " << num(width, "%.0f") << ' ' << num(height, "%.0f")
       << "\" font-family=\"sans-serif\">\n"
       << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-      << "<text x=\"" << kMargin << "\" y=\"24\" font-size=\"16\">weft garment: " << pattern.name << ", "
+      << "<text x=\"" << kMargin << "\" y=\"24\" font-size=\"16\">weft garment: " << xml_text(pattern.name) << ", "
       << mesh.panels.size() << " panels, " << thousands(triangles) << " triangles at "
       << num(100 * edge_length_m, "%.3g") << " cm, " << mesh.stitches.size()
       << " stitches (flat, 1 m = " << num(kPixelsPerMetre, "%.0f") << " px)</text>\n";
   for (size_t p = 0; p < mesh.panels.size(); ++p) {
     const GarmentPanelMesh& panel = mesh.panels[p];
     auto at = [&](int v) { return px(panel.vertices_m[static_cast<size_t>(v)] + offsets[p]); };
-    svg << "<g id=\"panel-" << panel.name << "\">\n<path fill=\"#eef3fa\" stroke=\"black\" stroke-width=\"1.2\" d=\"M";
+    svg << "<g id=\"panel-" << p << "\">\n<path fill=\"#eef3fa\" stroke=\"black\" stroke-width=\"1.2\" d=\"M";
     for (int v = 0; v < panel.boundary_vertices; ++v) svg << (v ? " L" : "") << at(v);
     svg << " Z\"/>\n<path fill=\"none\" stroke=\"#8a8a8a\" stroke-width=\"0.4\" d=\"";
     std::set<std::pair<int, int>> edges;
@@ -155,7 +177,7 @@ std::string panels_svg(const Pattern& pattern, const GarmentMesh& mesh, const st
     svg << "<text x=\"" << at.substr(0, at.find(',')) << "\" y=\"" << at.substr(at.find(',') + 1)
         << "\" font-size=\"15\" text-anchor=\"middle\" dominant-baseline=\"middle\" stroke=\"white\" "
            "stroke-width=\"4\" paint-order=\"stroke\">"
-        << panel.name << "</text>\n";
+        << xml_text(panel.name) << "</text>\n";
   }
   svg << "</svg>\n";
   return svg.str();

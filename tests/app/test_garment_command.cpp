@@ -60,6 +60,33 @@ TEST_F(GarmentCommand, EveryShippedPatternWritesFlatPanelsPictureAndSummary) {
   }
 }
 
+TEST_F(GarmentCommand, PanelNamesAreEscapedInThePicture) {
+  const auto pattern = write("names.json", R"({"properties": {"units_in_meter": 1},
+    "pattern": {"panels": {
+      "front & <back>": {"vertices": [[0, 0], [0.2, 0], [0.2, 0.2]],
+                         "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 0]}]}}}})");
+  const auto out = folder_ / "out";
+  const auto r = weft("garment " + quoted(pattern) + " --out " + quoted(out));
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
+  const std::string svg = read_text(out / "panels.svg");
+  EXPECT_NE(svg.find(">front &amp; &lt;back&gt;</text>"), std::string::npos);
+  EXPECT_EQ(svg.find("front & <back>"), std::string::npos);
+  const weft::ObjData obj = weft::parse_obj(read_text(out / "panels.obj"), "panels.obj");
+  ASSERT_EQ(obj.groups.size(), 1u);
+  EXPECT_EQ(obj.groups[0].name, "front & <back>");
+}
+
+TEST_F(GarmentCommand, AnOutputPathThatIsAFileExitsTwo) {
+  const auto pattern = write("names.json", R"({"properties": {"units_in_meter": 1},
+    "pattern": {"panels": {"a": {"vertices": [[0, 0], [0.2, 0], [0.2, 0.2]],
+                                 "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 0]}]}}}})");
+  const auto file = write("taken", "a file\n");
+  const auto r = weft("garment " + quoted(pattern) + " --out " + quoted(file));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.error_output.find("exists and is not a folder"), std::string::npos) << r.error_output;
+  EXPECT_EQ(read_text(file), "a file\n");
+}
+
 TEST_F(GarmentCommand, AStitchNamingAMissingEdgeExitsTwoAndWritesNothing) {
   const auto pattern = write("bad.json", R"({"properties": {"units_in_meter": 1},
     "pattern": {"panels": {
