@@ -55,12 +55,18 @@ std::string thousands(long n) {
 std::string xml_text(const std::string& text) {
   std::string out;
   for (char c : text) {
-    if (c == '&') out += "&amp;";
-    else if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '"') out += "&quot;";
-    else if (static_cast<unsigned char>(c) < 0x20) out += ' ';
-    else out += c;
+    if (c == '&')
+      out += "&amp;";
+    else if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else if (c == '"')
+      out += "&quot;";
+    else if (static_cast<unsigned char>(c) < 0x20)
+      out += ' ';
+    else
+      out += c;
   }
   return out;
 }
@@ -75,7 +81,8 @@ std::string obj_name(const std::string& name) {
 
 /// Every panel laid flat at z = 0 at its layout offset, texture coordinates = pattern
 /// coordinates (m), one object per panel.
-std::string panels_obj(const Pattern& pattern, const GarmentMesh& mesh, const std::vector<Vec2>& offsets) {
+std::string panels_obj(const Pattern& pattern, const GarmentMesh& mesh,
+                       const std::vector<Vec2>& offsets) {
   std::ostringstream obj;
   obj << "# weft garment: pattern " << pattern.name << ", " << mesh.panels.size()
       << " panels laid flat at z = 0 (m); texture coordinates are pattern coordinates (m)\n";
@@ -106,8 +113,8 @@ std::string stitch_colour(size_t i) {
 /// The flat panels drawn with their mesh edges (grey), outlines (black) and stitches: both
 /// sides of a stitch in one colour and labelled with its number; each panel labelled with its
 /// name.
-std::string panels_svg(const Pattern& pattern, const GarmentMesh& mesh, const std::vector<Vec2>& offsets,
-                       double edge_length_m) {
+std::string panels_svg(const Pattern& pattern, const GarmentMesh& mesh,
+                       const std::vector<Vec2>& offsets, double edge_length_m) {
   constexpr double kPixelsPerMetre = 500, kMargin = 40, kTitle = 30;
   Vec2 lo = Vec2::Constant(INFINITY), hi = Vec2::Constant(-INFINITY);
   for (size_t p = 0; p < mesh.panels.size(); ++p)
@@ -116,7 +123,8 @@ std::string panels_svg(const Pattern& pattern, const GarmentMesh& mesh, const st
       hi = hi.cwiseMax(x + offsets[p]);
     }
   // Wide enough for the title line too (about 8 px a character at 16 px).
-  const double width = std::max((hi.x() - lo.x()) * kPixelsPerMetre + 2 * kMargin, 2 * kMargin + 8.5 * 90);
+  const double width =
+      std::max((hi.x() - lo.x()) * kPixelsPerMetre + 2 * kMargin, 2 * kMargin + 8.5 * 90);
   const double height = (hi.y() - lo.y()) * kPixelsPerMetre + 2 * kMargin + kTitle;
   // SVG's y runs down; the pattern's runs up.
   auto px = [&](const Vec2& x) {
@@ -127,18 +135,20 @@ std::string panels_svg(const Pattern& pattern, const GarmentMesh& mesh, const st
   for (const auto& panel : mesh.panels) triangles += static_cast<long>(panel.triangles.size());
 
   std::ostringstream svg;
-  svg << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << num(width, "%.0f") << "\" height=\""
-      << num(height, "%.0f") << "\" viewBox=\"0 0 " << num(width, "%.0f") << ' ' << num(height, "%.0f")
-      << "\" font-family=\"sans-serif\">\n"
+  svg << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << num(width, "%.0f")
+      << "\" height=\"" << num(height, "%.0f") << "\" viewBox=\"0 0 " << num(width, "%.0f") << ' '
+      << num(height, "%.0f") << "\" font-family=\"sans-serif\">\n"
       << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-      << "<text x=\"" << kMargin << "\" y=\"24\" font-size=\"16\">weft garment: " << xml_text(pattern.name) << ", "
+      << "<text x=\"" << kMargin
+      << "\" y=\"24\" font-size=\"16\">weft garment: " << xml_text(pattern.name) << ", "
       << mesh.panels.size() << " panels, " << thousands(triangles) << " triangles at "
       << num(100 * edge_length_m, "%.3g") << " cm, " << mesh.stitches.size()
       << " stitches (flat, 1 m = " << num(kPixelsPerMetre, "%.0f") << " px)</text>\n";
   for (size_t p = 0; p < mesh.panels.size(); ++p) {
     const GarmentPanelMesh& panel = mesh.panels[p];
     auto at = [&](int v) { return px(panel.vertices_m[static_cast<size_t>(v)] + offsets[p]); };
-    svg << "<g id=\"panel-" << p << "\">\n<path fill=\"#eef3fa\" stroke=\"black\" stroke-width=\"1.2\" d=\"M";
+    svg << "<g id=\"panel-" << p
+        << "\">\n<path fill=\"#eef3fa\" stroke=\"black\" stroke-width=\"1.2\" d=\"M";
     for (int v = 0; v < panel.boundary_vertices; ++v) svg << (v ? " L" : "") << at(v);
     svg << " Z\"/>\n<path fill=\"none\" stroke=\"#8a8a8a\" stroke-width=\"0.4\" d=\"";
     std::set<std::pair<int, int>> edges;
@@ -156,15 +166,19 @@ std::string panels_svg(const Pattern& pattern, const GarmentMesh& mesh, const st
       svg << "<polyline fill=\"none\" stroke=\"" << colour
           << "\" stroke-width=\"3.5\" stroke-opacity=\"0.8\" stroke-linecap=\"round\" points=\"";
       for (const auto& pair : st.pairs)
-        svg << px(panel.vertices_m[static_cast<size_t>(pair[static_cast<size_t>(side)])] + offsets[p]) << ' ';
+        svg << px(panel.vertices_m[static_cast<size_t>(pair[static_cast<size_t>(side)])] +
+                  offsets[p])
+            << ' ';
       svg << "\"/>\n";
       // The label sits at the side's middle vertex, nudged into the panel by the font's size.
       const auto& mid = st.pairs[st.pairs.size() / 2];
-      const Vec2 x = panel.vertices_m[static_cast<size_t>(mid[static_cast<size_t>(side)])] + offsets[p];
+      const Vec2 x =
+          panel.vertices_m[static_cast<size_t>(mid[static_cast<size_t>(side)])] + offsets[p];
       const std::string at = px(x);
       svg << "<text x=\"" << at.substr(0, at.find(',')) << "\" y=\"" << at.substr(at.find(',') + 1)
           << "\" font-size=\"13\" font-weight=\"bold\" fill=\"" << colour
-          << "\" text-anchor=\"middle\" dominant-baseline=\"middle\" stroke=\"white\" stroke-width=\"3\" "
+          << "\" text-anchor=\"middle\" dominant-baseline=\"middle\" stroke=\"white\" "
+             "stroke-width=\"3\" "
              "paint-order=\"stroke\">"
           << s << "</text>\n";
     }
@@ -172,10 +186,12 @@ std::string panels_svg(const Pattern& pattern, const GarmentMesh& mesh, const st
   for (size_t p = 0; p < mesh.panels.size(); ++p) {
     const GarmentPanelMesh& panel = mesh.panels[p];
     Vec2 centre = Vec2::Zero();
-    for (int v = 0; v < panel.boundary_vertices; ++v) centre += panel.vertices_m[static_cast<size_t>(v)];
+    for (int v = 0; v < panel.boundary_vertices; ++v)
+      centre += panel.vertices_m[static_cast<size_t>(v)];
     const std::string at = px(centre / panel.boundary_vertices + offsets[p]);
     svg << "<text x=\"" << at.substr(0, at.find(',')) << "\" y=\"" << at.substr(at.find(',') + 1)
-        << "\" font-size=\"15\" text-anchor=\"middle\" dominant-baseline=\"middle\" stroke=\"white\" "
+        << "\" font-size=\"15\" text-anchor=\"middle\" dominant-baseline=\"middle\" "
+           "stroke=\"white\" "
            "stroke-width=\"4\" paint-order=\"stroke\">"
         << xml_text(panel.name) << "</text>\n";
   }
@@ -183,8 +199,8 @@ std::string panels_svg(const Pattern& pattern, const GarmentMesh& mesh, const st
   return svg.str();
 }
 
-nlohmann::json garment_summary(const Pattern& pattern, const GarmentMesh& mesh, const GarmentArgs& a,
-                               double meshing_s) {
+nlohmann::json garment_summary(const Pattern& pattern, const GarmentMesh& mesh,
+                               const GarmentArgs& a, double meshing_s) {
   nlohmann::json panels = nlohmann::json::array(), stitches = nlohmann::json::array();
   long triangles = 0, vertices = 0;
   double area_m2 = 0;
@@ -209,7 +225,9 @@ nlohmann::json garment_summary(const Pattern& pattern, const GarmentMesh& mesh, 
       return nlohmann::json{{"panel", p.name},
                             {"edge", edge},
                             {"length_m", curve_length_m(p.edges[static_cast<size_t>(edge)].curve)},
-                            {"vertices", mesh.panels[static_cast<size_t>(panel)].edge_vertices[static_cast<size_t>(edge)].size()}};
+                            {"vertices", mesh.panels[static_cast<size_t>(panel)]
+                                             .edge_vertices[static_cast<size_t>(edge)]
+                                             .size()}};
     };
     stitches.push_back({{"a", side(st.panel_a, st.edge_a)},
                         {"b", side(st.panel_b, st.edge_b)},
@@ -238,8 +256,9 @@ PendingFile text_output(const fs::path& path, std::string text) {
 
 int run_garment(const GarmentArgs& a) {
   if (!(a.edge_length_m >= kSmallestEdge_m && a.edge_length_m <= kLargestEdge_m))
-    throw InputError("--edge-length " + num(a.edge_length_m) + ": expected a length in metres from " +
-                     num(kSmallestEdge_m) + " to " + num(kLargestEdge_m));
+    throw InputError("--edge-length " + num(a.edge_length_m) +
+                     ": expected a length in metres from " + num(kSmallestEdge_m) + " to " +
+                     num(kLargestEdge_m));
   check_output_folder(a.out);
   // Everything is read and meshed before the first file is written.
   const Pattern pattern = load_pattern(a.pattern_file);
@@ -248,7 +267,8 @@ int run_garment(const GarmentArgs& a) {
   GarmentMeshOptions options;
   options.target_edge_m = a.edge_length_m;
   const GarmentMesh mesh = mesh_garment(pattern, options);
-  const double meshing_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double meshing_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double meshing_cpu_s = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
 
   const std::vector<Vec2> offsets = flat_layout_offsets(mesh);
@@ -256,21 +276,26 @@ int run_garment(const GarmentArgs& a) {
   // CPU time too: on a busy machine the wall time says more about the other work.
   summary["meshing_cpu_time_s"] = meshing_cpu_s;
   const fs::path dir(a.out);
-  write_files_atomically({text_output(dir / "panels.obj", panels_obj(pattern, mesh, offsets)),
-                          text_output(dir / "panels.svg", panels_svg(pattern, mesh, offsets, a.edge_length_m)),
-                          text_output(dir / "summary.json", summary.dump(2) + "\n")});
+  write_files_atomically(
+      {text_output(dir / "panels.obj", panels_obj(pattern, mesh, offsets)),
+       text_output(dir / "panels.svg", panels_svg(pattern, mesh, offsets, a.edge_length_m)),
+       text_output(dir / "summary.json", summary.dump(2) + "\n")});
 
-  std::printf("weft garment: %s: %zu panels, %zu stitches, %s triangles, %.3f m^2 at %.3g cm in %.0f ms (CPU %.0f ms)\n",
-              pattern.name.c_str(), mesh.panels.size(), mesh.stitches.size(),
-              thousands(summary["triangles"].get<long>()).c_str(), summary["area_m2"].get<double>(),
-              100 * a.edge_length_m, 1e3 * meshing_s, 1e3 * meshing_cpu_s);
+  std::printf(
+      "weft garment: %s: %zu panels, %zu stitches, %s triangles, %.3f m^2 at %.3g cm in %.0f ms "
+      "(CPU %.0f ms)\n",
+      pattern.name.c_str(), mesh.panels.size(), mesh.stitches.size(),
+      thousands(summary["triangles"].get<long>()).c_str(), summary["area_m2"].get<double>(),
+      100 * a.edge_length_m, 1e3 * meshing_s, 1e3 * meshing_cpu_s);
   for (const auto& p : summary["panels"])
     std::printf("  %-22s %6ld triangles  %.4f m^2  smallest angle %4.1f deg  mean edge %.2f cm\n",
-                p["name"].get<std::string>().c_str(), p["triangles"].get<long>(), p["area_m2"].get<double>(),
-                p["smallest_angle_deg"].get<double>(), 100 * p["mean_edge_m"].get<double>());
-  std::printf("  wrote %s (panels.obj, panels.svg, summary.json); placement around the body and sewing are "
-              "not implemented yet\n",
-              dir.string().c_str());
+                p["name"].get<std::string>().c_str(), p["triangles"].get<long>(),
+                p["area_m2"].get<double>(), p["smallest_angle_deg"].get<double>(),
+                100 * p["mean_edge_m"].get<double>());
+  std::printf(
+      "  wrote %s (panels.obj, panels.svg, summary.json); placement around the body and sewing are "
+      "not implemented yet\n",
+      dir.string().c_str());
   return kExitOk;
 }
 
@@ -278,16 +303,21 @@ RegisterCommand reg{
     {"", "garment", "Mesh a sewing pattern's panels, laid flat (placement and sewing: not yet)",
      [](CLI::App& sub) {
        sub.footer(
-           "Reads a GarmentCode or Garment-Pattern-Generator pattern (docs/garments.md), meshes every panel\n"
-           "with both sides of each stitch given matching boundary vertices, and writes DIR/panels.obj (the\n"
-           "panels laid flat at z = 0, texture coordinates = pattern coordinates in metres, one object per\n"
+           "Reads a GarmentCode or Garment-Pattern-Generator pattern (docs/garments.md), meshes "
+           "every panel\n"
+           "with both sides of each stitch given matching boundary vertices, and writes "
+           "DIR/panels.obj (the\n"
+           "panels laid flat at z = 0, texture coordinates = pattern coordinates in metres, one "
+           "object per\n"
            "panel), DIR/panels.svg (the panels, their meshes and stitches) and DIR/summary.json.\n"
-           "The command stops after meshing: placing the panels around the body and sewing them are not\n"
+           "The command stops after meshing: placing the panels around the body and sewing them "
+           "are not\n"
            "implemented yet. Exit status 2 for a bad pattern or option (nothing written).");
        auto a = std::make_shared<GarmentArgs>();
        sub.add_option("pattern", a->pattern_file, "Pattern file (JSON)")->required();
        sub.add_option("--out,-o", a->out, "Output folder (created)")->required();
-       sub.add_option("--edge-length", a->edge_length_m, "Target mesh edge length (m)")->capture_default_str();
+       sub.add_option("--edge-length", a->edge_length_m, "Target mesh edge length (m)")
+           ->capture_default_str();
        return std::function<int()>([a] { return run_garment(*a); });
      },
      60}};

@@ -51,15 +51,16 @@ GarmentMesh mesh_garment(const Pattern& pattern, const GarmentMeshOptions& optio
     try {
       pm = mesh_panel(PanelOutline{outline.points_m, {}}, mesher);
     } catch (const InputError& e) {
-      throw InputError(file + ": panel '" + panel.name + "': meshing at " + format_length(options.target_edge_m) +
-                       " m: " + e.what());
+      throw InputError(file + ": panel '" + panel.name + "': meshing at " +
+                       format_length(options.target_edge_m) + " m: " + e.what());
     }
     GarmentPanelMesh out;
     out.name = panel.name;
     out.vertices_m = std::move(pm.vertices);
     out.triangles = std::move(pm.triangles);
     out.boundary_vertices = pm.boundary_vertices;
-    for (const EdgeSpan& span : outline.edges) out.edge_vertices.push_back(edge_vertex_indices(outline, span));
+    for (const EdgeSpan& span : outline.edges)
+      out.edge_vertices.push_back(edge_vertex_indices(outline, span));
     mesh.panels.push_back(std::move(out));
   }
 
@@ -69,11 +70,14 @@ GarmentMesh mesh_garment(const Pattern& pattern, const GarmentMeshOptions& optio
     st.edge_a = s.a.edge;
     st.panel_b = s.b.panel;
     st.edge_b = s.b.edge;
-    const std::vector<int>& a = mesh.panels[static_cast<size_t>(s.a.panel)].edge_vertices[static_cast<size_t>(s.a.edge)];
-    const std::vector<int>& b = mesh.panels[static_cast<size_t>(s.b.panel)].edge_vertices[static_cast<size_t>(s.b.edge)];
+    const std::vector<int>& a =
+        mesh.panels[static_cast<size_t>(s.a.panel)].edge_vertices[static_cast<size_t>(s.a.edge)];
+    const std::vector<int>& b =
+        mesh.panels[static_cast<size_t>(s.b.panel)].edge_vertices[static_cast<size_t>(s.b.edge)];
     // edge_segment_counts gives stitched edges one count, so the sides have equal lengths.
     const size_t n = a.size();
-    for (size_t k = 0; k < n; ++k) st.pairs.push_back({a[k], s.same_direction ? b[k] : b[n - 1 - k]});
+    for (size_t k = 0; k < n; ++k)
+      st.pairs.push_back({a[k], s.same_direction ? b[k] : b[n - 1 - k]});
     mesh.stitches.push_back(std::move(st));
   }
   return mesh;
@@ -136,19 +140,22 @@ PanelMeshStats panel_mesh_stats(const GarmentPanelMesh& panel) {
   std::set<std::pair<int, int>> edges;
   const auto& v = panel.vertices_m;
   for (const auto& t : panel.triangles) {
-    const Vec2 &a = v[static_cast<size_t>(t[0])], &b = v[static_cast<size_t>(t[1])], &c = v[static_cast<size_t>(t[2])];
+    const Vec2 &a = v[static_cast<size_t>(t[0])], &b = v[static_cast<size_t>(t[1])],
+               &c = v[static_cast<size_t>(t[2])];
     const Vec2 ab = b - a, ac = c - a;
     stats.area_m2 += 0.5 * (ab.x() * ac.y() - ab.y() * ac.x());
     for (int i = 0; i < 3; ++i) {
       const Vec2& p = v[static_cast<size_t>(t[i])];
-      const Vec2 e1 = v[static_cast<size_t>(t[(i + 1) % 3])] - p, e2 = v[static_cast<size_t>(t[(i + 2) % 3])] - p;
+      const Vec2 e1 = v[static_cast<size_t>(t[(i + 1) % 3])] - p,
+                 e2 = v[static_cast<size_t>(t[(i + 2) % 3])] - p;
       const double angle = std::atan2(std::abs(e1.x() * e2.y() - e1.y() * e2.x()), e1.dot(e2));
       stats.smallest_angle_deg = std::min(stats.smallest_angle_deg, angle * 180 / M_PI);
       edges.insert(std::minmax(t[i], t[(i + 1) % 3]));
     }
   }
   double total = 0;
-  for (const auto& e : edges) total += (v[static_cast<size_t>(e.first)] - v[static_cast<size_t>(e.second)]).norm();
+  for (const auto& e : edges)
+    total += (v[static_cast<size_t>(e.first)] - v[static_cast<size_t>(e.second)]).norm();
   stats.mean_edge_m = edges.empty() ? 0 : total / static_cast<double>(edges.size());
   if (panel.triangles.empty()) stats.smallest_angle_deg = 0;
   return stats;

@@ -46,9 +46,9 @@ struct StitchVertexPairs {
 };
 
 struct GarmentMesh {
-  std::vector<GarmentPanelMesh> panels;       ///< in Pattern::panels order
-  std::vector<StitchVertexPairs> stitches;    ///< in Pattern::stitches order
-  EdgeSegmentCounts segment_counts;           ///< the counts the outlines were sampled with
+  std::vector<GarmentPanelMesh> panels;     ///< in Pattern::panels order
+  std::vector<StitchVertexPairs> stitches;  ///< in Pattern::stitches order
+  EdgeSegmentCounts segment_counts;         ///< the counts the outlines were sampled with
 };
 
 /// Meshes every panel of the pattern. Throws InputError for bad options, or when a panel
@@ -73,9 +73,9 @@ std::vector<Vec2> flat_layout_offsets(const GarmentMesh& mesh, double gap_m = 0.
 
 /// Quality figures of one meshed panel.
 struct PanelMeshStats {
-  double area_m2 = 0;              ///< sum of the triangles' areas
-  double smallest_angle_deg = 0;   ///< over all triangles
-  double mean_edge_m = 0;          ///< mean length of the mesh's edges (each counted once)
+  double area_m2 = 0;             ///< sum of the triangles' areas
+  double smallest_angle_deg = 0;  ///< over all triangles
+  double mean_edge_m = 0;         ///< mean length of the mesh's edges (each counted once)
 };
 PanelMeshStats panel_mesh_stats(const GarmentPanelMesh& panel);
 

@@ -10,7 +10,8 @@ namespace weft::test {
 /// Every .json file under data/patterns, sorted.
 inline std::vector<std::string> sample_pattern_files() {
   std::vector<std::string> files;
-  for (const auto& entry : std::filesystem::recursive_directory_iterator(std::string(WEFT_SOURCE_DIR) + "/data/patterns"))
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(
+           std::string(WEFT_SOURCE_DIR) + "/data/patterns"))
     if (entry.path().extension() == ".json") files.push_back(entry.path().string());
   std::sort(files.begin(), files.end());
   return files;

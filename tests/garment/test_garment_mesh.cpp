@@ -46,7 +46,8 @@ TEST(GarmentMesh, EveryShippedPatternMeshesWithItsOutlinesKept) {
       SCOPED_TRACE(panel.name);
       EXPECT_EQ(panel.name, pattern.panels[p].name);
       ASSERT_EQ(panel.boundary_vertices, static_cast<int>(outline.points_m.size()));
-      for (size_t v = 0; v < outline.points_m.size(); ++v) ASSERT_EQ(panel.vertices_m[v], outline.points_m[v]);
+      for (size_t v = 0; v < outline.points_m.size(); ++v)
+        ASSERT_EQ(panel.vertices_m[v], outline.points_m[v]);
 
       // The triangles cover the outline: they are counter-clockwise and their areas add up.
       double area = 0;
@@ -62,10 +63,12 @@ TEST(GarmentMesh, EveryShippedPatternMeshesWithItsOutlinesKept) {
       // Each edge's vertices are its own samples, from its start to its end.
       ASSERT_EQ(panel.edge_vertices.size(), pattern.panels[p].edges.size());
       for (size_t e = 0; e < panel.edge_vertices.size(); ++e) {
-        const std::vector<Vec2> samples = sample_curve(pattern.panels[p].edges[e].curve, mesh.segment_counts[p][e]);
+        const std::vector<Vec2> samples =
+            sample_curve(pattern.panels[p].edges[e].curve, mesh.segment_counts[p][e]);
         ASSERT_EQ(panel.edge_vertices[e].size(), samples.size());
         for (size_t k = 0; k < samples.size(); ++k)
-          EXPECT_EQ(panel.vertices_m[static_cast<size_t>(panel.edge_vertices[e][k])], samples[k]) << "edge " << e;
+          EXPECT_EQ(panel.vertices_m[static_cast<size_t>(panel.edge_vertices[e][k])], samples[k])
+              << "edge " << e;
       }
     }
   }
@@ -87,7 +90,8 @@ TEST(GarmentMesh, StitchSidesAreMatchedAtTheSampledStitchPoints) {
       EXPECT_EQ(st.edge_b, stitch.b.edge);
       const auto& a = mesh.panels[static_cast<size_t>(st.panel_a)];
       const auto& b = mesh.panels[static_cast<size_t>(st.panel_b)];
-      EXPECT_EQ(a.edge_vertices[static_cast<size_t>(st.edge_a)].size(), b.edge_vertices[static_cast<size_t>(st.edge_b)].size());
+      EXPECT_EQ(a.edge_vertices[static_cast<size_t>(st.edge_a)].size(),
+                b.edge_vertices[static_cast<size_t>(st.edge_b)].size());
       const StitchPoints points = sample_stitch(pattern, stitch, mesh.segment_counts);
       ASSERT_EQ(st.pairs.size(), points.a.size());
       for (size_t k = 0; k < st.pairs.size(); ++k) {
@@ -117,22 +121,29 @@ TEST(GarmentMesh, SmallestAnglesMeetTheMeshersBound) {
       const auto& v = panel.vertices_m;
       const int n = panel.boundary_vertices;
       auto interior_angle = [&](int i) {
-        return angle_deg(v[static_cast<size_t>(i)], v[static_cast<size_t>((i + 1) % n)], v[static_cast<size_t>((i + n - 1) % n)]);
+        return angle_deg(v[static_cast<size_t>(i)], v[static_cast<size_t>((i + 1) % n)],
+                         v[static_cast<size_t>((i + n - 1) % n)]);
       };
       int excepted = 0;
       for (const auto& t : panel.triangles) {
         for (int c = 0; c < 3; ++c) {
           const int i = t[static_cast<size_t>(c)];
-          const double angle = angle_deg(v[static_cast<size_t>(i)], v[static_cast<size_t>(t[static_cast<size_t>((c + 1) % 3)])],
-                                         v[static_cast<size_t>(t[static_cast<size_t>((c + 2) % 3)])]);
+          const double angle =
+              angle_deg(v[static_cast<size_t>(i)],
+                        v[static_cast<size_t>(t[static_cast<size_t>((c + 1) % 3)])],
+                        v[static_cast<size_t>(t[static_cast<size_t>((c + 2) % 3)])]);
           if (angle >= kMinAngle_deg - 1e-9) continue;
           const bool sharp_corner = i < n && interior_angle(i) < 60;
           const bool outline_only = t[0] < n && t[1] < n && t[2] < n;
-          const int j = t[static_cast<size_t>((c + 1) % 3)], k = t[static_cast<size_t>((c + 2) % 3)];
-          const bool opposite_outline_segment = j < n && k < n && (k == (j + 1) % n || j == (k + 1) % n);
+          const int j = t[static_cast<size_t>((c + 1) % 3)],
+                    k = t[static_cast<size_t>((c + 2) % 3)];
+          const bool opposite_outline_segment =
+              j < n && k < n && (k == (j + 1) % n || j == (k + 1) % n);
           const bool opposite_short_segment =
-              opposite_outline_segment && (v[static_cast<size_t>(j)] - v[static_cast<size_t>(k)]).norm() < 0.6 * kTarget_m;
-          EXPECT_TRUE(sharp_corner || outline_only || opposite_short_segment) << "angle " << angle << " deg at vertex " << i;
+              opposite_outline_segment &&
+              (v[static_cast<size_t>(j)] - v[static_cast<size_t>(k)]).norm() < 0.6 * kTarget_m;
+          EXPECT_TRUE(sharp_corner || outline_only || opposite_short_segment)
+              << "angle " << angle << " deg at vertex " << i;
           ++excepted;
         }
       }
@@ -145,15 +156,17 @@ TEST(GarmentMesh, SmallestAnglesMeetTheMeshersBound) {
 // Two unit squares: "a" counter-clockwise, "b" clockwise (its outline runs backwards). Edge 1 of
 // a runs (1, 0) -> (1, 1); edge 0 of b runs (0, 0) -> (0, 1).
 Pattern two_squares(bool same_direction) {
-  const std::string stitch = same_direction ? R"([{"panel": "a", "edge": 1}, {"panel": "b", "edge": 0}, "right_wrong"])"
-                                            : R"([{"panel": "a", "edge": 1}, {"panel": "b", "edge": 0}])";
+  const std::string stitch =
+      same_direction ? R"([{"panel": "a", "edge": 1}, {"panel": "b", "edge": 0}, "right_wrong"])"
+                     : R"([{"panel": "a", "edge": 1}, {"panel": "b", "edge": 0}])";
   return parse_pattern(R"({"properties": {"units_in_meter": 1},
     "pattern": {"panels": {
       "a": {"vertices": [[0, 0], [1, 0], [1, 1], [0, 1]],
             "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}]},
       "b": {"vertices": [[0, 0], [0, 1], [1, 1], [1, 0]],
             "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}]}},
-    "stitches": [)" + stitch + "]}}",
+    "stitches": [)" + stitch +
+                           "]}}",
                        "squares.json");
 }
 
@@ -173,7 +186,9 @@ TEST(GarmentMesh, StitchDirectionFlagDecidesWhichEndsMeet) {
       const double s = 0.1 * static_cast<double>(k);
       // Side a from its start (1, 0) up; side b from its end (0, 1) down, or from its start.
       EXPECT_NEAR((a[static_cast<size_t>(pairs[k][0])] - Vec2(1, s)).norm(), 0, 1e-12) << k;
-      EXPECT_NEAR((b[static_cast<size_t>(pairs[k][1])] - Vec2(0, same ? s : 1 - s)).norm(), 0, 1e-12) << k;
+      EXPECT_NEAR((b[static_cast<size_t>(pairs[k][1])] - Vec2(0, same ? s : 1 - s)).norm(), 0,
+                  1e-12)
+          << k;
     }
   }
 }
@@ -209,8 +224,10 @@ TEST(GarmentMesh, FlatLayoutKeepsPanelsApart) {
     // Bounding boxes are at least the gap apart along x or along y.
     for (size_t p = 0; p < lo.size(); ++p)
       for (size_t q = p + 1; q < lo.size(); ++q) {
-        const bool apart_x = lo[q].x() - hi[p].x() >= gap_m - 1e-9 || lo[p].x() - hi[q].x() >= gap_m - 1e-9;
-        const bool apart_y = lo[q].y() - hi[p].y() >= gap_m - 1e-9 || lo[p].y() - hi[q].y() >= gap_m - 1e-9;
+        const bool apart_x =
+            lo[q].x() - hi[p].x() >= gap_m - 1e-9 || lo[p].x() - hi[q].x() >= gap_m - 1e-9;
+        const bool apart_y =
+            lo[q].y() - hi[p].y() >= gap_m - 1e-9 || lo[p].y() - hi[q].y() >= gap_m - 1e-9;
         EXPECT_TRUE(apart_x || apart_y) << mesh.panels[p].name << " and " << mesh.panels[q].name;
       }
   }
@@ -232,11 +249,12 @@ TEST(GarmentMesh, ABadEdgeLengthIsRefusedNamingTheFile) {
 // top two, whose middle point (near y = -0.3) lies below that chord: the sampled outline
 // crosses itself, and the mesher's refusal comes back naming the file and the panel.
 TEST(GarmentMesh, APanelThatCannotBeMeshedIsNamed) {
-  const Pattern pattern = parse_pattern(R"({"properties": {"units_in_meter": 1, "curvature_coords": "absolute"},
+  const Pattern pattern =
+      parse_pattern(R"({"properties": {"units_in_meter": 1, "curvature_coords": "absolute"},
     "pattern": {"panels": {"crescent": {"vertices": [[0, 0], [1, 0], [1, 1], [0, 1]],
       "edges": [{"endpoints": [0, 1], "curvature": [0.5, -1.6]}, {"endpoints": [1, 2]},
                 {"endpoints": [2, 3], "curvature": [0.5, -1.6]}, {"endpoints": [3, 0]}]}}}})",
-                                        "crescent.json");
+                    "crescent.json");
   GarmentMeshOptions options;
   options.target_edge_m = 2;
   ASSERT_EQ(edge_segment_counts(pattern, 2.0)[0][0], 1);
@@ -249,8 +267,10 @@ TEST(GarmentMesh, APanelThatCannotBeMeshedIsNamed) {
     // The bottom chord (points 0 to 1) is crossed by the top's first segment (points 2 to 3)
     // at y = 0, x = 1 - 0.5 / 1.3.
     EXPECT_EQ(message,
-              "crescent.json: panel 'crescent': meshing at 2 m: panel outline: segment from outer point 0 to "
-              "point 1 meets segment from outer point 2 to point 3 at (0.615385, 0); expected a simple outline "
+              "crescent.json: panel 'crescent': meshing at 2 m: panel outline: segment from outer "
+              "point 0 to "
+              "point 1 meets segment from outer point 2 to point 3 at (0.615385, 0); expected a "
+              "simple outline "
               "(no crossing or touching segments)");
   }
 }
