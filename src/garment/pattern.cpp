@@ -398,6 +398,7 @@ Pattern parse_pattern(const std::string& text, const std::string& file) {
 
   Pattern pattern;
   pattern.name = pattern_name(file);
+  pattern.file = file;
   std::map<std::string, int> panel_index;
   for (const std::string& name : order) {
     panel_index[name] = static_cast<int>(pattern.panels.size());

@@ -67,6 +67,7 @@ struct Stitch {
 
 struct Pattern {
   std::string name;           ///< file name without folder, ".json" and "_specification"
+  std::string file;           ///< the file as given to load_pattern (names it in messages)
   std::vector<Panel> panels;  ///< in `panel_order` when the file has one, else by name
   std::vector<Stitch> stitches;
 };

@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "garment/pattern.hpp"
+#include "garment/sample_patterns.hpp"
 
 namespace weft {
 namespace {
@@ -14,13 +15,7 @@ namespace {
 /// Target segment length of these checks: the mesh size a garment scene uses by default.
 constexpr double kTarget_m = 0.015;
 
-std::vector<std::string> sample_files() {
-  std::vector<std::string> files;
-  for (const auto& entry : std::filesystem::recursive_directory_iterator(std::string(WEFT_SOURCE_DIR) + "/data/patterns"))
-    if (entry.path().extension() == ".json") files.push_back(entry.path().string());
-  std::sort(files.begin(), files.end());
-  return files;
-}
+std::vector<std::string> sample_files() { return test::sample_pattern_files(); }
 
 double polyline_length(const std::vector<Vec2>& pts) {
   double sum = 0;

@@ -1,0 +1,132 @@
+// `weft garment` end to end: every shipped pattern gives the three files, consistent with
+// each other; bad input exits 2 with the place named and writes nothing.
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "garment/pattern.hpp"
+#include "garment/sample_patterns.hpp"
+#include "io/obj_file.hpp"
+#include "support/command.hpp"
+
+using weft::test::CommandTest;
+using weft::test::read_text;
+
+namespace {
+
+class GarmentCommand : public CommandTest {
+ protected:
+  // Built by appending: GCC 12 warns (wrongly) about "'" + string + "'" here.
+  std::string quoted(const std::filesystem::path& p) const { return std::string("'").append(p.string()).append("'"); }
+};
+
+TEST_F(GarmentCommand, EveryShippedPatternWritesFlatPanelsPictureAndSummary) {
+  for (const std::string& file : weft::test::sample_pattern_files()) {
+    SCOPED_TRACE(file);
+    const weft::Pattern pattern = weft::load_pattern(file);
+    const auto out = folder_ / pattern.name;
+    const auto r = weft("garment " + quoted(file) + " --out " + quoted(out));
+    ASSERT_EQ(r.exit_code, 0) << r.error_output;
+
+    const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+    EXPECT_EQ(summary["pattern"], pattern.name);
+    EXPECT_EQ(summary["edge_length_m"], 0.015);
+    ASSERT_EQ(summary["panels"].size(), pattern.panels.size());
+    ASSERT_EQ(summary["stitches"].size(), pattern.stitches.size());
+    for (const auto& s : summary["stitches"]) EXPECT_EQ(s["a"]["vertices"], s["b"]["vertices"]);
+
+    // The OBJ: one object per panel, named as in the summary, its triangles and vertices as
+    // counted there, flat at z = 0, texture coordinates one per vertex.
+    const weft::ObjData obj = weft::parse_obj(read_text(out / "panels.obj"), "panels.obj");
+    ASSERT_EQ(obj.groups.size(), pattern.panels.size());
+    long triangles = 0;
+    for (size_t p = 0; p < obj.groups.size(); ++p) {
+      const auto& panel = summary["panels"][p];
+      EXPECT_EQ(obj.groups[p].name, pattern.panels[p].name);
+      EXPECT_EQ(panel["name"], pattern.panels[p].name);
+      EXPECT_EQ(obj.groups[p].end_triangle - obj.groups[p].first_triangle,
+                panel["triangles"].get<size_t>());
+      triangles += panel["triangles"].get<long>();
+    }
+    EXPECT_EQ(static_cast<long>(obj.triangles.size()), triangles);
+    EXPECT_EQ(summary["triangles"], triangles);
+    EXPECT_EQ(obj.vertex_count(), summary["vertices"].get<int>());
+    EXPECT_EQ(obj.texcoords.size(), 2 * obj.positions.size() / 3);
+    for (int v = 0; v < obj.vertex_count(); ++v)
+      ASSERT_EQ(obj.positions[3 * static_cast<size_t>(v) + 2], 0.0);
+    for (const auto& t : obj.triangles)
+      for (const auto& c : t) ASSERT_EQ(c.texcoord, c.vertex);
+
+    const std::string svg = read_text(out / "panels.svg");
+    EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+    EXPECT_NE(svg.find("</svg>"), std::string::npos);
+    for (const auto& panel : pattern.panels)
+      EXPECT_NE(svg.find(">" + panel.name + "</text>"), std::string::npos) << panel.name;
+  }
+}
+
+TEST_F(GarmentCommand, PanelNamesAreEscapedInThePicture) {
+  const auto pattern = write("names.json", R"({"properties": {"units_in_meter": 1},
+    "pattern": {"panels": {
+      "front & <back>": {"vertices": [[0, 0], [0.2, 0], [0.2, 0.2]],
+                         "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 0]}]}}}})");
+  const auto out = folder_ / "out";
+  const auto r = weft("garment " + quoted(pattern) + " --out " + quoted(out));
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
+  const std::string svg = read_text(out / "panels.svg");
+  EXPECT_NE(svg.find(">front &amp; &lt;back&gt;</text>"), std::string::npos);
+  EXPECT_EQ(svg.find("front & <back>"), std::string::npos);
+  const weft::ObjData obj = weft::parse_obj(read_text(out / "panels.obj"), "panels.obj");
+  ASSERT_EQ(obj.groups.size(), 1u);
+  EXPECT_EQ(obj.groups[0].name, "front & <back>");
+}
+
+TEST_F(GarmentCommand, AnOutputPathThatIsAFileExitsTwo) {
+  const auto pattern = write("names.json", R"({"properties": {"units_in_meter": 1},
+    "pattern": {"panels": {"a": {"vertices": [[0, 0], [0.2, 0], [0.2, 0.2]],
+                                 "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 0]}]}}}})");
+  const auto file = write("taken", "a file\n");
+  const auto r = weft("garment " + quoted(pattern) + " --out " + quoted(file));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.error_output.find("exists and is not a folder"), std::string::npos) << r.error_output;
+  EXPECT_EQ(read_text(file), "a file\n");
+}
+
+TEST_F(GarmentCommand, AStitchNamingAMissingEdgeExitsTwoAndWritesNothing) {
+  const auto pattern = write("bad.json", R"({"properties": {"units_in_meter": 1},
+    "pattern": {"panels": {
+      "a": {"vertices": [[0, 0], [1, 0], [1, 1]], "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 0]}]},
+      "b": {"vertices": [[0, 0], [1, 0], [1, 1]], "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 0]}]}},
+    "stitches": [[{"panel": "a", "edge": 1}, {"panel": "b", "edge": 7}]]}})");
+  const auto out = folder_ / "out";
+  const auto r = weft("garment " + quoted(pattern) + " --out " + quoted(out));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.error_output.find("bad.json: key pattern.stitches[0][1].edge: panel 'b' has no edge "
+                                "7 (its edges are 0 to 2)"),
+            std::string::npos)
+      << r.error_output;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+TEST_F(GarmentCommand, AnEdgeLengthOutOfRangeExitsTwo) {
+  const std::string jacket =
+      std::string(WEFT_SOURCE_DIR) + "/data/patterns/garment_pattern_generator/jacket.json";
+  const auto out = folder_ / "out";
+  const auto r =
+      weft("garment " + quoted(jacket) + " --out " + quoted(out) + " --edge-length 0.0001");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(
+      r.error_output.find("--edge-length 0.0001: expected a length in metres from 0.002 to 0.5"),
+      std::string::npos)
+      << r.error_output;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+TEST_F(GarmentCommand, AMissingPatternFileExitsTwo) {
+  const auto out = folder_ / "out";
+  const auto r = weft("garment " + quoted(folder_ / "none.json") + " --out " + quoted(out));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.error_output.find("none.json"), std::string::npos) << r.error_output;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+}  // namespace
