@@ -84,7 +84,7 @@ class ColliderContacts : public ContactHandler {
  private:
   std::vector<Collider*> colliders_;
   const VecX& mass_;
-  const std::vector<char>& fixed_;
+  std::vector<char> fixed_;  ///< pinned (or clamped) nodes, which contacts leave alone
   std::vector<double> best_gap_;  ///< per node: the gap of its contact so far
   std::vector<int> slot_;         ///< per node: its contact's index in the output, or -1
   std::vector<char> touching_;    ///< touching()
