@@ -30,6 +30,8 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kCheckpointName = "checkpoint.weft";
+// Beside the checkpoint when the run writes animations: the frames they hold so far.
+constexpr const char* kRecordedFramesName = "checkpoint_frames.weft";
 
 struct RunArgs {
   std::string scene, out, method, preconditioner, resume;
@@ -143,6 +145,7 @@ class OutputFolder {
   const fs::path& dir() const { return dir_; }
   fs::path frames() const { return dir_ / "frames"; }
   fs::path checkpoint() const { return dir_ / kCheckpointName; }
+  fs::path recorded_frames() const { return dir_ / kRecordedFramesName; }
 
   /// Removes the outputs of an earlier run (and temporaries of interrupted writes): frames
   /// and body frames from frame `first_frame` on, energy.csv, summary.json and the checkpoint
@@ -150,7 +153,7 @@ class OutputFolder {
   void clear(long first_frame, bool keep_checkpoint) const {
     static const std::regex frame(R"((frame_|body\d+_|collider\d+_)(\d{5,})\.(obj|ply)((\.\d+)?\.tmp)?)");
     static const std::regex top(
-        R"((energy\.csv|summary\.json|checkpoint\.weft|animation\.glb|animation\.pc2|animation_rest\.obj)(\.\d+\.tmp)?)");
+        R"((energy\.csv|summary\.json|checkpoint\.weft|checkpoint_frames\.weft|animation\.glb|animation\.pc2|animation_rest\.obj)(\.\d+\.tmp)?)");
     std::error_code ec;
     if (fs::is_directory(frames(), ec)) {
       for (const auto& e : fs::directory_iterator(frames())) {
@@ -163,7 +166,9 @@ class OutputFolder {
     for (const auto& e : fs::directory_iterator(dir_)) {
       std::smatch m;
       const std::string name = e.path().filename().string();
-      if (std::regex_match(name, m, top) && !(keep_checkpoint && name == kCheckpointName)) fs::remove(e.path());
+      if (std::regex_match(name, m, top) &&
+          !(keep_checkpoint && (name == kCheckpointName || name == kRecordedFramesName)))
+        fs::remove(e.path());
     }
   }
 
@@ -383,11 +388,6 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   checkpoint_header_out["scene_hash"] = hash_hex(read_bytes(a.scene));
   checkpoint_header_out["options"] = options_json(a);
   long checkpoint_frame = resume ? first_frame - 1 : -1;  // the last frame a checkpoint on disk holds
-  auto write_checkpoint = [&](const RunResult& r) {
-    checkpoint_header_out["intersections"] = tally.state();
-    if (out.write_bytes(out.checkpoint(), checkpoint_bytes(checkpoint_header_out, sim, r)))
-      checkpoint_frame = static_cast<long>(r.energy.size()) - 1;
-  };
 
   install_signal_handlers();
   app::Progress progress("weft run " + scene.method_name, !a.quiet);
@@ -420,10 +420,30 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   for (size_t i = 0; i < cloth_mesh.pattern.size(); ++i)
     for (int d = 0; d < 2; ++d) cloth_texcoords[2 * i + d] = static_cast<float>(cloth_mesh.pattern[i][d] / scene.cloth.uv_scale);
   // The animations (glb, pc2) are written at the end from the frames recorded here.
-  AnimatedMesh cloth_animation{"cloth", cloth_mesh.triangles, cloth_texcoords};
+  AnimatedMesh cloth_animation{"cloth", cloth_mesh.triangles, cloth_texcoords, cloth_mesh.num_vertices()};
   std::vector<AnimatedMesh> collider_animations(write_glb ? collider_count : 0);
   std::vector<double> frame_times;
+  std::vector<const AnimatedMesh*> animations{&cloth_animation};
+  for (const auto& c : collider_animations) animations.push_back(&c);
+  if (resume && (write_glb || write_pc2)) {
+    const fs::path file = out.recorded_frames();
+    if (!fs::exists(file))
+      throw InputError(file.string() + ": missing; the animations (glb, pc2) of a resumed run need the frames "
+                                       "recorded before its checkpoint");
+    std::vector<AnimatedMesh*> meshes{&cloth_animation};
+    for (auto& c : collider_animations) meshes.push_back(&c);
+    read_recorded_frames(read_bytes(file), file.string(), meshes, frame_times, static_cast<size_t>(first_frame));
+  }
   std::vector<double> export_seconds;  // per frame: writing its files and recording it
+  auto write_checkpoint = [&](const RunResult& r) {
+    checkpoint_header_out["intersections"] = tally.state();
+    if ((write_glb || write_pc2) && !out.write(out.recorded_frames(), [&](std::ostream& o) {
+          write_recorded_frames(o, animations, frame_times);
+        }))
+      return;
+    if (out.write_bytes(out.checkpoint(), checkpoint_bytes(checkpoint_header_out, sim, r)))
+      checkpoint_frame = static_cast<long>(r.energy.size()) - 1;
+  };
   RunCallbacks cb;
   cb.on_frame = [&](int f, const Simulation& s) {
     const auto check_start = Clock::now();
@@ -498,7 +518,10 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   // Unstable: none (going on would repeat the blow-up).
   const bool keep_checkpoint = interrupted || (r.status == "ok" && a.checkpoint_every);
   if (!failed && keep_checkpoint) write_checkpoint(r);
-  if (!failed && !keep_checkpoint) fs::remove(out.checkpoint(), ec);
+  if (!failed && !keep_checkpoint) {
+    fs::remove(out.checkpoint(), ec);
+    fs::remove(out.recorded_frames(), ec);
+  }
 
   // The animations hold the frames of a finished (or unstable) run; an interrupted one writes
   // them when resumed to the end.
@@ -506,9 +529,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   if (!failed && !interrupted && cloth_animation.frame_count() > 0) {
     const auto start = Clock::now();
     if (write_glb) {
-      std::vector<const AnimatedMesh*> meshes{&cloth_animation};
-      for (const auto& c : collider_animations) meshes.push_back(&c);
-      out.write(out.dir() / "animation.glb", [&](std::ostream& o) { weft::write_glb(o, meshes, frame_times); });
+      out.write(out.dir() / "animation.glb", [&](std::ostream& o) { weft::write_glb(o, animations, frame_times); });
     }
     if (write_pc2) {
       out.write(out.dir() / "animation.pc2", [&](std::ostream& o) { weft::write_pc2(o, cloth_animation); });

@@ -381,4 +381,68 @@ void write_rest_obj(std::ostream& out, const AnimatedMesh& mesh) {
                      vertex_normals(rest.data(), mesh.vertex_count, mesh.triangles), mesh.triangles);
 }
 
+namespace {
+constexpr char kRecordedFramesMagic[16] = "weft frames 1\n";
+}  // namespace
+
+void write_recorded_frames(std::ostream& out, const std::vector<const AnimatedMesh*>& meshes,
+                           const std::vector<double>& frame_times) {
+  out.write(kRecordedFramesMagic, sizeof kRecordedFramesMagic);
+  const uint64_t mesh_count = meshes.size(), frame_count = frame_times.size();
+  out.write(reinterpret_cast<const char*>(&mesh_count), 8);
+  out.write(reinterpret_cast<const char*>(&frame_count), 8);
+  out.write(reinterpret_cast<const char*>(frame_times.data()), static_cast<std::streamsize>(8 * frame_count));
+  for (const AnimatedMesh* m : meshes) {
+    const uint64_t sizes[3] = {static_cast<uint64_t>(m->consistent ? m->vertex_count : -1), m->positions.size(), m->viscosity.size()};
+    out.write(reinterpret_cast<const char*>(sizes), sizeof sizes);
+    write_floats(out, m->positions.data(), m->positions.size());
+    write_floats(out, m->viscosity.data(), m->viscosity.size());
+  }
+}
+
+void read_recorded_frames(const std::string& bytes, const std::string& file, const std::vector<AnimatedMesh*>& meshes,
+                          std::vector<double>& frame_times, size_t frames) {
+  size_t at = 0;
+  auto take = [&](void* to, size_t n) {
+    if (bytes.size() - at < n) throw InputError(file + ": recorded frames are cut short (" + std::to_string(bytes.size()) + " bytes)");
+    std::memcpy(to, bytes.data() + at, n);
+    at += n;
+  };
+  char magic[sizeof kRecordedFramesMagic];
+  take(magic, sizeof magic);
+  if (std::memcmp(magic, kRecordedFramesMagic, sizeof magic) != 0) throw InputError(file + ": not a file of weft's recorded frames");
+  uint64_t mesh_count = 0, frame_count = 0;
+  take(&mesh_count, 8);
+  take(&frame_count, 8);
+  if (mesh_count != meshes.size() || frame_count < frames)
+    throw InputError(file + ": holds " + std::to_string(frame_count) + " frames of " + std::to_string(mesh_count) +
+                     " meshes; the checkpoint needs " + std::to_string(frames) + " of " + std::to_string(meshes.size()));
+  if (frame_count > bytes.size() / 8) throw InputError(file + ": recorded frames are cut short");
+  frame_times.resize(frame_count);
+  take(frame_times.data(), 8 * frame_count);
+  frame_times.resize(frames);
+  for (AnimatedMesh* m : meshes) {
+    uint64_t sizes[3];
+    take(sizes, sizeof sizes);
+    const bool consistent = sizes[0] != static_cast<uint64_t>(-1);
+    const uint64_t n = consistent ? sizes[0] : 0;
+    if (consistent && m->vertex_count != 0 && n != static_cast<uint64_t>(m->vertex_count))
+      throw InputError(file + ": " + m->name + " has " + std::to_string(n) + " vertices there, " +
+                       std::to_string(m->vertex_count) + " in the simulation");
+    if (sizes[1] > bytes.size() / 4 || sizes[2] > bytes.size() / 4 || (consistent && sizes[1] != 3 * n * frame_count) ||
+        (sizes[2] != 0 && sizes[2] != n * frame_count))
+      throw InputError(file + ": the recorded frames of " + m->name + " do not fit their vertex count");
+    m->consistent = consistent;
+    m->vertex_count = static_cast<int>(n);
+    m->positions.resize(sizes[1]);
+    take(m->positions.data(), 4 * sizes[1]);
+    m->viscosity.resize(sizes[2]);
+    take(m->viscosity.data(), 4 * sizes[2]);
+    if (consistent) {
+      m->positions.resize(3 * n * frames);
+      if (!m->viscosity.empty()) m->viscosity.resize(n * frames);
+    }
+  }
+}
+
 }  // namespace weft

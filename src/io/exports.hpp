@@ -64,4 +64,14 @@ void write_pc2(std::ostream& out, const AnimatedMesh& mesh);
 /// cache's order (the rest mesh a PC2 cache is applied to).
 void write_rest_obj(std::ostream& out, const AnimatedMesh& mesh);
 
+/// The frames recorded so far, for a checkpoint (a resumed run's animations start from them):
+/// each mesh's vertex count, frame count, positions and viscosities, then the frame times.
+void write_recorded_frames(std::ostream& out, const std::vector<const AnimatedMesh*>& meshes,
+                           const std::vector<double>& frame_times);
+/// Reads what write_recorded_frames wrote into `meshes` (whose names and triangles are set,
+/// the same count and vertex counts) and `frame_times`, keeping the first `frames`. Throws
+/// InputError naming `file` when it does not fit or holds fewer frames.
+void read_recorded_frames(const std::string& bytes, const std::string& file, const std::vector<AnimatedMesh*>& meshes,
+                          std::vector<double>& frame_times, size_t frames);
+
 }  // namespace weft
