@@ -196,22 +196,6 @@ class OutputFolder {
   fs::path dir_;
 };
 
-void write_ply(std::ostream& out, const weft::Simulation& sim) {
-  const auto& x = sim.state().x;
-  const auto& tris = sim.model().mesh.triangles;
-  const weft::VecX eta = sim.system().added_viscosity_per_vertex();
-  out << "ply\nformat ascii 1.0\ncomment weft frame; added_viscosity in N s/m (adaptive damping)\n"
-      << "element vertex " << x.size() / 3 << "\nproperty float x\nproperty float y\nproperty float z\n"
-      << "property float added_viscosity\nelement face " << tris.size()
-      << "\nproperty list uchar int vertex_indices\nend_header\n";
-  char buf[128];
-  for (int i = 0; i < x.size() / 3; ++i) {
-    std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g %.6g\n", x[3 * i], x[3 * i + 1], x[3 * i + 2], eta[i]);
-    out << buf;
-  }
-  for (const auto& t : tris) out << "3 " << t[0] << ' ' << t[1] << ' ' << t[2] << '\n';
-}
-
 // The changes that could stabilise a run, leaving out those already in force.
 std::string stability_advice(const weft::Scene& sc) {
   using weft::Method;
@@ -478,7 +462,10 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     std::snprintf(name, sizeof name, "frame_%05d.%s", f, frame_format.c_str());
     const fs::path path = out.frames() / name;
     bool ok = frame_format == "ply"
-                  ? out.write(path, [&](std::ostream& o) { write_ply(o, s); })
+                  ? out.write(path, [&](std::ostream& o) {
+                      const VecX eta = s.system().added_viscosity_per_vertex();
+                      write_ply_frame(o, s.state().x.data(), s.model().num_vertices(), eta.data(), cloth_mesh.triangles);
+                    })
                   : out.write(path, [&](std::ostream& o) {
                       write_textured_obj(o, s.state().x.data(), s.model().num_vertices(), cloth_texcoords,
                                          vertex_normals(s.state().x.data(), s.model().num_vertices(), cloth_mesh.triangles),

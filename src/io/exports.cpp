@@ -13,6 +13,7 @@
 #include <deque>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <stdexcept>
 
 #include "weft/error.hpp"
@@ -79,32 +80,55 @@ template std::vector<float> vertex_normals<float>(const float*, int, const std::
 
 namespace {
 
-// Appends numbers to a text buffer with std::to_chars (several times faster than printf for
-// the hundreds of thousands a large frame holds).
+// A text buffer that numbers are formatted straight into, as fixed-point integers (several
+// times faster than printf or the floating-point std::to_chars for the hundreds of thousands
+// a large frame holds); `reserve` must be given an upper bound of what follows.
 class TextBuffer {
  public:
-  void reserve(size_t n) { text_.reserve(n); }
-  void literal(const char* s) { text_ += s; }
+  static constexpr size_t kNumberChars = 24;  // "-999999999.123456789", "-1.2345678901234567e+308"
+  void reserve(size_t more) {
+    const size_t used = static_cast<size_t>(end_ - text_.data());
+    text_.resize(used + more);
+    end_ = text_.data() + used;
+  }
+  void literal(const char* s) { chars(s, std::strlen(s)); }
+  /// `v` with `decimals` digits after the point (at most 9), trailing zeros dropped ("0.25",
+  /// "-3", "1.000000001"); at most kNumberChars characters. Beyond 1e9 (or not finite), the
+  /// shortest text that reads back as `v`.
+  void fixed(double v, int decimals) {
+    static constexpr uint64_t kScale[10] = {1, 10, 100, 1000, 10000, 100000, 1000000, 10000000, 100000000, 1000000000};
+    const double scaled = std::abs(v) * static_cast<double>(kScale[decimals]);
+    if (!(std::abs(v) < 1e9)) {
+      end_ = std::to_chars(end_, end_ + kNumberChars, v).ptr;
+      return;
+    }
+    const auto q = static_cast<uint64_t>(std::llround(scaled));
+    if (v < 0 && q != 0) *end_++ = '-';
+    end_ = std::to_chars(end_, end_ + kNumberChars, q / kScale[decimals]).ptr;
+    uint64_t fraction = q % kScale[decimals];
+    if (fraction == 0) return;
+    int digits = decimals;
+    while (fraction % 10 == 0) fraction /= 10, --digits;
+    *end_++ = '.';
+    for (int k = digits - 1; k >= 0; --k, fraction /= 10) end_[k] = static_cast<char>('0' + fraction % 10);
+    end_ += digits;
+  }
+  /// `v` with `significant_digits` significant digits (%g style); at most kNumberChars characters.
   void number(double v, int significant_digits) {
-    char buf[40];
-    auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, significant_digits);
-    text_.append(buf, r.ptr);
+    end_ = std::to_chars(end_, end_ + kNumberChars, v, std::chars_format::general, significant_digits).ptr;
   }
-  void number(float v) {
-    char buf[40];
-    auto r = std::to_chars(buf, buf + sizeof buf, v);
-    text_.append(buf, r.ptr);
+  void put(char c) { *end_++ = c; }
+  void chars(const char* s, size_t n) {
+    std::memcpy(end_, s, n);
+    end_ += n;
   }
-  void integer(long v) {
-    char buf[24];
-    auto r = std::to_chars(buf, buf + sizeof buf, v);
-    text_.append(buf, r.ptr);
+  void write_to(std::ostream& out) const {
+    out.write(text_.data(), static_cast<std::streamsize>(end_ - text_.data()));
   }
-  void put(char c) { text_ += c; }
-  const std::string& text() const { return text_; }
 
  private:
   std::string text_;
+  char* end_ = text_.data();
 };
 
 }  // namespace
@@ -112,38 +136,73 @@ class TextBuffer {
 void write_textured_obj(std::ostream& out, const double* xyz, int vertex_count, const std::vector<float>& texcoords,
                         const std::vector<float>& normals, const std::vector<std::array<int, 3>>& triangles) {
   TextBuffer b;
-  b.reserve(static_cast<size_t>(vertex_count) * 110 + triangles.size() * 40);
+  // At most kNumberChars characters a number and a separator, 11 an index and its slash, and
+  // the keywords.
+  constexpr size_t number = TextBuffer::kNumberChars + 1;
+  b.reserve(static_cast<size_t>(vertex_count) * (8 * number + 8) + triangles.size() * (9 * 11 + 8));
   for (int i = 0; i < vertex_count; ++i) {
-    b.literal("v");
-    for (int d = 0; d < 3; ++d) b.put(' '), b.number(xyz[3 * i + d], 9);
+    b.put('v');
+    for (int d = 0; d < 3; ++d) b.put(' '), b.fixed(xyz[3 * i + d], 9);
     b.put('\n');
   }
   const bool has_uv = texcoords.size() == 2 * static_cast<size_t>(vertex_count);
   for (int i = 0; has_uv && i < vertex_count; ++i) {
     b.literal("vt ");
-    b.number(texcoords[2 * i]);
+    b.fixed(texcoords[2 * i], 7);
     b.put(' ');
-    b.number(texcoords[2 * i + 1]);
+    b.fixed(texcoords[2 * i + 1], 7);
     b.put('\n');
   }
   for (int i = 0; i < vertex_count; ++i) {
     b.literal("vn");
-    for (int d = 0; d < 3; ++d) b.put(' '), b.number(normals[3 * i + d]);
+    for (int d = 0; d < 3; ++d) b.put(' '), b.fixed(normals[3 * i + d], 7);
     b.put('\n');
   }
+  // Each corner is "k/k/k" (or "k//k"): the index formatted once and copied.
+  char index[12];
   for (const auto& t : triangles) {
     b.put('f');
     for (int k = 0; k < 3; ++k) {
+      const size_t n = static_cast<size_t>(std::to_chars(index, index + sizeof index, t[k] + 1).ptr - index);
       b.put(' ');
-      b.integer(t[k] + 1);
+      b.chars(index, n);
       b.put('/');
-      if (has_uv) b.integer(t[k] + 1);
+      if (has_uv) b.chars(index, n);
       b.put('/');
-      b.integer(t[k] + 1);
+      b.chars(index, n);
     }
     b.put('\n');
   }
-  out.write(b.text().data(), static_cast<std::streamsize>(b.text().size()));
+  b.write_to(out);
+}
+
+void write_ply_frame(std::ostream& out, const double* xyz, int vertex_count, const double* added_viscosity,
+                     const std::vector<std::array<int, 3>>& triangles) {
+  std::ostringstream header;
+  header << "ply\nformat ascii 1.0\ncomment weft frame; added_viscosity in N s/m (adaptive damping)\n"
+         << "element vertex " << vertex_count << "\nproperty float x\nproperty float y\nproperty float z\n"
+         << "property float added_viscosity\nelement face " << triangles.size()
+         << "\nproperty list uchar int vertex_indices\nend_header\n";
+  TextBuffer b;
+  constexpr size_t number = TextBuffer::kNumberChars + 1;
+  b.reserve(header.str().size() + static_cast<size_t>(vertex_count) * (4 * number + 2) + triangles.size() * (3 * 11 + 4));
+  b.literal(header.str().c_str());
+  char index[12];
+  for (int i = 0; i < vertex_count; ++i) {
+    for (int d = 0; d < 3; ++d) b.fixed(xyz[3 * i + d], 9), b.put(' ');
+    // Viscosities span orders of magnitude: significant digits, not decimals.
+    b.number(added_viscosity[i], 6);
+    b.put('\n');
+  }
+  for (const auto& t : triangles) {
+    b.put('3');
+    for (int k = 0; k < 3; ++k) {
+      b.put(' ');
+      b.chars(index, static_cast<size_t>(std::to_chars(index, index + sizeof index, t[k]).ptr - index));
+    }
+    b.put('\n');
+  }
+  b.write_to(out);
 }
 
 void AnimatedMesh::add_frame(const double* xyz, int count, const double* viscosity_per_vertex) {

@@ -26,11 +26,16 @@ std::vector<std::string> split_format_list(const std::string& text);
 template <typename Real>
 std::vector<float> vertex_normals(const Real* xyz, int vertex_count, const std::vector<std::array<int, 3>>& triangles);
 
-/// An OBJ file of a cloth frame: `v` (9 significant digits), `vt` (2 floats per vertex),
-/// `vn` (3 per vertex) and faces `f a/a/a` (1-based, one texture coordinate and one normal per
-/// vertex).
+/// An OBJ file of a cloth frame: `v` (9 decimals, m), `vt` (2 per vertex, 7 decimals), `vn`
+/// (3 per vertex, 7 decimals) and faces `f a/a/a` (1-based, one texture coordinate and one
+/// normal per vertex; `f a//a` without texture coordinates).
 void write_textured_obj(std::ostream& out, const double* xyz, int vertex_count, const std::vector<float>& texcoords,
                         const std::vector<float>& normals, const std::vector<std::array<int, 3>>& triangles);
+
+/// An ASCII PLY file of a cloth frame: per vertex x, y, z (9 decimals, m) and the
+/// added_viscosity (N s/m, 6 significant digits); faces as vertex index lists.
+void write_ply_frame(std::ostream& out, const double* xyz, int vertex_count, const double* added_viscosity,
+                     const std::vector<std::array<int, 3>>& triangles);
 
 /// A mesh whose vertices move over the run, recorded frame by frame in single precision
 /// (what the glb and PC2 files hold): a 129 x 129 cloth over 200 frames takes 40 MB of
