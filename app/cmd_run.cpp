@@ -404,7 +404,11 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   for (size_t i = 0; i < cloth_mesh.pattern.size(); ++i)
     for (int d = 0; d < 2; ++d) cloth_texcoords[2 * i + d] = static_cast<float>(cloth_mesh.pattern[i][d] / scene.cloth.uv_scale);
   // The animations (glb, pc2) are written at the end from the frames recorded here.
-  AnimatedMesh cloth_animation{"cloth", cloth_mesh.triangles, cloth_texcoords, cloth_mesh.num_vertices()};
+  AnimatedMesh cloth_animation;
+  cloth_animation.name = "cloth";
+  cloth_animation.triangles = cloth_mesh.triangles;
+  cloth_animation.texcoords = cloth_texcoords;
+  cloth_animation.vertex_count = cloth_mesh.num_vertices();
   std::vector<AnimatedMesh> collider_animations(write_glb ? collider_count : 0);
   std::vector<double> frame_times;
   std::vector<const AnimatedMesh*> animations{&cloth_animation};
