@@ -18,6 +18,13 @@ deps:
 	  if [ "$$(id -u)" -ne 0 ]; then SUDO=sudo; else SUDO=; fi; \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
 	fi
+	@# node and npm run the glTF validator of the tests (tools/validate); a node installed
+	@# otherwise (not from Debian) is kept.
+	@if ! command -v npm >/dev/null 2>&1; then \
+	  echo "Installing: nodejs npm"; \
+	  if [ "$$(id -u)" -ne 0 ]; then SUDO=sudo; else SUDO=; fi; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq nodejs npm; \
+	fi
 
 $(BUILD)/build.ninja: | deps
 	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release
@@ -31,7 +38,12 @@ demo: deps $(BUILD)/build.ninja
 	$(BUILD)/weft run scenes/swing.json --out out/swing
 	@echo "Results: out/swing (frames/, energy.csv, summary.json)"
 
-test: deps $(BUILD)/build.ninja
+# The Khronos glTF validator at the versions tools/validate/package-lock.json pins.
+VALIDATOR := tools/validate/node_modules/.package-lock.json
+$(VALIDATOR): tools/validate/package.json tools/validate/package-lock.json | deps
+	npm ci --prefix tools/validate --no-audit --no-fund
+
+test: deps $(BUILD)/build.ninja $(VALIDATOR)
 	cmake --build $(BUILD) -j $(JOBS) --target weft weft_tests
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
@@ -44,7 +56,7 @@ $(SAN_BUILD)/build.ninja: | deps
 	cmake -S . -B $(SAN_BUILD) -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Release \
 	  -DCMAKE_CXX_FLAGS_RELEASE="-O2 -DNDEBUG" -DWEFT_SANITIZE=address,undefined -DWEFT_FUZZ=ON -DWEFT_BUILD_BENCH=OFF
 
-sanitize: deps $(SAN_BUILD)/build.ninja
+sanitize: deps $(SAN_BUILD)/build.ninja $(VALIDATOR)
 	cmake --build $(SAN_BUILD) -j $(JOBS) --target weft weft_tests
 	cd $(SAN_BUILD) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  ctest --output-on-failure -j $(JOBS)

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <numeric>
 #include <regex>
 #include <sstream>
 
@@ -17,6 +18,7 @@
 #include "collision/colliders.hpp"
 #include "collision/frame_check.hpp"
 #include "command.hpp"
+#include "io/exports.hpp"
 #include "progress.hpp"
 #include "sim/checkpoint.hpp"
 #include "weft/atomic_file.hpp"
@@ -28,10 +30,13 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kCheckpointName = "checkpoint.weft";
+// Beside the checkpoint when the run writes animations: the frames they hold so far.
+constexpr const char* kRecordedFramesName = "checkpoint_frames.weft";
 
 struct RunArgs {
   std::string scene, out, method, preconditioner, resume;
-  std::optional<std::string> frame_format;
+  std::optional<std::string> frame_format, format_list;
+  std::vector<std::string> formats;  ///< resolved (resolve_formats); what a checkpoint keeps
   std::optional<double> alpha, dt, duration, tolerance, damping_ratio, checkpoint_every;
   bool no_frames = false, quiet = false;
 };
@@ -42,6 +47,7 @@ nlohmann::json options_json(const RunArgs& a) {
   j["method"] = a.method;
   j["preconditioner"] = a.preconditioner;
   j["frame_format"] = a.frame_format.value_or("obj");
+  j["formats"] = a.formats;
   j["no_frames"] = a.no_frames;
   const std::pair<const char*, const std::optional<double>*> numbers[] = {
       {"alpha", &a.alpha}, {"dt", &a.dt}, {"duration", &a.duration}, {"tolerance", &a.tolerance},
@@ -56,6 +62,9 @@ RunArgs options_from_json(const nlohmann::json& j) {
   a.method = j.at("method").get<std::string>();
   a.preconditioner = j.at("preconditioner").get<std::string>();
   a.frame_format = j.at("frame_format").get<std::string>();
+  // Checkpoints from before --format keep only the frame format.
+  a.formats = j.contains("formats") ? j.at("formats").get<std::vector<std::string>>()
+                                    : std::vector<std::string>{*a.frame_format};
   a.no_frames = j.at("no_frames").get<bool>();
   const std::pair<const char*, std::optional<double>*> numbers[] = {
       {"alpha", &a.alpha}, {"dt", &a.dt}, {"duration", &a.duration}, {"tolerance", &a.tolerance},
@@ -90,10 +99,29 @@ weft::Scene build_scene(const RunArgs& a) {
   if (a.damping_ratio) scene.damping_ratio = *a.damping_ratio;
   if (!a.preconditioner.empty()) scene.integrator.preconditioner = *parse_preconditioner(a.preconditioner);
   validate_timing(scene, where);
+  if (a.frame_format && a.format_list)
+    throw InputError(where + ": --frame-format cannot be combined with --format (--frame-format " + *a.frame_format +
+                     " is the per-frame format within --format's list)");
   if (a.checkpoint_every && !(*a.checkpoint_every >= 0 && std::isfinite(*a.checkpoint_every)))
     throw InputError(where + ": --checkpoint-every must be a number of seconds >= 0, got " +
                      std::to_string(*a.checkpoint_every));
   return scene;
+}
+
+// What a run writes: --format's list, else the scene's output.formats with --frame-format
+// taking the place of its per-frame format, else OBJ frames.
+std::vector<std::string> resolve_formats(const RunArgs& a, const weft::Scene& scene) {
+  if (a.format_list) return weft::checked_output_formats(weft::split_format_list(*a.format_list), "command line: --format");
+  std::vector<std::string> formats = scene.output_formats.empty() ? std::vector<std::string>{"obj"} : scene.output_formats;
+  if (a.frame_format) {
+    std::erase_if(formats, [](const std::string& f) { return f == "obj" || f == "ply"; });
+    formats.insert(formats.begin(), *a.frame_format);
+  }
+  return formats;
+}
+
+bool has_format(const std::vector<std::string>& formats, const char* name) {
+  return std::find(formats.begin(), formats.end(), name) != formats.end();
 }
 
 // An output that could not be written: the file and why.
@@ -117,13 +145,15 @@ class OutputFolder {
   const fs::path& dir() const { return dir_; }
   fs::path frames() const { return dir_ / "frames"; }
   fs::path checkpoint() const { return dir_ / kCheckpointName; }
+  fs::path recorded_frames() const { return dir_ / kRecordedFramesName; }
 
   /// Removes the outputs of an earlier run (and temporaries of interrupted writes): frames
   /// and body frames from frame `first_frame` on, energy.csv, summary.json and the checkpoint
   /// unless `keep_checkpoint`. Files of other names are left alone.
   void clear(long first_frame, bool keep_checkpoint) const {
     static const std::regex frame(R"((frame_|body\d+_|collider\d+_)(\d{5,})\.(obj|ply)((\.\d+)?\.tmp)?)");
-    static const std::regex top(R"((energy\.csv|summary\.json|checkpoint\.weft)(\.\d+\.tmp)?)");
+    static const std::regex top(
+        R"((energy\.csv|summary\.json|checkpoint\.weft|checkpoint_frames\.weft|animation\.glb|animation\.pc2|animation_rest\.obj)(\.\d+\.tmp)?)");
     std::error_code ec;
     if (fs::is_directory(frames(), ec)) {
       for (const auto& e : fs::directory_iterator(frames())) {
@@ -136,7 +166,9 @@ class OutputFolder {
     for (const auto& e : fs::directory_iterator(dir_)) {
       std::smatch m;
       const std::string name = e.path().filename().string();
-      if (std::regex_match(name, m, top) && !(keep_checkpoint && name == kCheckpointName)) fs::remove(e.path());
+      if (std::regex_match(name, m, top) &&
+          !(keep_checkpoint && (name == kCheckpointName || name == kRecordedFramesName)))
+        fs::remove(e.path());
     }
   }
 
@@ -163,22 +195,6 @@ class OutputFolder {
  private:
   fs::path dir_;
 };
-
-void write_ply(std::ostream& out, const weft::Simulation& sim) {
-  const auto& x = sim.state().x;
-  const auto& tris = sim.model().mesh.triangles;
-  const weft::VecX eta = sim.system().added_viscosity_per_vertex();
-  out << "ply\nformat ascii 1.0\ncomment weft frame; added_viscosity in N s/m (adaptive damping)\n"
-      << "element vertex " << x.size() / 3 << "\nproperty float x\nproperty float y\nproperty float z\n"
-      << "property float added_viscosity\nelement face " << tris.size()
-      << "\nproperty list uchar int vertex_indices\nend_header\n";
-  char buf[128];
-  for (int i = 0; i < x.size() / 3; ++i) {
-    std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g %.6g\n", x[3 * i], x[3 * i + 1], x[3 * i + 2], eta[i]);
-    out << buf;
-  }
-  for (const auto& t : tris) out << "3 " << t[0] << ' ' << t[1] << ' ' << t[2] << '\n';
-}
 
 // The changes that could stabilise a run, leaving out those already in force.
 std::string stability_advice(const weft::Scene& sc) {
@@ -284,7 +300,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   nlohmann::json header;
   if (resume) {
     for (const char* option : {"scene", "--out", "--method", "--alpha", "--dt", "--duration", "--tolerance",
-                               "--preconditioner", "--damping-ratio", "--frame-format", "--no-frames"})
+                               "--preconditioner", "--damping-ratio", "--frame-format", "--format", "--no-frames"})
       if (given(option))
         throw InputError(std::string("command line: ") + option +
                          " cannot be combined with --resume: the run goes on with the settings it started with");
@@ -313,6 +329,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     throw InputError("command line: give a scene and --out DIR, or --resume DIR");
   }
   const Scene scene = build_scene(a);
+  if (!resume) a.formats = resolve_formats(a, scene);
   // Set-up is usually a fraction of a second; large meshes and bodies show its stages.
   app::Progress setup_progress("weft run set-up", !a.quiet);
   setup_progress.quiet_for(0.5);
@@ -342,8 +359,10 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   }
   // A fresh run replaces an earlier run's outputs; a resumed one those past its checkpoint.
   out.clear(first_frame, resume);
-  const std::string frame_format = a.frame_format.value_or("obj");
-  if (!a.no_frames) {
+  const bool write_glb = has_format(a.formats, "glb"), write_pc2 = has_format(a.formats, "pc2");
+  const std::string frame_format = has_format(a.formats, "ply") ? "ply" : has_format(a.formats, "obj") ? "obj" : "";
+  const bool frame_files = !a.no_frames && !frame_format.empty();
+  if (frame_files) {
     fs::create_directories(out.frames(), ec);
     if (ec) throw InputError(out.frames().string() + ": cannot create output folder: " + ec.message());
   }
@@ -353,11 +372,6 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   checkpoint_header_out["scene_hash"] = hash_hex(read_bytes(a.scene));
   checkpoint_header_out["options"] = options_json(a);
   long checkpoint_frame = resume ? first_frame - 1 : -1;  // the last frame a checkpoint on disk holds
-  auto write_checkpoint = [&](const RunResult& r) {
-    checkpoint_header_out["intersections"] = tally.state();
-    if (out.write_bytes(out.checkpoint(), checkpoint_bytes(checkpoint_header_out, sim, r)))
-      checkpoint_frame = static_cast<long>(r.energy.size()) - 1;
-  };
 
   install_signal_handlers();
   app::Progress progress("weft run " + scene.method_name, !a.quiet);
@@ -383,6 +397,41 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     }
     if (collider_triangle_lists[k].empty()) collider_triangle_lists[k] = triangle_list(collider_triangles[k]);
   };
+  // Texture coordinates: the pattern coordinates in the units of the cloth's OBJ texture
+  // coordinates (metres on a grid), so an OBJ cloth's own come back.
+  const TriMesh& cloth_mesh = sim.model().mesh;
+  std::vector<float> cloth_texcoords(2 * cloth_mesh.pattern.size());
+  for (size_t i = 0; i < cloth_mesh.pattern.size(); ++i)
+    for (int d = 0; d < 2; ++d) cloth_texcoords[2 * i + d] = static_cast<float>(cloth_mesh.pattern[i][d] / scene.cloth.uv_scale);
+  // The animations (glb, pc2) are written at the end from the frames recorded here.
+  AnimatedMesh cloth_animation;
+  cloth_animation.name = "cloth";
+  cloth_animation.triangles = cloth_mesh.triangles;
+  cloth_animation.texcoords = cloth_texcoords;
+  cloth_animation.vertex_count = cloth_mesh.num_vertices();
+  std::vector<AnimatedMesh> collider_animations(write_glb ? collider_count : 0);
+  std::vector<double> frame_times;
+  std::vector<const AnimatedMesh*> animations{&cloth_animation};
+  for (const auto& c : collider_animations) animations.push_back(&c);
+  if (resume && (write_glb || write_pc2)) {
+    const fs::path file = out.recorded_frames();
+    if (!fs::exists(file))
+      throw InputError(file.string() + ": missing; the animations (glb, pc2) of a resumed run need the frames "
+                                       "recorded before its checkpoint");
+    std::vector<AnimatedMesh*> meshes{&cloth_animation};
+    for (auto& c : collider_animations) meshes.push_back(&c);
+    read_recorded_frames(read_bytes(file), file.string(), meshes, frame_times, static_cast<size_t>(first_frame));
+  }
+  std::vector<double> export_seconds;  // per frame: writing its files and recording it
+  auto write_checkpoint = [&](const RunResult& r) {
+    checkpoint_header_out["intersections"] = tally.state();
+    if ((write_glb || write_pc2) && !out.write(out.recorded_frames(), [&](std::ostream& o) {
+          write_recorded_frames(o, animations, frame_times);
+        }))
+      return;
+    if (out.write_bytes(out.checkpoint(), checkpoint_bytes(checkpoint_header_out, sim, r)))
+      checkpoint_frame = static_cast<long>(r.energy.size()) - 1;
+  };
   RunCallbacks cb;
   cb.on_frame = [&](int f, const Simulation& s) {
     const auto check_start = Clock::now();
@@ -393,13 +442,39 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     }
     tally.add(frame_checker.check({s.state().x.data(), &s.model().mesh.triangles}, body_meshes));
     tally.seconds += std::chrono::duration<double>(Clock::now() - check_start).count();
-    if (a.no_frames || !out.failures.empty()) return;
+    if (!out.failures.empty()) return;
+    const auto export_start = Clock::now();
+    if (write_glb || write_pc2) {
+      const VecX eta = write_glb ? s.system().added_viscosity_per_vertex() : VecX();
+      cloth_animation.add_frame(s.state().x.data(), s.model().num_vertices(), write_glb ? eta.data() : nullptr);
+      frame_times.push_back(s.state().t);
+      for (size_t k = 0; k < collider_animations.size(); ++k) {
+        AnimatedMesh& c = collider_animations[k];
+        if (c.triangles.empty()) {
+          const ColliderSpec& spec = s.colliders()[k]->spec();
+          c.name = spec.shape == ColliderShape::kBody ? "body" + std::to_string(spec.body) : "collider" + std::to_string(k);
+          c.triangles = collider_triangle_lists[k];
+        }
+        c.add_frame(collider_positions[k].data(), static_cast<int>(collider_positions[k].rows()));
+      }
+    }
+    if (!frame_files) {
+      export_seconds.push_back(std::chrono::duration<double>(Clock::now() - export_start).count());
+      return;
+    }
     char name[64];
     std::snprintf(name, sizeof name, "frame_%05d.%s", f, frame_format.c_str());
     const fs::path path = out.frames() / name;
     bool ok = frame_format == "ply"
-                  ? out.write(path, [&](std::ostream& o) { write_ply(o, s); })
-                  : out.attempt(path, [&] { write_obj(path.string(), s.state().x, s.model().mesh.triangles); });
+                  ? out.write(path, [&](std::ostream& o) {
+                      const VecX eta = s.system().added_viscosity_per_vertex();
+                      write_ply_frame(o, s.state().x.data(), s.model().num_vertices(), eta.data(), cloth_mesh.triangles);
+                    })
+                  : out.write(path, [&](std::ostream& o) {
+                      write_textured_obj(o, s.state().x.data(), s.model().num_vertices(), cloth_texcoords,
+                                         vertex_normals(s.state().x.data(), s.model().num_vertices(), cloth_mesh.triangles),
+                                         cloth_mesh.triangles);
+                    });
     // The colliders' surfaces: body<k> for the k-th walking body, collider<k> for the k-th
     // collider of another kind.
     for (size_t k = 0; ok && k < collider_count; ++k) {
@@ -414,6 +489,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
                        [&] { write_obj(collider_path.string(), collider_positions[k], collider_triangles[k]); });
     }
     if (ok) frames_complete = f + 1;
+    export_seconds.push_back(std::chrono::duration<double>(Clock::now() - export_start).count());
   };
   cb.on_progress = [&](double fr) { progress.update(fr); };
   cb.after_frame = [&](const RunResult& r) {
@@ -433,13 +509,39 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   // Unstable: none (going on would repeat the blow-up).
   const bool keep_checkpoint = interrupted || (r.status == "ok" && a.checkpoint_every);
   if (!failed && keep_checkpoint) write_checkpoint(r);
-  if (!failed && !keep_checkpoint) fs::remove(out.checkpoint(), ec);
+  if (!failed && !keep_checkpoint) {
+    fs::remove(out.checkpoint(), ec);
+    fs::remove(out.recorded_frames(), ec);
+  }
 
+  // The animations hold the frames of a finished (or unstable) run; an interrupted one writes
+  // them when resumed to the end.
+  double animation_seconds = 0;
+  if (!failed && !interrupted && cloth_animation.frame_count() > 0) {
+    const auto start = Clock::now();
+    if (write_glb) {
+      out.write(out.dir() / "animation.glb", [&](std::ostream& o) { weft::write_glb(o, animations, frame_times); });
+    }
+    if (write_pc2) {
+      out.write(out.dir() / "animation.pc2", [&](std::ostream& o) { weft::write_pc2(o, cloth_animation); });
+      out.write(out.dir() / "animation_rest.obj", [&](std::ostream& o) { write_rest_obj(o, cloth_animation); });
+    }
+    animation_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  }
   const bool energy_written =
       out.write(out.dir() / "energy.csv", [&](std::ostream& o) { o << energy_csv(r.energy); });
   nlohmann::json summary = summary_json(sim, r);
   summary["intersections"] = tally.summary();
   summary["intersection_seconds"] = tally.seconds;
+  summary["formats"] = a.formats;
+  if (!export_seconds.empty()) {
+    // Frames' exports (files and recording) in this process, and the animations at the end.
+    std::vector<double> sorted = export_seconds;
+    std::sort(sorted.begin(), sorted.end());
+    summary["export_seconds"] = {{"per_frame_median", sorted[sorted.size() / 2]},
+                                 {"frames_total", std::accumulate(sorted.begin(), sorted.end(), 0.0)},
+                                 {"animations", animation_seconds}};
+  }
   if (!out.failures.empty()) {
     summary["status"] = "output_failed";
     summary["message"] = "could not write " + out.failures.front().path + ": " + out.failures.front().reason;
@@ -448,6 +550,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
       out.write(out.dir() / "summary.json", [&](std::ostream& o) { o << summary.dump(2) << "\n"; });
   const std::string frames_kept =
       a.no_frames          ? std::string("no frames (--no-frames)")
+      : !frame_files         ? std::string("no frame files (formats without obj or ply)")
       : frames_complete == 0 ? std::string("no frames")
                              : "frames " + (frames_complete == 1 ? std::string("0") : "0 to " + std::to_string(frames_complete - 1)) +
                                    " in " + out.frames().string();
@@ -477,7 +580,10 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
                  summary["status"].get<std::string>().c_str(), r.steps.steps, r.wall_seconds,
                  1e3 * r.wall_seconds / std::max(1L, r.steps.steps), summary["solver_iterations_mean"].get<double>(),
                  r.damping.membrane_kappa.min(), r.damping.membrane_kappa.max(), r.damping_ratio);
-    std::fprintf(stderr, "results in %s (%senergy.csv, summary.json)\n", a.out.c_str(), a.no_frames ? "" : "frames/, ");
+    std::string files = frame_files ? "frames/, " : "";
+    if (write_glb) files += "animation.glb, ";
+    if (write_pc2) files += "animation.pc2, animation_rest.obj, ";
+    std::fprintf(stderr, "results in %s (%senergy.csv, summary.json)\n", a.out.c_str(), files.c_str());
   }
   if (r.steps.cg_failures > 0)
     std::fprintf(stderr,
@@ -519,13 +625,20 @@ weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write fram
     sub.add_option("--damping-ratio", a->damping_ratio,
                    "Adaptive damping target as a fraction of critical (0 turns it off; default 0.05 for "
                    "Implicit Midpoint and BDF-2, 0 for the others)");
-    sub.add_option("--frame-format", a->frame_format, "obj, or ply with per-vertex added viscosity")
+    sub.add_option("--format", a->format_list,
+                   "What to write, comma-separated, any of obj, ply (frames), glb, pc2 (animations); "
+                   "default: the scene's output.formats, else obj (docs/exports.md)");
+    sub.add_option("--frame-format", a->frame_format,
+                   "The per-frame format, obj or ply (with per-vertex added viscosity), in place of the "
+                   "scene's; --format ply is the same")
         ->check(CLI::IsMember({"obj", "ply"}));
-    sub.add_flag("--no-frames", a->no_frames, "Do not write frames (energy.csv and summary.json only)");
+    sub.add_flag("--no-frames", a->no_frames,
+                 "Do not write the per-frame files (the glb and pc2 animations are still written when chosen)");
     sub.add_flag("--quiet,-q", a->quiet, "No progress bar or summary line");
     sub.footer(
         "Writes DIR/frames/frame_00000.obj ... (one per output frame, the first at time 0), DIR/energy.csv\n"
-        "(time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total in J) and DIR/summary.json,\n"
+        "(time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total in J) and DIR/summary.json\n"
+        "(with --format glb also DIR/animation.glb; pc2: DIR/animation.pc2 and DIR/animation_rest.obj),\n"
         "after removing those of an earlier run in DIR. Ctrl-C stops at the next frame boundary and writes\n"
         "DIR/checkpoint.weft; `weft run --resume DIR` continues with the same result as an uninterrupted run.\n"
         "Exit status: 0 ok (also when solves hit the iteration cap: a warning, summary status solver_capped),\n"

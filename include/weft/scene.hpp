@@ -79,6 +79,9 @@ struct Scene {
   std::vector<ColliderSpec> colliders;
   /// The body colliders' descriptions: the walking mannequin (docs/body.md).
   std::vector<BodyColliderSpec> bodies;
+  /// output.formats: what `weft run` writes (checked_output_formats, io/exports.hpp); empty
+  /// when the scene does not say (then OBJ frames).
+  std::vector<std::string> output_formats;
 
   /// The damping ratio that applies (explicit value or the method's default).
   double effective_damping_ratio() const;

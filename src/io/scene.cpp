@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <limits>
 
+#include "io/exports.hpp"
 #include "io/input_file.hpp"
 #include "io/json_util.hpp"
 #include "io/obj_file.hpp"
@@ -330,7 +331,7 @@ ColliderSpec parse_collider(const nlohmann::json& j, const std::string& file, co
 Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::string& base_dir) {
   Reader r(j, file, "");
   r.allow_only({"weft_scene", "description", "duration", "frame_interval", "gravity", "integrator", "damping",
-                "cloth", "colliders", "patterns"});
+                "cloth", "colliders", "patterns", "output"});
   Scene s;
   s.file = file;
   const long version = r.integer("weft_scene");
@@ -392,6 +393,20 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
   if (r.has("patterns")) {
     const auto& p = r.raw("patterns");
     if (!p.is_array() || !p.empty()) r.fail("patterns", "sewing patterns are reserved for a later version; leave the array empty");
+  }
+  if (r.has("output")) {
+    const Reader o = r.object("output");
+    o.allow_only({"formats"});
+    const auto& f = o.raw("formats");
+    if (!f.is_array()) o.fail("formats", "expected an array of format names (" + std::string(kOutputFormatNames) +
+                                             "), got " + json_util::describe(f));
+    std::vector<std::string> names;
+    for (const auto& name : f) {
+      if (!name.is_string()) o.fail("formats", "expected format names (" + std::string(kOutputFormatNames) +
+                                                   "), got " + json_util::describe(name));
+      names.push_back(name.get<std::string>());
+    }
+    s.output_formats = checked_output_formats(names, o.where("formats"));
   }
   validate_timing(s, file);
   return s;

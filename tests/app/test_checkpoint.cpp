@@ -56,6 +56,7 @@ nlohmann::json summary_without_timing(const fs::path& dir) {
     EXPECT_TRUE(j.contains(key)) << key;
     j.erase(key);
   }
+  j.erase("export_seconds");
   if (j.contains("guard")) {
     EXPECT_TRUE(j["guard"].contains("seconds"));
     j["guard"].erase("seconds");
@@ -118,13 +119,17 @@ class Checkpoint : public CommandTest {
 
   // Runs the scene once uninterrupted and, for each of `kill_frames`, once killed with
   // SIGKILL after writing that frame and resumed; each resumed run must match the
-  // uninterrupted one byte for byte.
-  void expect_resumed_runs_match(const std::string& integrator, const std::vector<int>& kill_frames) {
+  // uninterrupted one byte for byte. `formats`: the runs' --format (default: OBJ frames).
+  void expect_resumed_runs_match(const std::string& integrator, const std::vector<int>& kill_frames,
+                                 const std::string& formats = "obj") {
     const auto s = write("scene.json", scene(integrator));
     const auto ref = folder_ / "reference";
-    const auto r = weft("run '" + s.string() + "' --out '" + ref.string() + "' --quiet --checkpoint-every 1000");
+    const auto r = weft("run '" + s.string() + "' --out '" + ref.string() + "' --quiet --checkpoint-every 1000 --format " + formats);
     ASSERT_EQ(r.exit_code, 0) << r.error_output;
     const auto expected = outputs(ref);
+    for (const char* animation : {"glb", "pc2"})
+      if (formats.find(animation) != std::string::npos)
+        ASSERT_EQ(expected.count(std::string("animation.") + animation), 1u) << animation;
     const auto expected_summary = summary_without_timing(ref);
     const weft::State expected_state = final_state(s, ref);
     ASSERT_GT(expected_summary["frames"].get<int>(), kill_frames.back() + 5);
@@ -133,7 +138,8 @@ class Checkpoint : public CommandTest {
       const auto out = folder_ / ("killed_" + std::to_string(k));
       char name[32];
       std::snprintf(name, sizeof name, "frame_%05d.obj", k);
-      const pid_t pid = start({"run", s.string(), "--out", out.string(), "--quiet", "--checkpoint-every", "0"});
+      const pid_t pid =
+          start({"run", s.string(), "--out", out.string(), "--quiet", "--checkpoint-every", "0", "--format", formats});
       ASSERT_TRUE(wait_for(out / "frames" / name, pid)) << read_text(folder_ / "stderr.txt");
       ::kill(pid, SIGKILL);
       ASSERT_EQ(exit_status(pid), -SIGKILL);
@@ -169,6 +175,12 @@ TEST_F(Checkpoint, KilledMultigridRunResumesToTheSameBytes) {
   // The hierarchy follows the first matrix's couplings: a resumed run must rebuild it from
   // that matrix, not from the first one it assembles.
   expect_resumed_runs_match(R"({"method": "implicit-midpoint", "dt": 0.005, "preconditioner": "multigrid"})", {12});
+}
+
+TEST_F(Checkpoint, KilledRunWithAnimationsResumesToTheSameGlbAndPc2) {
+  // The glb and PC2 hold every frame of the run: those before the checkpoint come from the
+  // frames recorded beside it.
+  expect_resumed_runs_match(R"({"method": "implicit-midpoint", "dt": 0.005})", {9}, "obj,glb,pc2");
 }
 
 TEST_F(Checkpoint, CtrlCStopsWithStatus130AndAResumableCheckpoint) {

@@ -300,13 +300,14 @@ TEST_F(RunCommand, AnOutputFolderNeverMixesTwoRuns) {
 
 TEST_F(RunCommand, AnOutputThatCannotBeWrittenExitsFourAndSaysWhatWasKept) {
   // A file-size limit (ulimit -f, in 512-byte blocks; it binds root too) makes writes fail
-  // part-way as a full disk does: a 21 x 21 frame (about 25 kB) fits under 64 blocks, the
+  // part-way as a full disk does: a 21 x 21 PLY frame (about 23 kB) fits under 64 blocks, the
   // checkpoint of the same cloth (positions, velocities and the solution history: over
-  // 100 kB) does not.
+  // 33 kB) does not. (An OBJ frame, with texture coordinates and normals, is larger than the
+  // first checkpoint.)
   const auto s = write("scene.json", scene(R"({"method": "implicit-midpoint", "dt": 0.01})",
                                            R"({"grid": {"size": [0.2, 0.2], "vertices": [21, 21]}})"));
   const auto out = folder_ / "out";
-  auto r = weft("run '" + s.string() + "' --out '" + out.string() + "' --quiet --checkpoint-every 0", "ulimit -f 64;");
+  auto r = weft("run '" + s.string() + "' --out '" + out.string() + "' --quiet --checkpoint-every 0 --format ply", "ulimit -f 64;");
   EXPECT_EQ(r.exit_code, 4) << r.error_output;
   const std::string checkpoint = (out / "checkpoint.weft").string();
   EXPECT_NE(r.error_output.find("could not write " + checkpoint), std::string::npos) << r.error_output;
@@ -316,8 +317,8 @@ TEST_F(RunCommand, AnOutputThatCannotBeWrittenExitsFourAndSaysWhatWasKept) {
   auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
   EXPECT_EQ(summary["status"], "output_failed");
   EXPECT_NE(summary["message"].get<std::string>().find(checkpoint), std::string::npos);
-  EXPECT_TRUE(std::filesystem::exists(out / "frames" / "frame_00000.obj"));
-  EXPECT_FALSE(std::filesystem::exists(out / "frames" / "frame_00001.obj"));
+  EXPECT_TRUE(std::filesystem::exists(out / "frames" / "frame_00000.ply"));
+  EXPECT_FALSE(std::filesystem::exists(out / "frames" / "frame_00001.ply"));
   for (const auto& e : std::filesystem::recursive_directory_iterator(out))
     EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
 
