@@ -29,6 +29,7 @@ struct EnergyRow {
   double viscous_dissipated = 0;  ///< cumulative work against viscous forces
   double numerical_dissipated = 0;///< initial total plus contact work minus the four above
   double contact_work = 0;        ///< cumulative work of contact and friction forces on the cloth
+  double fail_safe_work = 0;      ///< the part of contact_work done by the fail-safes' corrections
   double total() const { return kinetic + elastic + gravity; }
 };
 

@@ -23,6 +23,7 @@ class Clamps : public ContactHandler {
                   std::vector<NodeContact>&) override {}
   /// Puts every clamped vertex on its path at t + dt, moving at the clamp's velocity there.
   void finish_step(const VecX& x0, VecX& x1, VecX& v1, double t, double dt, ContactReport& report) override;
+  bool prescribes_motion() const override { return true; }
 
   /// Per node: in a clamp (n entries).
   const std::vector<char>& clamped() const { return clamped_; }

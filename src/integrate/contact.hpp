@@ -46,6 +46,10 @@ class ContactHandler {
   /// After the step from x0 (time t) to x1, v1 (time t + dt): moves nodes that ended inside a
   /// collider's thickness (or tangled with the cloth) back to valid positions, adjusting v1.
   virtual void finish_step(const VecX& x0, VecX& x1, VecX& v1, double t, double dt, ContactReport& report) = 0;
+  /// True for a handler whose finish_step puts vertices where a prescribed motion wants them
+  /// (clamps): it runs after the fail-safes, and its work is done on the cloth, not a
+  /// correction's.
+  virtual bool prescribes_motion() const { return false; }
 };
 
 }  // namespace weft

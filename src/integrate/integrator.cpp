@@ -660,31 +660,41 @@ void Integrator::contact_velocities(State& s, double dt, double dt_b) {
 
 void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics& stats) {
   const auto tr = Clock::now();
-  ContactReport report;
   v_before_fail_safe_ = s.v;
-  x_before_fail_safe_ = s.x;
-  for (ContactHandler* h : handlers_) h->finish_step(x_start_, s.x, s.v, t0, dt, report);
-  if (report.fail_safe_moves > 0) {
-    // The fail-safes' work is the whole change of mechanical energy they made: besides the
-    // kinetic energy of their changes of velocity (report.work), moving a vertex changes the
-    // elastic and gravitational energy, which the balance would otherwise book as the
-    // integrator's.
-    system_.evaluate(x_before_fail_safe_, v_before_fail_safe_, false, eval_);
-    const double before = kinetic_energy(v_before_fail_safe_) + eval_.elastic_energy + eval_.gravity_energy;
-    system_.evaluate(s.x, s.v, false, eval_);
-    report.work = kinetic_energy(s.v) + eval_.elastic_energy + eval_.gravity_energy - before;
+  // The fail-safes first, then the handlers that prescribe motions (clamps), which have the
+  // last word on their vertices. Each group's work is the whole change of mechanical energy it
+  // made: besides the kinetic energy of its changes of velocity (report.work), moving a vertex
+  // changes the elastic and gravitational energy, which the balance would otherwise book as
+  // the integrator's. The fail-safes' share is kept apart (State::fail_safe_work).
+  ContactReport all;
+  for (bool prescribed : {false, true}) {
+    ContactReport report;
+    x_before_fail_safe_ = s.x;
+    VecX& v_before = x_start_scratch_;
+    v_before = s.v;
+    for (ContactHandler* h : handlers_)
+      if (h->prescribes_motion() == prescribed) h->finish_step(x_start_, s.x, s.v, t0, dt, report);
+    if (report.fail_safe_moves > 0) {
+      system_.evaluate(x_before_fail_safe_, v_before, false, eval_);
+      const double before = kinetic_energy(v_before) + eval_.elastic_energy + eval_.gravity_energy;
+      system_.evaluate(s.x, s.v, false, eval_);
+      report.work = kinetic_energy(s.v) + eval_.elastic_energy + eval_.gravity_energy - before;
+    }
+    s.contact_work += report.work;
+    if (!prescribed) s.fail_safe_work += report.work;
+    all.fail_safe_moves += report.fail_safe_moves;
+    all.ok = all.ok && report.ok;
   }
-  if (report.fail_safe_moves > 0 && s.dx_prev.size() == s.v.size()) {
+  if (all.fail_safe_moves > 0 && s.dx_prev.size() == s.v.size()) {
     // BDF-2's last displacement as if the nodes had moved at their corrected velocities, or it
     // would repeat a third of an approach the fail-safe stopped; its last change of velocity
     // is left alone, or it would repeat a third of the fail-safe's impulse.
     v_before_fail_safe_ = s.v - v_before_fail_safe_;
     s.dx_prev += dt * v_before_fail_safe_;
   }
-  if (!report.ok) ++stats.failed_contact_steps;
-  last_step_ok_ = report.ok;
-  stats.fail_safe_moves += report.fail_safe_moves;
-  s.contact_work += report.work;
+  if (!all.ok) ++stats.failed_contact_steps;
+  last_step_ok_ = all.ok;
+  stats.fail_safe_moves += all.fail_safe_moves;
   stats.response_seconds += seconds_since(tr);
 }
 

@@ -101,6 +101,10 @@ struct State {
   /// Cumulative work of contact and friction forces on the cloth (J): negative when contacts
   /// took energy out (inelastic impacts, friction), positive when a moving collider put it in.
   double contact_work = 0;
+  /// The part of contact_work the fail-safes did after the solves (J): their corrections'
+  /// whole change of mechanical energy, clamps' included. A correction may put energy in that
+  /// no force did, so the instability rule does not count it as work done on the cloth.
+  double fail_safe_work = 0;
   double rk45_step = 0;           ///< RK45 step size carried between calls
 };
 
@@ -243,7 +247,7 @@ class Integrator {
   int guard_depth_ = 0, guard_depth_calm_steps_ = 0;  ///< DynamicState::guard_depth, ..._calm_steps
   State guard_start_;        ///< the guarded step's start, to take it again from
   bool guard_raised_now_ = false;  ///< a part of this step was taken above the scene's alpha
-  VecX v_before_fail_safe_, x_before_fail_safe_;  ///< scratch of finish_contacts
+  VecX v_before_fail_safe_, x_before_fail_safe_, x_start_scratch_;  ///< scratch of finish_contacts
 };
 
 }  // namespace weft

@@ -233,6 +233,7 @@ void Simulation::save(BinaryWriter& out) const {
   out.i64(s.has_history);
   out.f64(s.viscous_dissipated);
   out.f64(s.contact_work);
+  out.f64(s.fail_safe_work);
   out.f64(s.rk45_step);
   for (long c : {stats_.steps, stats_.rejected_steps, stats_.cg_iterations, stats_.cg_solves, stats_.cg_failures,
                  stats_.contacts, stats_.max_contacts, stats_.released_contacts, stats_.fail_safe_moves,
@@ -293,6 +294,7 @@ void Simulation::restore(BinaryReader& in) {
   s.has_history = in.i64() != 0;
   s.viscous_dissipated = in.f64();
   s.contact_work = in.f64();
+  s.fail_safe_work = in.f64();
   s.rk45_step = in.f64();
   StepStatistics st;
   for (long* c : {&st.steps, &st.rejected_steps, &st.cg_iterations, &st.cg_solves, &st.cg_failures, &st.contacts,
@@ -368,9 +370,17 @@ EnergyRow Simulation::energies() {
   r.gravity = eval_.gravity_energy - gravity0_;
   r.viscous_dissipated = state_.viscous_dissipated;
   r.contact_work = state_.contact_work;
+  r.fail_safe_work = state_.fail_safe_work;
   r.numerical_dissipated = total0_ + r.contact_work - r.total() - r.viscous_dissipated;
   return r;
 }
+
+namespace {
+/// How far the energy the collision fail-safes put in may pile up, in energy scales, before a
+/// run counts as unstable: the corrections of layered cloth put in many scales over a run that
+/// the steps take out again (docs/collisions.md), a runaway far more.
+constexpr double kFailSafeEnergyFactor = 100;
+}  // namespace
 
 RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResult* resumed) {
   using Clock = std::chrono::steady_clock;
@@ -396,11 +406,19 @@ RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResul
     if (!s.x.allFinite() || !s.v.allFinite() || !std::isfinite(e.total())) {
       problem = "positions or velocities became non-finite (NaN or infinity)";
     } else if (e.total() - e.contact_work - total0 > sim.energy_scale()) {
-      // Moving colliders may put energy in (contact_work); nothing else may.
+      // Moving colliders and clamps may put energy in (contact_work); nothing else may.
       char buf[240];
       std::snprintf(buf, sizeof buf, "mechanical energy%s rose by %.3g J, above the scene's energy scale of %.3g J",
                     e.contact_work != 0 ? " less the contacts' work" : "", e.total() - e.contact_work - total0,
                     sim.energy_scale());
+      problem = buf;
+    } else if (e.total() - (e.contact_work - e.fail_safe_work) - total0 > kFailSafeEnergyFactor * sim.energy_scale()) {
+      // The fail-safes' corrections put energy in that the next steps mostly take out again;
+      // where it piles up instead, they are running away.
+      char buf[240];
+      std::snprintf(buf, sizeof buf,
+                    "the collision fail-safes put in %.3g J that stayed, over %.0f times the scene's energy scale of %.3g J",
+                    e.total() - (e.contact_work - e.fail_safe_work) - total0, kFailSafeEnergyFactor, sim.energy_scale());
       problem = buf;
     }
     if (!problem.empty()) {
@@ -482,7 +500,8 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
                      {"halved_steps", st.halved_steps},
                      {"detection_seconds", st.detection_seconds},
                      {"response_seconds", st.response_seconds},
-                     {"work_J", r.energy.empty() ? 0.0 : r.energy.back().contact_work}};
+                     {"work_J", r.energy.empty() ? 0.0 : r.energy.back().contact_work},
+                     {"fail_safe_work_J", r.energy.empty() ? 0.0 : r.energy.back().fail_safe_work}};
     if (const SelfContacts* self = sim.self_contacts()) {
       const SelfContactStatistics& ss = self->statistics();
       j["contacts"]["self"] = {{"thickness", self->thickness()},
@@ -538,7 +557,8 @@ std::string checkpoint_bytes(const nlohmann::json& header, const Simulation& sim
   sim.save(w);
   w.u64(so_far.energy.size());
   for (const EnergyRow& e : so_far.energy)
-    for (double d : {e.time, e.kinetic, e.elastic, e.gravity, e.viscous_dissipated, e.numerical_dissipated, e.contact_work})
+    for (double d : {e.time, e.kinetic, e.elastic, e.gravity, e.viscous_dissipated, e.numerical_dissipated, e.contact_work,
+                     e.fail_safe_work})
       w.f64(d);
   w.f64(so_far.wall_seconds);
   w.u64(fnv1a(w.bytes().data(), w.bytes().size()));
@@ -573,11 +593,11 @@ RunResult restore_checkpoint(const std::string& bytes, const std::string& file, 
   sim.restore(in);
   RunResult r;
   const std::uint64_t rows = in.u64();
-  if (rows > bytes.size() / (7 * sizeof(double))) in.fail("checkpoint is damaged (" + std::to_string(rows) + " energy rows)");
+  if (rows > bytes.size() / (8 * sizeof(double))) in.fail("checkpoint is damaged (" + std::to_string(rows) + " energy rows)");
   for (std::uint64_t k = 0; k < rows; ++k) {
     EnergyRow e;
     for (double* d : {&e.time, &e.kinetic, &e.elastic, &e.gravity, &e.viscous_dissipated, &e.numerical_dissipated,
-                      &e.contact_work})
+                      &e.contact_work, &e.fail_safe_work})
       *d = in.f64();
     r.energy.push_back(e);
   }
