@@ -670,7 +670,7 @@ void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics&
   for (bool prescribed : {false, true}) {
     ContactReport report;
     x_before_fail_safe_ = s.x;
-    VecX& v_before = x_start_scratch_;
+    VecX& v_before = v_before_group_;
     v_before = s.v;
     for (ContactHandler* h : handlers_)
       if (h->prescribes_motion() == prescribed) h->finish_step(x_start_, s.x, s.v, t0, dt, report);

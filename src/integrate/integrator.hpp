@@ -247,7 +247,8 @@ class Integrator {
   int guard_depth_ = 0, guard_depth_calm_steps_ = 0;  ///< DynamicState::guard_depth, ..._calm_steps
   State guard_start_;        ///< the guarded step's start, to take it again from
   bool guard_raised_now_ = false;  ///< a part of this step was taken above the scene's alpha
-  VecX v_before_fail_safe_, x_before_fail_safe_, x_start_scratch_;  ///< scratch of finish_contacts
+  VecX v_before_fail_safe_;                  ///< finish_contacts: the velocities before every correction
+  VecX x_before_fail_safe_, v_before_group_; ///< finish_contacts: the state before one group of handlers
 };
 
 }  // namespace weft
