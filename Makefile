@@ -51,6 +51,10 @@ test: deps $(BUILD)/build.ninja $(VALIDATOR)
 # by clang (-O2, so the suite runs in minutes); the same folder holds the readers' libFuzzer
 # harnesses (fuzz/), which `make fuzz` runs for FUZZ_SECONDS each.
 SAN_BUILD ?= build-san
+# Tests left out of the sanitizer run: long scenes whose code paths shorter tests of the same
+# suite already cover under the sanitizers (the normal `make test` runs them all). Together they
+# took about two thirds of the sanitizer run's time.
+SAN_SKIP := ^(Checkpoint\.Killed(Rk45|ImplicitMidpoint|Multigrid)RunResumesToTheSameBytes|CollisionScenes\.(SheetOnTheWalkingBody|SelfCollisionDoesNotStretch|TwistedSheet).*|SelfContact\.StackedSheets.*|CantileverExperiment\.BendingLengthMatchesTheAnalyticValueForTwoMaterials)$$
 FUZZ_SECONDS ?= 10
 $(SAN_BUILD)/build.ninja: | deps
 	cmake -S . -B $(SAN_BUILD) -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Release \
@@ -59,7 +63,7 @@ $(SAN_BUILD)/build.ninja: | deps
 sanitize: deps $(SAN_BUILD)/build.ninja $(VALIDATOR)
 	cmake --build $(SAN_BUILD) -j $(JOBS) --target weft weft_tests
 	cd $(SAN_BUILD) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-	  ctest --output-on-failure -j $(JOBS)
+	  ctest --output-on-failure -j $(JOBS) -E '$(SAN_SKIP)' $(SAN_CTEST_ARGS)
 
 fuzz: deps $(SAN_BUILD)/build.ninja
 	cmake --build $(SAN_BUILD) -j $(JOBS) --target weft_fuzz
