@@ -1,6 +1,7 @@
-// `weft garment PATTERN.json --out DIR`: meshes a sewing pattern's panels (docs/garments.md)
-// and writes them laid flat (OBJ), a picture of the panels with their meshes and stitches
-// (SVG) and a summary. Placing the panels around the body and sewing them come later.
+// `weft garment PATTERN.json --out DIR`: meshes a sewing pattern's panels (docs/garments.md),
+// places them around the mannequin in its bind pose and sews them into one garment; writes the
+// sewn garment (OBJ), the panels laid flat (OBJ), a picture of the panels with their meshes and
+// stitches (SVG) and a summary.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -8,6 +9,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -18,6 +20,9 @@
 #include "command.hpp"
 #include "experiment_common.hpp"
 #include "garment/garment_mesh.hpp"
+#include "garment/placement.hpp"
+#include "garment/sewing.hpp"
+#include "weft/material.hpp"
 #include "weft/atomic_file.hpp"
 #include "weft/error.hpp"
 
@@ -34,6 +39,11 @@ constexpr double kLargestEdge_m = 0.5;
 struct GarmentArgs {
   std::string pattern_file, out;
   double edge_length_m = 0.015;
+  bool no_sew = false;
+  double clearance_m = 0.02;
+  std::string material = "cotton";
+  double seam_stiffness_N_m = 1e4;
+  double sewing_time_s = 0.5;
 };
 
 std::string num(double v, const char* format = "%.10g") {
@@ -245,6 +255,78 @@ nlohmann::json garment_summary(const Pattern& pattern, const GarmentMesh& mesh,
           {"meshing_time_s", meshing_s}};
 }
 
+/// The sewn garment: positions (m), texture coordinates = the flat panels' coordinates (m)
+/// per triangle corner (a seam vertex has one on each panel it joins), one group per panel.
+std::string garment_obj(const Pattern& pattern, const SewnGarment& sewn) {
+  std::ostringstream obj;
+  const TriMesh& m = sewn.mesh;
+  obj << "# weft garment: pattern " << pattern.name << ", sewn on the mannequin in its bind pose (m); texture "
+      << "coordinates are the flat panels' coordinates (m), one group per panel\n";
+  for (int v = 0; v < m.num_vertices(); ++v)
+    obj << "v " << num(m.positions(v, 0), "%.9g") << ' ' << num(m.positions(v, 1), "%.9g") << ' '
+        << num(m.positions(v, 2), "%.9g") << "\n";
+  // One texture coordinate per distinct (vertex, place).
+  std::map<std::pair<int, std::pair<double, double>>, int> uv_index;
+  std::vector<std::array<int, 3>> corner_uv(m.triangles.size());
+  for (size_t t = 0; t < m.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const Vec2& u = m.corner(t, k);
+      const auto key = std::make_pair(m.triangles[t][k], std::make_pair(u.x(), u.y()));
+      auto [it, inserted] = uv_index.try_emplace(key, static_cast<int>(uv_index.size()) + 1);
+      if (inserted) obj << "vt " << num(u.x(), "%.9g") << ' ' << num(u.y(), "%.9g") << "\n";
+      corner_uv[t][k] = it->second;
+    }
+  int panel = -1;
+  for (size_t t = 0; t < m.triangles.size(); ++t) {
+    if (sewn.panel_of_triangle[t] != panel) {
+      panel = sewn.panel_of_triangle[t];
+      obj << "g " << obj_name(pattern.panels[static_cast<size_t>(panel)].name) << "\n";
+    }
+    obj << 'f';
+    for (int k = 0; k < 3; ++k) obj << ' ' << m.triangles[t][k] + 1 << '/' << corner_uv[t][k];
+    obj << '\n';
+  }
+  return obj.str();
+}
+
+nlohmann::json sewing_summary(const Pattern& pattern, const PlacedGarment& placed, const SewnGarment& sewn,
+                              const GarmentArgs& a, double wall_s) {
+  nlohmann::json parts = nlohmann::json::object();
+  for (size_t p = 0; p < pattern.panels.size(); ++p) parts[pattern.panels[p].name] = body_part_name(placed.panel_part[p]);
+  std::vector<double> gap(pattern.stitches.size(), 0.0);
+  for (size_t q = 0; q < placed.seam_pairs.size(); ++q) {
+    const auto& pr = placed.seam_pairs[q];
+    gap[static_cast<size_t>(placed.seam_stitch[q])] = std::max(
+        gap[static_cast<size_t>(placed.seam_stitch[q])], (sewn.sewn_positions.row(pr[0]) - sewn.sewn_positions.row(pr[1])).norm());
+  }
+  const EdgeUse edges = edge_use(sewn.mesh.triangles);
+  double area = 0;
+  for (size_t t = 0; t < sewn.mesh.triangles.size(); ++t) {
+    const Vec2 e1 = sewn.mesh.corner(t, 1) - sewn.mesh.corner(t, 0), e2 = sewn.mesh.corner(t, 2) - sewn.mesh.corner(t, 0);
+    area += 0.5 * std::abs(e1.x() * e2.y() - e1.y() * e2.x());
+  }
+  return {{"clearance_m", a.clearance_m},
+          {"panel_parts", parts},
+          {"vertices_pushed_out_of_the_body", placed.vertices_pushed_out},
+          {"material", a.material},
+          {"seam_stiffness_N_m", a.seam_stiffness_N_m},
+          {"largest_seam_gap_placed_m", sewn.largest_gap_placed_m},
+          {"largest_seam_gap_m", sewn.largest_gap_m},
+          {"largest_seam_gap_per_stitch_m", gap},
+          {"converged", sewn.converged},
+          {"simulated_time_s", sewn.sewing_time_s},
+          {"steps", sewn.steps},
+          {"time_s", wall_s},
+          {"garment", {{"vertices", sewn.mesh.num_vertices()},
+                       {"triangles", sewn.mesh.triangles.size()},
+                       {"area_m2", area},
+                       {"boundary_edges", edges.boundary},
+                       {"non_manifold_edges", edges.non_manifold},
+                       {"inconsistently_oriented_edges", edges.inconsistent}}},
+          {"intersections", {{"self", sewn.intersections.cloth_self.count},
+                             {"body", sewn.intersections.cloth_body.empty() ? 0 : sewn.intersections.cloth_body[0].count}}}};
+}
+
 PendingFile text_output(const fs::path& path, std::string text) {
   return {path, [text = std::move(text)](const fs::path& temporary) {
             std::ofstream f(temporary, std::ios::binary);
@@ -259,6 +341,13 @@ int run_garment(const GarmentArgs& a) {
     throw InputError("--edge-length " + num(a.edge_length_m) +
                      ": expected a length in metres from " + num(kSmallestEdge_m) + " to " +
                      num(kLargestEdge_m));
+  if (!(a.clearance_m >= 0.002 && a.clearance_m <= 0.2))
+    throw InputError("--clearance " + num(a.clearance_m) + ": expected a gap in metres from 0.002 to 0.2");
+  if (!(a.seam_stiffness_N_m > 0 && a.seam_stiffness_N_m <= 1e7))
+    throw InputError("--seam-stiffness " + num(a.seam_stiffness_N_m) + ": expected a stiffness in N/m in (0, 1e7]");
+  if (!(a.sewing_time_s > 0 && a.sewing_time_s <= 60))
+    throw InputError("--sewing-time " + num(a.sewing_time_s) + ": expected simulated seconds in (0, 60]");
+  const Material fabric = material_preset(a.material);
   check_output_folder(a.out);
   // Everything is read and meshed before the first file is written.
   const Pattern pattern = load_pattern(a.pattern_file);
@@ -276,10 +365,31 @@ int run_garment(const GarmentArgs& a) {
   // CPU time too: on a busy machine the wall time says more about the other work.
   summary["meshing_cpu_time_s"] = meshing_cpu_s;
   const fs::path dir(a.out);
-  write_files_atomically(
-      {text_output(dir / "panels.obj", panels_obj(pattern, mesh, offsets)),
-       text_output(dir / "panels.svg", panels_svg(pattern, mesh, offsets, a.edge_length_m)),
-       text_output(dir / "summary.json", summary.dump(2) + "\n")});
+  std::vector<PendingFile> files{
+      text_output(dir / "panels.obj", panels_obj(pattern, mesh, offsets)),
+      text_output(dir / "panels.svg", panels_svg(pattern, mesh, offsets, a.edge_length_m))};
+  if (!a.no_sew) {
+    const auto sew_start = std::chrono::steady_clock::now();
+    std::fprintf(stderr, "weft garment: placing %zu panels around the mannequin\n", pattern.panels.size());
+    const BindBody body = load_bind_body(BodyColliderSpec{}, 1.0);
+    PlacementOptions placement;
+    placement.clearance_m = a.clearance_m;
+    const PlacedGarment placed = place_garment(pattern, mesh, body, placement);
+    SewingOptions sewing;
+    sewing.material = fabric;
+    sewing.seam_stiffness_N_m = a.seam_stiffness_N_m;
+    sewing.max_time_s = a.sewing_time_s;
+    const SewnGarment sewn = sew_garment(placed, body, sewing, [](double t, double gap) {
+      std::fprintf(stderr, "\rweft garment: sewing: %.2f s simulated, largest seam gap %.2f mm   ", t, 1e3 * gap);
+    });
+    std::fprintf(stderr, "\n");
+    const double sewing_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - sew_start).count();
+    summary["stage"] = "sewn";
+    summary["sewing"] = sewing_summary(pattern, placed, sewn, a, sewing_s);
+    files.push_back(text_output(dir / "garment.obj", garment_obj(pattern, sewn)));
+  }
+  files.push_back(text_output(dir / "summary.json", summary.dump(2) + "\n"));
+  write_files_atomically(std::move(files));
 
   std::printf(
       "weft garment: %s: %zu panels, %zu stitches, %s triangles, %.3f m^2 at %.3g cm in %.0f ms "
@@ -292,31 +402,46 @@ int run_garment(const GarmentArgs& a) {
                 p["name"].get<std::string>().c_str(), p["triangles"].get<long>(),
                 p["area_m2"].get<double>(), p["smallest_angle_deg"].get<double>(),
                 100 * p["mean_edge_m"].get<double>());
-  std::printf(
-      "  wrote %s (panels.obj, panels.svg, summary.json); placement around the body and sewing are "
-      "not implemented yet\n",
-      dir.string().c_str());
+  if (summary.contains("sewing")) {
+    const auto& sw = summary["sewing"];
+    std::printf("  sewn: %ld vertices, %ld triangles; largest seam gap %.2f mm (placed: %.1f mm) after %.2f s "
+                "simulated in %.1f s; intersections: %ld with itself, %ld with the body\n",
+                sw["garment"]["vertices"].get<long>(), sw["garment"]["triangles"].get<long>(),
+                1e3 * sw["largest_seam_gap_m"].get<double>(), 1e3 * sw["largest_seam_gap_placed_m"].get<double>(),
+                sw["simulated_time_s"].get<double>(), sw["time_s"].get<double>(),
+                sw["intersections"]["self"].get<long>(), sw["intersections"]["body"].get<long>());
+  }
+  std::printf("  wrote %s (%spanels.obj, panels.svg, summary.json)\n", dir.string().c_str(),
+              a.no_sew ? "" : "garment.obj, ");
   return kExitOk;
 }
 
 RegisterCommand reg{
-    {"", "garment", "Mesh a sewing pattern's panels, laid flat (placement and sewing: not yet)",
+    {"", "garment", "Mesh a sewing pattern, place its panels around the mannequin and sew them",
      [](CLI::App& sub) {
        sub.footer(
-           "Reads a GarmentCode or Garment-Pattern-Generator pattern (docs/garments.md), meshes "
-           "every panel\n"
-           "with both sides of each stitch given matching boundary vertices, and writes "
-           "DIR/panels.obj (the\n"
-           "panels laid flat at z = 0, texture coordinates = pattern coordinates in metres, one "
-           "object per\n"
-           "panel), DIR/panels.svg (the panels, their meshes and stitches) and DIR/summary.json.\n"
-           "The command stops after meshing: placing the panels around the body and sewing them "
-           "are not\n"
-           "implemented yet. Exit status 2 for a bad pattern or option (nothing written).");
+           "Reads a GarmentCode or Garment-Pattern-Generator pattern (docs/garments.md), meshes every panel\n"
+           "with both sides of each stitch given matching boundary vertices, rolls each panel onto a\n"
+           "cylinder about the torso, an arm, a leg or the head of the mannequin in its bind pose, and sews:\n"
+           "springs pull the stitches shut (gravity off, the body and the cloth itself as colliders), then\n"
+           "each stitch's vertex pairs are welded. Writes DIR/garment.obj (the sewn garment, texture\n"
+           "coordinates = the flat panels' coordinates in metres, one group per panel; a scene takes it as\n"
+           "cloth.mesh.obj), DIR/panels.obj (the panels laid flat at z = 0, one object per panel),\n"
+           "DIR/panels.svg (the panels, their meshes and stitches) and DIR/summary.json. --no-sew stops\n"
+           "after meshing. Exit status 2 for a bad pattern or option (nothing written).");
        auto a = std::make_shared<GarmentArgs>();
        sub.add_option("pattern", a->pattern_file, "Pattern file (JSON)")->required();
        sub.add_option("--out,-o", a->out, "Output folder (created)")->required();
        sub.add_option("--edge-length", a->edge_length_m, "Target mesh edge length (m)")
+           ->capture_default_str();
+       sub.add_flag("--no-sew", a->no_sew, "Mesh the panels only (no placement, no sewing, no garment.obj)");
+       sub.add_option("--clearance", a->clearance_m, "Gap between the body and the placed panels (m)")
+           ->capture_default_str();
+       sub.add_option("--material", a->material, "Fabric preset during sewing (data/materials)")
+           ->capture_default_str();
+       sub.add_option("--seam-stiffness", a->seam_stiffness_N_m, "Spring pulling each seam vertex pair (N/m)")
+           ->capture_default_str();
+       sub.add_option("--sewing-time", a->sewing_time_s, "Most simulated seconds of sewing")
            ->capture_default_str();
        return std::function<int()>([a] { return run_garment(*a); });
      },

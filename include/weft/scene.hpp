@@ -1,6 +1,7 @@
 #pragma once
 // A validated scene (docs/scene-format.md): what to simulate, for how long, and how.
 #include <nlohmann/json.hpp>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -49,6 +50,10 @@ struct ClampSpec {
 struct ClothSpec {
   std::optional<GridSpec> grid;    ///< either a grid ...
   std::string obj_path;            ///< ... or an OBJ file (absolute, resolved against the scene)
+  /// ... or a mesh made in code (a garment being sewn); it comes first when set.
+  std::shared_ptr<const TriMesh> mesh;
+  /// Zero-length springs pulling pairs of vertices together (sewing; set in code).
+  std::vector<Seam> seams;
   double uv_scale = 1.0;           ///< metres per OBJ texture unit
   Vec3 rotation_deg = Vec3::Zero();  ///< applied X, then Y, then Z
   Vec3 translation = Vec3::Zero();

@@ -20,7 +20,6 @@ Box grown(Box b, double margin) {
   return b;
 }
 
-bool contains(const std::array<int, 3>& t, int v) { return t[0] == v || t[1] == v || t[2] == v; }
 
 // A unit normal for a pair whose closest points (nearly) coincide: `fallback` (a face normal or
 // the edges' common normal), turned so that the pair's relative velocity approaches along it
@@ -72,6 +71,18 @@ SelfContacts::SelfContacts(const std::vector<std::array<int, 3>>& triangles, con
   // The tree's shape comes from the rest positions, so it is the same however the run started
   // (a resumed run visits the pairs in the same order and gives the same bits).
   tree_ = AabbTree(triangles_, rest_positions.data());
+  group_.resize(n);
+  std::iota(group_.begin(), group_.end(), 0);
+}
+
+void SelfContacts::set_vertex_groups(std::vector<int> group) {
+  if (group.size() != fixed_.size()) throw std::invalid_argument("SelfContacts: one group per vertex");
+  group_ = std::move(group);
+}
+
+bool SelfContacts::holds(const std::array<int, 3>& t, int v) const {
+  const int g = group_[v];
+  return group_[t[0]] == g || group_[t[1]] == g || group_[t[2]] == g;
 }
 
 template <class VertexFace, class EdgeEdge>
@@ -102,7 +113,7 @@ void SelfContacts::for_each_candidate(const VecX& xa, const VecX& xb, double mar
     for (int pass = 0; pass < 2; ++pass) {
       const int a = pass ? h : g, b = pass ? g : h;
       for (int v : owned_vertices_[a])
-        if (!contains(triangles_[b], v) && vb[v].overlaps(tree_.triangle_box(b))) vertex_face(v, b);
+        if (!holds(triangles_[b], v) && vb[v].overlaps(tree_.triangle_box(b))) vertex_face(v, b);
     }
     for (int e : owned_edges_[g]) {
       const auto& p = edges_[e];
@@ -110,7 +121,8 @@ void SelfContacts::for_each_candidate(const VecX& xa, const VecX& xb, double mar
       if (!be.overlaps(tree_.triangle_box(h))) continue;
       for (int e2 : owned_edges_[h]) {
         const auto& q = edges_[e2];
-        if (p[0] == q[0] || p[0] == q[1] || p[1] == q[0] || p[1] == q[1]) continue;
+        const int p0 = group_[p[0]], p1 = group_[p[1]], q0 = group_[q[0]], q1 = group_[q[1]];
+        if (p0 == q0 || p0 == q1 || p1 == q0 || p1 == q1) continue;
         if (be.overlaps(eb[e2])) edge_edge(e, e2);
       }
     }

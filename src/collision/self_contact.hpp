@@ -54,6 +54,11 @@ class SelfContacts : public ContactHandler {
   SelfContacts(const std::vector<std::array<int, 3>>& triangles, const VecX& rest_positions, const VecX& mass,
                const std::vector<char>& fixed, double thickness, double friction);
 
+  /// Vertices that stand for one point of the cloth (the two sides of a seam being sewn):
+  /// group[v] is the same for each, and a vertex meets no face and an edge no edge holding a
+  /// vertex of its own group, as if they were welded. Without it every vertex is its own.
+  void set_vertex_groups(std::vector<int> group);
+
   /// Vertices within the thickness of a cloth face at x (and held by no handler before this
   /// one in `out`) held in the solve against their closest face as against a surface: no
   /// approach along the pair's normal (a face drawing back is followed at its velocity at the
@@ -122,6 +127,9 @@ class SelfContacts : public ContactHandler {
   VecX inverse_mass_;                        ///< 0 for pinned nodes
   const std::vector<char>* held_ = nullptr;
   std::vector<char> fixed_;
+  std::vector<int> group_;  ///< set_vertex_groups; identity by default
+  /// Whether triangle t holds v or a vertex of its group.
+  bool holds(const std::array<int, 3>& t, int v) const;
   double thickness_, friction_;
   AabbTree tree_;
   SelfContactStatistics stats_;

@@ -235,23 +235,27 @@ TriMesh cloth_mesh_from_obj(const ObjData& obj, double uv_scale, const std::stri
     m.positions.row(i) = p.transpose();
   }
   std::vector<int> uv_of(nv, -1);
+  std::vector<std::array<int, 3>> corner_uv;  // texture coordinate index per corner
   bool has_uv = !obj.texcoords.empty();
+  bool several_places = false;  // a vertex with two different texture coordinates
   for (size_t f = 0; f < obj.triangles.size(); ++f) {
     const auto& corners = obj.triangles[f];
     const std::array<int, 3> t{corners[0].vertex, corners[1].vertex, corners[2].vertex};
+    std::array<int, 3> uv{-1, -1, -1};
     for (int k = 0; k < 3 && has_uv; ++k) {
       const int ti = corners[k].texcoord;
       if (ti < 0) {
         has_uv = false;
-      } else if (uv_of[t[k]] >= 0 && uv_of[t[k]] != ti &&
-                 (obj.texcoords[2 * uv_of[t[k]]] != obj.texcoords[2 * ti] ||
-                  obj.texcoords[2 * uv_of[t[k]] + 1] != obj.texcoords[2 * ti + 1])) {
-        throw InputError(path + ":" + std::to_string(obj.triangle_line[f]) + ": vertex " + std::to_string(t[k] + 1) +
-                         " has two different texture coordinates (split it into two vertices)");
-      } else {
-        uv_of[t[k]] = ti;
+        break;
       }
+      uv[k] = ti;
+      if (uv_of[t[k]] < 0)
+        uv_of[t[k]] = ti;
+      else if (uv_of[t[k]] != ti && (obj.texcoords[2 * uv_of[t[k]]] != obj.texcoords[2 * ti] ||
+                                     obj.texcoords[2 * uv_of[t[k]] + 1] != obj.texcoords[2 * ti + 1]))
+        several_places = true;
     }
+    corner_uv.push_back(uv);
     m.triangles.push_back(t);
   }
   if (m.triangles.empty()) throw InputError(path + ": OBJ mesh has no faces");
@@ -276,10 +280,22 @@ TriMesh cloth_mesh_from_obj(const ObjData& obj, double uv_scale, const std::stri
       m.pattern[i] = Vec2(p.dot(e1), p.dot(e2));
     }
   }
+  // A vertex on several pattern pieces (a sewn garment's seam): every corner keeps its own
+  // texture coordinates.
+  if (has_uv && several_places) {
+    m.corner_pattern.resize(m.triangles.size());
+    for (size_t f = 0; f < m.triangles.size(); ++f)
+      for (int k = 0; k < 3; ++k)
+        m.corner_pattern[f][k] = uv_scale * Vec2(obj.texcoords[2 * corner_uv[f][k]], obj.texcoords[2 * corner_uv[f][k] + 1]);
+  }
   // Orient every triangle counter-clockwise in the pattern.
-  for (auto& t : m.triangles) {
-    const Vec2 e1 = m.pattern[t[1]] - m.pattern[t[0]], e2 = m.pattern[t[2]] - m.pattern[t[0]];
-    if (e1.x() * e2.y() - e1.y() * e2.x() < 0) std::swap(t[1], t[2]);
+  for (size_t f = 0; f < m.triangles.size(); ++f) {
+    auto& t = m.triangles[f];
+    const Vec2 e1 = m.corner(f, 1) - m.corner(f, 0), e2 = m.corner(f, 2) - m.corner(f, 0);
+    if (e1.x() * e2.y() - e1.y() * e2.x() < 0) {
+      std::swap(t[1], t[2]);
+      if (!m.corner_pattern.empty()) std::swap(m.corner_pattern[f][1], m.corner_pattern[f][2]);
+    }
   }
   return m;
 }

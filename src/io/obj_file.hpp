@@ -44,7 +44,9 @@ ObjData read_obj_file(const std::string& path);
 /// The cloth mesh of parsed OBJ data (`name` for messages): pattern coordinates from the
 /// texture coordinates times `uv_scale` (metres per texture unit) when every face corner has
 /// them, otherwise from the positions projected onto their best-fit plane. Coordinates are in
-/// metres and must lie within kMaxLength_m (scene.hpp). Throws InputError naming the file.
+/// metres and must lie within kMaxLength_m (scene.hpp). A vertex whose corners carry different
+/// texture coordinates lies on several pattern pieces (a sewn garment's seam): the mesh then
+/// keeps them per corner (TriMesh::corner_pattern). Throws InputError naming the file.
 TriMesh cloth_mesh_from_obj(const ObjData& obj, double uv_scale, const std::string& name);
 /// read_obj_file then cloth_mesh_from_obj.
 TriMesh load_obj(const std::string& path, double uv_scale = 1.0);

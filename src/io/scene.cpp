@@ -440,10 +440,11 @@ void check_memory_estimate(long vertices, const std::string& what) {
 }
 
 TriMesh build_cloth_mesh(const ClothSpec& spec) {
-  TriMesh m = spec.grid ? make_grid(spec.grid->size_u, spec.grid->size_v, spec.grid->vertices_u, spec.grid->vertices_v,
+  TriMesh m = spec.mesh ? *spec.mesh
+            : spec.grid ? make_grid(spec.grid->size_u, spec.grid->size_v, spec.grid->vertices_u, spec.grid->vertices_v,
                                     spec.grid->pattern)
                         : load_obj(spec.obj_path, spec.uv_scale);
-  if (!spec.grid)
+  if (!spec.grid && !spec.mesh)
     check_memory_estimate(m.num_vertices(), spec.obj_path + ": the mesh");
   const Vec3 r = spec.rotation_deg * (M_PI / 180.0);
   const Mat3 R = (Eigen::AngleAxisd(r.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(r.y(), Vec3::UnitY()) *

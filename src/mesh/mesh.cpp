@@ -116,6 +116,55 @@ std::vector<std::array<int, 4>> interior_edge_stencils(const TriMesh& mesh) {
   return out;
 }
 
+std::vector<FlatStencil> interior_edge_flat_stencils(const TriMesh& mesh) {
+  // Per edge (min, max): the triangles on it (a third marks it non-manifold).
+  std::map<std::pair<int, int>, std::array<int, 2>> edge_triangles;
+  for (size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const auto key = std::minmax(mesh.triangles[t][k], mesh.triangles[t][(k + 1) % 3]);
+      auto [it, inserted] = edge_triangles.try_emplace(key, std::array<int, 2>{static_cast<int>(t), -1});
+      if (!inserted) it->second[1] = it->second[1] == -1 ? static_cast<int>(t) : -2;
+    }
+  auto corner_of = [&](int t, int vertex) {
+    for (int k = 0; k < 3; ++k)
+      if (mesh.triangles[t][k] == vertex) return k;
+    return -1;
+  };
+  auto tip_of = [&](int t, int c, int d) {
+    for (int k = 0; k < 3; ++k)
+      if (mesh.triangles[t][k] != c && mesh.triangles[t][k] != d) return k;
+    return -1;
+  };
+  std::vector<FlatStencil> out;
+  for (const auto& [edge, tris] : edge_triangles) {
+    if (tris[1] < 0) continue;
+    const int c = edge.first, d = edge.second, t1 = tris[0], t2 = tris[1];
+    const int ka = tip_of(t1, c, d), kb = tip_of(t2, c, d);
+    FlatStencil s;
+    s.vertices = {mesh.triangles[t1][ka], mesh.triangles[t2][kb], c, d};
+    const Vec2 a = mesh.corner(t1, ka), c1 = mesh.corner(t1, corner_of(t1, c)), d1 = mesh.corner(t1, corner_of(t1, d));
+    const Vec2 b = mesh.corner(t2, kb), c2 = mesh.corner(t2, corner_of(t2, c)), d2 = mesh.corner(t2, corner_of(t2, d));
+    if (c1 == c2 && d1 == d2) {
+      s.pattern = {a, b, c1, d1};
+    } else {
+      // Turn triangle 2 about its edge's midpoint onto triangle 1's edge; the edge takes the
+      // mean of its two lengths.
+      const Vec2 m1 = 0.5 * (c1 + d1), m2 = 0.5 * (c2 + d2);
+      const Vec2 e1 = d1 - c1, e2 = d2 - c2;
+      const double l1 = e1.norm(), l2 = e2.norm();
+      if (!(l1 > 0) || !(l2 > 0)) continue;
+      const Vec2 u1 = e1 / l1, u2 = e2 / l2;
+      const double cs = u1.dot(u2), sn = u2.x() * u1.y() - u2.y() * u1.x();  // rotation u2 -> u1
+      const Vec2 r = b - m2;
+      const Vec2 b_flat = m1 + Vec2(cs * r.x() - sn * r.y(), sn * r.x() + cs * r.y());
+      const double half = 0.25 * (l1 + l2);
+      s.pattern = {a, b_flat, m1 - half * u1, m1 + half * u1};
+    }
+    out.push_back(s);
+  }
+  return out;
+}
+
 void write_obj(const std::string& path, const VecX& x, const std::vector<std::array<int, 3>>& triangles) {
   write_file_atomically(path, [&](std::ostream& out) {
     char buf[96];

@@ -13,7 +13,23 @@ struct TriMesh {
   Points positions;                           ///< #V by 3 (m)
   std::vector<Vec2> pattern;                  ///< #V pattern coordinates (m)
   std::vector<std::array<int, 3>> triangles;  ///< #F vertex indices, counter-clockwise in the pattern
+  /// Pattern coordinates per triangle corner, for meshes whose vertices lie on several
+  /// pattern pieces (a sewn garment: a seam vertex has a place on each panel it joins).
+  /// Empty when every corner takes its vertex's `pattern`; otherwise #F entries, and
+  /// `pattern` holds one of each vertex's places (for orderings and per-vertex outputs).
+  std::vector<std::array<Vec2, 3>> corner_pattern;
   int num_vertices() const { return static_cast<int>(positions.rows()); }
+  /// The pattern coordinates of corner k of triangle t.
+  const Vec2& corner(size_t t, int k) const {
+    return corner_pattern.empty() ? pattern[triangles[t][k]] : corner_pattern[t][k];
+  }
+};
+
+/// A zero-length spring that pulls two vertices of a mesh together (a seam being sewn):
+/// energy stiffness_N_m / 2 |x_a - x_b|^2.
+struct Seam {
+  int a = 0, b = 0;
+  double stiffness_N_m = 0;
 };
 
 /// How make_grid splits its cells into triangles.
@@ -32,6 +48,16 @@ TriMesh make_grid(double size_u, double size_v, int nu, int nv,
 /// Bending stencils: for every interior edge CD shared by triangles (C, D, A) and (D, C, B),
 /// the vertex indices (A, B, C, D).
 std::vector<std::array<int, 4>> interior_edge_stencils(const TriMesh& mesh);
+
+/// A bending stencil with the pattern coordinates of its four vertices laid out flat: the
+/// pattern of triangle (C, D, A) as it is, and triangle (D, C, B) turned and moved so that its
+/// edge CD lies on the first one's (where the two triangles come from different pattern
+/// pieces, their common edge is unfolded; its two lengths are averaged about its midpoint).
+struct FlatStencil {
+  std::array<int, 4> vertices;  ///< A, B, C, D
+  std::array<Vec2, 4> pattern;  ///< their flat pattern coordinates
+};
+std::vector<FlatStencil> interior_edge_flat_stencils(const TriMesh& mesh);
 
 /// The vertices in bands across the pattern: each connected piece in turn (by its lowest
 /// vertex index), within a piece by v in units of the row spacing (the median rise of the

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <numeric>
 #include <sstream>
 
 namespace weft {
@@ -36,7 +37,8 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
     clamp_groups = resolve_clamps(scene.cloth, mesh, pins);
     stage("model", kSetupShareMesh);
     model_ = std::make_unique<ClothModel>(build_cloth_model(std::move(mesh), scene.cloth.material, scene.gravity, pins,
-                                                            parse_bending_model(scene.cloth.bending_model, "cloth.bending_model")));
+                                                            parse_bending_model(scene.cloth.bending_model, "cloth.bending_model"),
+                                                            scene.cloth.seams));
   } catch (const InputError& e) {
     throw InputError(where + ": " + e.what());
   }
@@ -102,6 +104,18 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
     self_contacts_ = std::make_unique<SelfContacts>(model_->mesh.triangles, model_->initial_positions(), model_->mass,
                                                     held_still, scene.cloth.thickness, scene.cloth.friction);
     if (contacts_) self_contacts_->set_held_nodes(&contacts_->touching());
+    if (!scene.cloth.seams.empty()) {
+      // The two sides of a seam are one point of the cloth to come: they do not push apart.
+      std::vector<int> group(model_->num_vertices());
+      std::iota(group.begin(), group.end(), 0);
+      auto find = [&group](int i) {
+        while (group[i] != i) i = group[i] = group[group[i]];
+        return i;
+      };
+      for (const Seam& seam : scene.cloth.seams) group[std::max(find(seam.a), find(seam.b))] = std::min(find(seam.a), find(seam.b));
+      for (int i = 0; i < model_->num_vertices(); ++i) group[i] = find(i);
+      self_contacts_->set_vertex_groups(std::move(group));
+    }
     integrator_->add_contact_handler(self_contacts_.get());
   }
   // The clamps last: their contacts join the others', and they put their vertices on their

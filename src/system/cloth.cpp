@@ -25,7 +25,8 @@ BendingModel parse_bending_model(const std::string& name, const std::string& whe
 }
 
 ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3& gravity,
-                             const std::vector<int>& pins, BendingModel bending) {
+                             const std::vector<int>& pins, BendingModel bending,
+                             const std::vector<Seam>& seams) {
   ClothModel m;
   m.material = material;
   m.gravity = gravity;
@@ -42,7 +43,7 @@ ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3&
       if (tri[k] < 0 || tri[k] >= n)
         throw InputError("triangle " + std::to_string(t) + " refers to vertex " + std::to_string(tri[k]) +
                          ", the mesh has " + std::to_string(n));
-    if (!make_membrane_geometry(mesh.pattern[tri[0]], mesh.pattern[tri[1]], mesh.pattern[tri[2]], m.membranes[t]))
+    if (!make_membrane_geometry(mesh.corner(t, 0), mesh.corner(t, 1), mesh.corner(t, 2), m.membranes[t]))
       throw InputError("triangle " + std::to_string(t) + " (vertices " + std::to_string(tri[0]) + ", " +
                        std::to_string(tri[1]) + ", " + std::to_string(tri[2]) +
                        ") is degenerate in the pattern (zero area)");
@@ -63,15 +64,31 @@ ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3&
     if (m.fixed[i]) m.inverse_mass[i] = 0.0;
 
   if (bending == BendingModel::kHinge) {
-    for (const auto& s : interior_edge_stencils(mesh)) {
+    for (const auto& s : interior_edge_flat_stencils(mesh)) {
       BendingGeometry g;
-      if (!make_bending_geometry(mesh.pattern[s[0]], mesh.pattern[s[1]], mesh.pattern[s[2]], mesh.pattern[s[3]],
+      if (!make_bending_geometry(s.pattern[0], s.pattern[1], s.pattern[2], s.pattern[3],
                                  material.bending_rigidity_weft_Nm, material.bending_rigidity_warp_Nm, g))
         continue;  // a degenerate hinge carries no bending stiffness
-      m.bending.push_back(hinge_stencil(s, g));
+      m.bending.push_back(hinge_stencil(s.vertices, g));
     }
   } else {
+    if (!mesh.corner_pattern.empty())
+      throw InputError("the plate bending element needs one pattern place per vertex; a mesh sewn from several "
+                       "pieces (a vertex with two texture coordinates) takes the hinge element");
     m.bending = plate_bending_stencils(mesh, material.bending_rigidity_weft_Nm, material.bending_rigidity_warp_Nm);
+  }
+  // Seams: zero-length springs, E = k/2 |x_i - x_j|^2, one linear stencil each.
+  for (const Seam& seam : seams) {
+    if (seam.a < 0 || seam.a >= n || seam.b < 0 || seam.b >= n || seam.a == seam.b)
+      throw InputError("seam joins vertices " + std::to_string(seam.a) + " and " + std::to_string(seam.b) +
+                       ", the mesh has " + std::to_string(n));
+    LinearBendingStencil st;
+    st.vertices = {seam.a, seam.b};
+    st.measures = MatX(1, 2);
+    st.measures << 1.0, -1.0;
+    st.weights = VecX::Constant(1, seam.stiffness_N_m);
+    st.finish();
+    m.bending.push_back(std::move(st));
   }
   for (const auto& b : m.bending)
     for (size_t a = 0; a < b.vertices.size(); ++a)

@@ -48,8 +48,10 @@ struct ClothModel {
 enum class BendingModel { kHinge, kPlate };
 BendingModel parse_bending_model(const std::string& name, const std::string& where);
 
+/// `seams` (mesh/mesh.hpp) become linear stencils beside the bending ones.
 ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3& gravity,
-                             const std::vector<int>& pins, BendingModel bending = BendingModel::kHinge);
+                             const std::vector<int>& pins, BendingModel bending = BendingModel::kHinge,
+                             const std::vector<Seam>& seams = {});
 
 struct DampingSettings {
   /// Target damping ratio (fraction of critical); 0 disables adaptive damping.

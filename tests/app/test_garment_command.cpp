@@ -6,6 +6,7 @@
 #include "garment/pattern.hpp"
 #include "garment/sample_patterns.hpp"
 #include "io/obj_file.hpp"
+#include "mesh/mesh.hpp"
 #include "support/command.hpp"
 
 using weft::test::CommandTest;
@@ -24,7 +25,7 @@ TEST_F(GarmentCommand, EveryShippedPatternWritesFlatPanelsPictureAndSummary) {
     SCOPED_TRACE(file);
     const weft::Pattern pattern = weft::load_pattern(file);
     const auto out = folder_ / pattern.name;
-    const auto r = weft("garment " + quoted(file) + " --out " + quoted(out));
+    const auto r = weft("garment --no-sew " + quoted(file) + " --out " + quoted(out));
     ASSERT_EQ(r.exit_code, 0) << r.error_output;
 
     const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
@@ -70,7 +71,7 @@ TEST_F(GarmentCommand, PanelNamesAreEscapedInThePicture) {
       "front & <back>": {"vertices": [[0, 0], [0.2, 0], [0.2, 0.2]],
                          "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 0]}]}}}})");
   const auto out = folder_ / "out";
-  const auto r = weft("garment " + quoted(pattern) + " --out " + quoted(out));
+  const auto r = weft("garment --no-sew " + quoted(pattern) + " --out " + quoted(out));
   ASSERT_EQ(r.exit_code, 0) << r.error_output;
   const std::string svg = read_text(out / "panels.svg");
   EXPECT_NE(svg.find(">front &amp; &lt;back&gt;</text>"), std::string::npos);
@@ -85,7 +86,7 @@ TEST_F(GarmentCommand, AnOutputPathThatIsAFileExitsTwo) {
     "pattern": {"panels": {"a": {"vertices": [[0, 0], [0.2, 0], [0.2, 0.2]],
                                  "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 0]}]}}}})");
   const auto file = write("taken", "a file\n");
-  const auto r = weft("garment " + quoted(pattern) + " --out " + quoted(file));
+  const auto r = weft("garment --no-sew " + quoted(pattern) + " --out " + quoted(file));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.error_output.find("exists and is not a folder"), std::string::npos) << r.error_output;
   EXPECT_EQ(read_text(file), "a file\n");
@@ -98,7 +99,7 @@ TEST_F(GarmentCommand, AStitchNamingAMissingEdgeExitsTwoAndWritesNothing) {
       "b": {"vertices": [[0, 0], [1, 0], [1, 1]], "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 0]}]}},
     "stitches": [[{"panel": "a", "edge": 1}, {"panel": "b", "edge": 7}]]}})");
   const auto out = folder_ / "out";
-  const auto r = weft("garment " + quoted(pattern) + " --out " + quoted(out));
+  const auto r = weft("garment --no-sew " + quoted(pattern) + " --out " + quoted(out));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.error_output.find("bad.json: key pattern.stitches[0][1].edge: panel 'b' has no edge "
                                 "7 (its edges are 0 to 2)"),
@@ -112,7 +113,7 @@ TEST_F(GarmentCommand, AnEdgeLengthOutOfRangeExitsTwo) {
       std::string(WEFT_SOURCE_DIR) + "/data/patterns/garment_pattern_generator/jacket.json";
   const auto out = folder_ / "out";
   const auto r =
-      weft("garment " + quoted(jacket) + " --out " + quoted(out) + " --edge-length 0.0001");
+      weft("garment --no-sew " + quoted(jacket) + " --out " + quoted(out) + " --edge-length 0.0001");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(
       r.error_output.find("--edge-length 0.0001: expected a length in metres from 0.002 to 0.5"),
@@ -123,10 +124,73 @@ TEST_F(GarmentCommand, AnEdgeLengthOutOfRangeExitsTwo) {
 
 TEST_F(GarmentCommand, AMissingPatternFileExitsTwo) {
   const auto out = folder_ / "out";
-  const auto r = weft("garment " + quoted(folder_ / "none.json") + " --out " + quoted(out));
+  const auto r = weft("garment --no-sew " + quoted(folder_ / "none.json") + " --out " + quoted(out));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.error_output.find("none.json"), std::string::npos) << r.error_output;
   EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+}  // namespace
+
+namespace {
+
+// The sewn garment end to end, on a GarmentCode shirt at 2 cm (seconds): the seams
+// close, the welded mesh is one orientable surface without non-manifold edges, it lies clear
+// of itself and the body, and it reads back as a cloth whose triangles keep their panels'
+// pattern places (so its area is the panels' area).
+TEST_F(GarmentCommand, ASewnShirtIsOneCleanMeshThatReadsBackAsACloth) {
+  const std::string shirt =
+      std::string(WEFT_SOURCE_DIR) + "/data/patterns/garmentcode/shirt_mean_specification.json";
+  const auto out = folder_ / "shirt";
+  const auto r = weft("garment " + quoted(shirt) + " --out " + quoted(out) + " --edge-length 0.02");
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  ASSERT_EQ(summary["stage"], "sewn");
+  const auto& sewing = summary["sewing"];
+  EXPECT_LT(sewing["largest_seam_gap_m"].get<double>(), 1e-3);
+  EXPECT_GT(sewing["largest_seam_gap_placed_m"].get<double>(), 1e-2);  // the panels did have to move
+  EXPECT_EQ(sewing["intersections"]["self"], 0);
+  EXPECT_EQ(sewing["intersections"]["body"], 0);
+  EXPECT_EQ(sewing["garment"]["non_manifold_edges"], 0);
+  EXPECT_EQ(sewing["garment"]["inconsistently_oriented_edges"], 0);
+  EXPECT_GT(sewing["garment"]["boundary_edges"].get<int>(), 0);  // neck, hem and cuffs stay open
+  EXPECT_NEAR(sewing["garment"]["area_m2"].get<double>(), summary["area_m2"].get<double>(),
+              1e-9 * summary["area_m2"].get<double>());
+  for (const char* part : {"left_sleeve_f", "left_sleeve_b"}) EXPECT_EQ(sewing["panel_parts"][part], "left_arm");
+  EXPECT_EQ(sewing["panel_parts"]["right_ftorso"], "torso");
+
+  // Read back as a cloth mesh: seam vertices have one place per panel, so the mesh keeps
+  // them per corner, and the membranes' areas add up to the panels' area.
+  const weft::TriMesh mesh = weft::load_obj((out / "garment.obj").string());
+  EXPECT_EQ(mesh.num_vertices(), sewing["garment"]["vertices"].get<int>());
+  EXPECT_EQ(mesh.corner_pattern.size(), mesh.triangles.size());
+  double area = 0;
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const weft::Vec2 e1 = mesh.corner(t, 1) - mesh.corner(t, 0), e2 = mesh.corner(t, 2) - mesh.corner(t, 0);
+    const double cross = e1.x() * e2.y() - e1.y() * e2.x();
+    EXPECT_GT(cross, 0) << "triangle " << t << " is not counter-clockwise in the pattern";
+    area += 0.5 * cross;
+  }
+  EXPECT_NEAR(area, summary["area_m2"].get<double>(), 1e-6 * area);
+  const weft::ObjData obj = weft::parse_obj(read_text(out / "garment.obj"), "garment.obj");
+  EXPECT_EQ(obj.groups.size(), summary["panels"].size());
+}
+
+TEST_F(GarmentCommand, SewingOptionsOutOfRangeExitTwoNamingThem) {
+  const std::string shirt =
+      std::string(WEFT_SOURCE_DIR) + "/data/patterns/garmentcode/shirt_mean_specification.json";
+  const auto out = folder_ / "out";
+  const std::pair<const char*, const char*> cases[] = {
+      {" --clearance 0.5", "--clearance 0.5: expected a gap in metres from 0.002 to 0.2"},
+      {" --seam-stiffness -1", "--seam-stiffness -1: expected a stiffness in N/m in (0, 1e7]"},
+      {" --sewing-time 0", "--sewing-time 0: expected simulated seconds in (0, 60]"},
+      {" --material tweed", "tweed"}};
+  for (const auto& [option, message] : cases) {
+    const auto r = weft("garment " + quoted(shirt) + " --out " + quoted(out) + option);
+    EXPECT_EQ(r.exit_code, 2) << option;
+    EXPECT_NE(r.error_output.find(message), std::string::npos) << r.error_output;
+    EXPECT_FALSE(std::filesystem::exists(out));
+  }
 }
 
 }  // namespace

@@ -1,0 +1,424 @@
+#include "garment/placement.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+#include "collision/colliders.hpp"
+#include "weft/error.hpp"
+
+namespace weft {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// An elliptic cylinder about a body part: points O + h a + r1 cos(phi) e1 + r2 sin(phi) e2,
+/// with e1 x e2 = a, so that phi grows the way a x (outward normal) points.
+struct Cylinder {
+  Vec3 origin = Vec3::Zero(), axis = Vec3::UnitY(), e1 = Vec3::UnitZ(), e2 = Vec3::UnitX();
+  double r1 = 0.1, r2 = 0.1;
+  std::vector<double> arc;  ///< arc length at phi = 2 pi k / (arc.size() - 1)
+
+  void tabulate() {
+    const int n = 2048;
+    arc.assign(n + 1, 0.0);
+    for (int k = 1; k <= n; ++k) {
+      const double p0 = 2 * kPi * (k - 1) / n, p1 = 2 * kPi * k / n;
+      const Vec2 a(r1 * std::cos(p0), r2 * std::sin(p0)), b(r1 * std::cos(p1), r2 * std::sin(p1));
+      arc[k] = arc[k - 1] + (b - a).norm();
+    }
+  }
+  double girth() const { return arc.back(); }
+  double arc_at(double phi) const {
+    phi = std::fmod(phi, 2 * kPi);
+    if (phi < 0) phi += 2 * kPi;
+    const double f = phi / (2 * kPi) * (arc.size() - 1);
+    const size_t k = std::min(static_cast<size_t>(f), arc.size() - 2);
+    return arc[k] + (f - k) * (arc[k + 1] - arc[k]);
+  }
+  double phi_at(double s) const {
+    const double L = girth();
+    s = std::fmod(s, L);
+    if (s < 0) s += L;
+    const size_t k = std::min(static_cast<size_t>(std::upper_bound(arc.begin(), arc.end(), s) - arc.begin()),
+                              arc.size() - 1);
+    const size_t j = k == 0 ? 0 : k - 1;
+    const double span = arc[j + 1] - arc[j];
+    const double f = span > 0 ? (s - arc[j]) / span : 0.0;
+    return 2 * kPi * (j + f) / (arc.size() - 1);
+  }
+  Vec3 point(double h, double phi) const {
+    return origin + h * axis + r1 * std::cos(phi) * e1 + r2 * std::sin(phi) * e2;
+  }
+  double phi_of_direction(const Vec3& n) const { return std::atan2(n.dot(e2), n.dot(e1)); }
+};
+
+Mat3 euler_xyz(const Vec3& deg) {
+  const Vec3 r = deg * (kPi / 180.0);
+  return (Eigen::AngleAxisd(r.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(r.y(), Vec3::UnitY()) *
+          Eigen::AngleAxisd(r.x(), Vec3::UnitX()))
+      .toRotationMatrix();
+}
+
+bool contains(const std::string& s, const char* word) { return s.find(word) != std::string::npos; }
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+/// The part a panel goes around, from its name and (for the side) where the file places it.
+BodyPart guess_part(const std::string& name, double file_x) {
+  const std::string n = lower(name);
+  const bool left = file_x > 0;  // the wearer's left is +x (the body faces +z)
+  if (contains(n, "sleeve")) return left ? BodyPart::left_arm : BodyPart::right_arm;
+  if (contains(n, "pant") || contains(n, "leg") || contains(n, "trouser"))
+    return left ? BodyPart::left_leg : BodyPart::right_leg;
+  if (contains(n, "hood")) return BodyPart::head;
+  return BodyPart::torso;
+}
+
+Vec3 joint(const Rig& rig, const char* bone, bool tail = false) {
+  const int b = rig.find(bone);
+  if (b < 0) throw InputError(std::string("the body's rig has no bone ") + bone);
+  return tail ? rig.tail_bind[b] : rig.head_bind[b];
+}
+
+/// A frame (e1, e2) about `axis` with e1 as near `front` as it goes and e1 x e2 = axis.
+void set_frame(Cylinder& c, const Vec3& axis, const Vec3& front) {
+  c.axis = axis.normalized();
+  c.e1 = (front - front.dot(c.axis) * c.axis).normalized();
+  c.e2 = c.axis.cross(c.e1);
+}
+
+/// Semi-axes (r1, r2) of the smallest ellipse of the cylinder's frame (with the aspect of the
+/// points' extents) holding the body's vertices whose axial coordinate lies in [h0, h1] and
+/// that are within `reach` of the axis, centred where those points are.
+void fit_to_body(Cylinder& c, const Points& body, double h0, double h1, double reach) {
+  std::vector<Vec2> q;
+  for (Eigen::Index i = 0; i < body.rows(); ++i) {
+    const Vec3 d = body.row(i).transpose() - c.origin;
+    const double h = d.dot(c.axis);
+    if (h < h0 || h > h1) continue;
+    const Vec2 p(d.dot(c.e1), d.dot(c.e2));
+    if (p.norm() <= reach) q.push_back(p);
+  }
+  if (q.empty()) return;
+  Vec2 lo = q[0], hi = q[0];
+  for (const Vec2& p : q) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const Vec2 mid = 0.5 * (lo + hi), half = (0.5 * (hi - lo)).cwiseMax(Vec2::Constant(1e-3));
+  c.origin += mid.x() * c.e1 + mid.y() * c.e2;
+  double scale = 0;
+  for (const Vec2& p : q) scale = std::max(scale, ((p - mid).array() / half.array()).matrix().norm());
+  c.r1 = scale * half.x();
+  c.r2 = scale * half.y();
+}
+
+}  // namespace
+
+BodyPart parse_body_part(const std::string& name, const std::string& where) {
+  for (BodyPart p : {BodyPart::torso, BodyPart::left_arm, BodyPart::right_arm, BodyPart::left_leg,
+                     BodyPart::right_leg, BodyPart::head})
+    if (body_part_name(p) == name) return p;
+  throw InputError(where + ": unknown body part \"" + name +
+                   "\" (expected torso, left_arm, right_arm, left_leg, right_leg or head)");
+}
+
+std::string body_part_name(BodyPart part) {
+  switch (part) {
+    case BodyPart::torso: return "torso";
+    case BodyPart::left_arm: return "left_arm";
+    case BodyPart::right_arm: return "right_arm";
+    case BodyPart::left_leg: return "left_leg";
+    case BodyPart::right_leg: return "right_leg";
+    case BodyPart::head: return "head";
+  }
+  return "torso";
+}
+
+BindBody load_bind_body(BodyColliderSpec spec, double hold_s) {
+  if (!(hold_s > 0)) throw std::invalid_argument("load_bind_body: the hold must be positive");
+  spec.bind_pose_hold = std::max(spec.bind_pose_hold, hold_s);
+  WalkingBody walker(spec);
+  BindBody body;
+  walker.positions(0.0, body.positions);
+  body.triangles = walker.triangles();
+  body.rig = walker.rig();
+  const Vec3 shift = (body.positions.row(0) - walker.bind_positions().row(0)).transpose();
+  for (int b = 0; b < body.rig.bone_count(); ++b) {
+    body.rig.head_bind[b] += shift;
+    body.rig.tail_bind[b] += shift;
+  }
+  body.spec = spec;
+  return body;
+}
+
+double largest_seam_gap(const Points& positions, const std::vector<std::array<int, 2>>& pairs) {
+  double gap = 0;
+  for (const auto& p : pairs) gap = std::max(gap, (positions.row(p[0]) - positions.row(p[1])).norm());
+  return gap;
+}
+
+PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const BindBody& body,
+                            const PlacementOptions& options) {
+  const int np = static_cast<int>(pattern.panels.size());
+  for (const auto& [name, o] : options.overrides) {
+    bool found = false;
+    for (const Panel& p : pattern.panels) found = found || p.name == name;
+    if (!found) throw InputError(pattern.file + ": placement of panel '" + name + "': the pattern has no such panel");
+  }
+  // Each panel as the file places it: 3D points, centroid, outward normal.
+  struct FilePanel {
+    Mat3 R;
+    Vec3 t, centroid, outward;
+    BodyPart part;
+  };
+  std::vector<FilePanel> fp(np);
+  for (int p = 0; p < np; ++p) {
+    const Panel& panel = pattern.panels[p];
+    FilePanel& f = fp[p];
+    f.R = euler_xyz(panel.rotation_deg);
+    f.t = panel.translation_m;
+    Vec3 c = Vec3::Zero();
+    for (const Vec2& v : gm.panels[p].vertices_m) c += f.R * Vec3(v.x(), v.y(), 0) + f.t;
+    f.centroid = c / std::max<size_t>(1, gm.panels[p].vertices_m.size());
+    f.outward = f.R * Vec3(0, 0, panel.clockwise ? -1.0 : 1.0);
+    f.part = guess_part(panel.name, f.centroid.x());
+    auto o = options.overrides.find(panel.name);
+    if (o != options.overrides.end() && o->second.part) f.part = *o->second.part;
+  }
+  auto file_point = [&](int p, const Vec2& v) { return Vec3(fp[p].R * Vec3(v.x(), v.y(), 0) + fp[p].t); };
+
+  // The file's axis of each part: its direction, and a point on it (the middle of the part's
+  // panels across the axis).
+  const Rig& rig = body.rig;
+  const double clearance = options.clearance_m;
+  struct PartGeometry {
+    std::vector<int> panels;
+    Vec3 file_axis = Vec3::UnitY(), file_origin = Vec3::Zero();
+    Cylinder cyl;
+    double shift = 0;  ///< added to the file's axial coordinate
+  };
+  std::map<BodyPart, PartGeometry> parts;
+  for (int p = 0; p < np; ++p) parts[fp[p].part].panels.push_back(p);
+  for (auto& [part, g] : parts) {
+    const bool arm = part == BodyPart::left_arm || part == BodyPart::right_arm;
+    const double side = (part == BodyPart::left_arm || part == BodyPart::left_leg) ? 1.0 : -1.0;
+    // The file's axis: up for the torso, legs and head; along an arm, each sleeve panel's x
+    // axis (pattern generators draw sleeves with the arm along x), pointing away from the body.
+    if (arm) {
+      Vec3 a = fp[g.panels[0]].R * Vec3::UnitX();
+      if (a.x() * side < 0) a = -a;
+      g.file_axis = a.normalized();
+    }
+    Vec3 lo = Vec3::Constant(1e30), hi = Vec3::Constant(-1e30), mean = Vec3::Zero();
+    for (int p : g.panels) {
+      mean += fp[p].centroid;
+      for (const Vec2& v : gm.panels[p].vertices_m) {
+        lo = lo.cwiseMin(file_point(p, v));
+        hi = hi.cwiseMax(file_point(p, v));
+      }
+    }
+    g.file_origin = arm ? Vec3(mean / g.panels.size()) : Vec3(0.5 * (lo + hi));
+    double h_lo = 1e30, h_hi = -1e30, width = 0;
+    for (int p : g.panels) {
+      double s_lo = 1e30, s_hi = -1e30;
+      const Vec3 n = fp[p].outward;
+      const Vec3 ap = g.file_axis - g.file_axis.dot(n) * n;
+      if (ap.norm() < 0.2)
+        throw InputError(pattern.file + ": panel '" + pattern.panels[p].name + "' faces along the " +
+                         body_part_name(part) + "'s axis and cannot be wrapped around it (set its part or angle)");
+      const Vec3 tau = ap.normalized().cross(n);
+      for (const Vec2& v : gm.panels[p].vertices_m) {
+        const Vec3 x = file_point(p, v);
+        s_lo = std::min(s_lo, (x - fp[p].centroid).dot(tau));
+        s_hi = std::max(s_hi, (x - fp[p].centroid).dot(tau));
+        h_lo = std::min(h_lo, x.dot(g.file_axis));
+        h_hi = std::max(h_hi, x.dot(g.file_axis));
+      }
+      width += s_hi - s_lo;
+    }
+    // The body's cylinder and where the panels sit along it.
+    Cylinder& c = g.cyl;
+    const double span = h_hi - h_lo;
+    if (part == BodyPart::torso) {
+      // Vertical; the panels' top at the base of the neck, the fit taken below the armpits.
+      c.origin = Vec3(0, 0, 0);
+      set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
+      const double top = joint(rig, "Neck1").y() + clearance;
+      const double armpit = joint(rig, "LeftArm").y() - 0.1;
+      g.shift = top - h_hi;
+      fit_to_body(c, body.positions, std::min(top - span, armpit - 0.05), armpit, 0.35);
+    } else if (arm) {
+      const Vec3 shoulder = joint(rig, side > 0 ? "LeftArm" : "RightArm");
+      const Vec3 wrist = joint(rig, side > 0 ? "LeftHand" : "RightHand");
+      c.origin = shoulder;
+      set_frame(c, wrist - shoulder, Vec3::UnitZ());
+      // The sleeve starts where the torso's cylinder meets the arm.
+      const Cylinder& torso = parts.count(BodyPart::torso) ? parts[BodyPart::torso].cyl : c;
+      double start = 0;
+      if (&torso != &c) {
+        const double half_width = std::abs((Vec3::UnitX()).dot(torso.e2)) * torso.r2 + torso.origin.x() * side;
+        start = std::max(0.0, (half_width - shoulder.x() * side) / std::abs(c.axis.x()));
+      }
+      g.shift = start - h_lo;
+      fit_to_body(c, body.positions, start, start + span, 0.12);
+    } else if (part == BodyPart::head) {
+      const Vec3 base = joint(rig, "Head"), crown = joint(rig, "Head", true);
+      c.origin = Vec3(base.x(), 0, base.z());
+      set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
+      g.shift = crown.y() + 0.1 - h_hi;
+      fit_to_body(c, body.positions, crown.y() + 0.1 - span, crown.y() + 0.1, 0.2);
+    } else {
+      const Vec3 hip = joint(rig, side > 0 ? "LeftUpLeg" : "RightUpLeg");
+      c.origin = Vec3(hip.x(), 0, hip.z());
+      set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
+      const double waist = joint(rig, "LowerBack", true).y();
+      g.shift = waist - h_hi;
+      fit_to_body(c, body.positions, waist - span, waist, 0.15);
+    }
+    c.r1 += clearance;
+    c.r2 += clearance;
+    c.tabulate();
+    const double want = options.girth_allowance * width;
+    if (c.girth() < want) {
+      const double f = want / c.girth();
+      c.r1 *= f;
+      c.r2 *= f;
+      c.tabulate();
+    }
+  }
+
+  // Roll each panel onto its cylinder.
+  PlacedGarment out;
+  const std::vector<Vec2> layout = flat_layout_offsets(gm);
+  out.panel_first_vertex.push_back(0);
+  int total = 0;
+  for (int p = 0; p < np; ++p) out.panel_first_vertex.push_back(total += static_cast<int>(gm.panels[p].vertices_m.size()));
+  out.mesh.positions.resize(total, 3);
+  out.mesh.pattern.resize(total);
+  // Panels of one part that would lie on each other (the overlapping fronts of a jacket) go
+  // on layers further out, kLayer_m apart, each its own cylinder.
+  constexpr double kLayer_m = 0.008;
+  struct Extent {
+    BodyPart part;
+    double s_lo, s_hi, h_lo, h_hi;
+  };
+  std::vector<Extent> placed_extents;
+  std::map<std::pair<BodyPart, int>, Cylinder> layers;
+  for (int p = 0; p < np; ++p) {
+    const GarmentPanelMesh& pm = gm.panels[p];
+    const FilePanel& f = fp[p];
+    PartGeometry& g = parts[f.part];
+    const Vec3 n = f.outward;
+    const Vec3 ap = (g.file_axis - g.file_axis.dot(n) * n).normalized();
+    const Vec3 tau = ap.cross(n);
+    // The file's directions turned onto the body's axis.
+    const Eigen::Quaterniond Q = Eigen::Quaterniond::FromTwoVectors(g.file_axis, g.cyl.axis);
+    double phi_n = g.cyl.phi_of_direction(Q * n);
+    double shift = g.shift;
+    auto o = options.overrides.find(pattern.panels[p].name);
+    if (o != options.overrides.end()) {
+      if (o->second.angle_deg) phi_n = *o->second.angle_deg * kPi / 180.0;
+      shift += o->second.shift_m;
+    }
+    // The panel's extent around (as a fraction of the girth) and along the axis; its layer.
+    double s_lo = 1e30, s_hi = -1e30, h_lo = 1e30, h_hi = -1e30;
+    for (const Vec2& v : pm.vertices_m) {
+      const Vec3 x = file_point(p, v);
+      s_lo = std::min(s_lo, (x - f.centroid).dot(tau));
+      s_hi = std::max(s_hi, (x - f.centroid).dot(tau));
+      h_lo = std::min(h_lo, (x - f.centroid).dot(ap));
+      h_hi = std::max(h_hi, (x - f.centroid).dot(ap));
+    }
+    const double centre_fraction =
+        (g.cyl.arc_at(phi_n) + (f.centroid - g.file_origin).dot(tau)) / g.cyl.girth();
+    const Extent e{f.part, centre_fraction + s_lo / g.cyl.girth(), centre_fraction + s_hi / g.cyl.girth(),
+                   f.centroid.dot(g.file_axis) + h_lo, f.centroid.dot(g.file_axis) + h_hi};
+    int layer = 0;
+    for (const Extent& o : placed_extents) {
+      if (o.part != e.part || std::min(o.h_hi, e.h_hi) - std::max(o.h_lo, e.h_lo) <= 0.01) continue;
+      for (double wrap : {-1.0, 0.0, 1.0})
+        if (std::min(o.s_hi + wrap, e.s_hi) - std::max(o.s_lo + wrap, e.s_lo) > 0.01 / g.cyl.girth()) ++layer;
+    }
+    placed_extents.push_back(e);
+    auto [lit, fresh] = layers.try_emplace({f.part, layer}, g.cyl);
+    Cylinder& c = lit->second;
+    if (fresh && layer > 0) {
+      c.r1 += layer * kLayer_m;
+      c.r2 += layer * kLayer_m;
+      c.tabulate();
+    }
+    const double s_centre = c.arc_at(phi_n) + (f.centroid - g.file_origin).dot(tau);
+    const bool mirror = pattern.panels[p].clockwise;
+    const int first = out.panel_first_vertex[p];
+    const std::vector<Vec2> material = material_coordinates(pm);
+    for (size_t v = 0; v < pm.vertices_m.size(); ++v) {
+      const Vec3 x = file_point(p, pm.vertices_m[v]);
+      const double s = (x - f.centroid).dot(tau), h = (x - f.centroid).dot(ap) + f.centroid.dot(g.file_axis);
+      out.mesh.positions.row(first + v) = c.point(h + shift, c.phi_at(s_centre + s)).transpose();
+      Vec2 u = material[v];
+      if (mirror) u.x() = -u.x();
+      out.mesh.pattern[first + v] = u + layout[p];
+    }
+    for (const auto& t : pm.triangles) {
+      std::array<int, 3> tri{first + t[0], first + t[1], first + t[2]};
+      if (mirror) std::swap(tri[1], tri[2]);
+      out.mesh.triangles.push_back(tri);
+      out.panel_of_triangle.push_back(p);
+    }
+    out.panel_part.push_back(f.part);
+  }
+  // Mirrored panels were laid out unmirrored: move each back into its own layout box.
+  for (int p = 0; p < np; ++p) {
+    if (!pattern.panels[p].clockwise) continue;
+    double lo = 1e30, hi = -1e30, lo0 = 1e30;
+    for (int v = out.panel_first_vertex[p]; v < out.panel_first_vertex[p + 1]; ++v) {
+      lo = std::min(lo, out.mesh.pattern[v].x());
+      hi = std::max(hi, out.mesh.pattern[v].x());
+    }
+    for (const Vec2& v : material_coordinates(gm.panels[p])) lo0 = std::min(lo0, v.x());
+    (void)hi;
+    for (int v = out.panel_first_vertex[p]; v < out.panel_first_vertex[p + 1]; ++v)
+      out.mesh.pattern[v].x() += (lo0 + layout[p].x()) - lo;
+  }
+
+  // Seams: the stitches' vertex pairs, each pair once.
+  std::vector<std::array<int, 2>> pairs;
+  for (size_t s = 0; s < gm.stitches.size(); ++s) {
+    const StitchVertexPairs& st = gm.stitches[s];
+    for (const auto& pr : st.pairs) {
+      std::array<int, 2> q{out.panel_first_vertex[st.panel_a] + pr[0], out.panel_first_vertex[st.panel_b] + pr[1]};
+      if (q[0] == q[1]) continue;
+      if (q[0] > q[1]) std::swap(q[0], q[1]);
+      if (std::find(pairs.begin(), pairs.end(), q) != pairs.end()) continue;
+      pairs.push_back(q);
+      out.seam_stitch.push_back(static_cast<int>(s));
+    }
+  }
+  out.seam_pairs = std::move(pairs);
+
+  // Vertices that ended nearer the body than half the clearance move out along its normal.
+  ColliderSpec spec;
+  spec.shape = ColliderShape::kMesh;
+  spec.name = "body";
+  const Points body_positions = body.positions;
+  auto collider = make_mesh_collider(
+      spec, body.triangles, [body_positions](double, Points& out_positions) { out_positions = body_positions; }, true);
+  collider->prepare(0, 0);
+  const double keep = 0.5 * clearance;
+  for (int v = 0; v < total; ++v) {
+    SurfacePoint sp;
+    const Vec3 x = out.mesh.positions.row(v).transpose();
+    if (!collider->closest(x, keep, true, v, sp) || sp.distance >= keep) continue;
+    out.mesh.positions.row(v) = (sp.point + keep * sp.normal).transpose();
+    ++out.vertices_pushed_out;
+  }
+  return out;
+}
+
+}  // namespace weft

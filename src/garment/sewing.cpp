@@ -1,0 +1,159 @@
+#include "garment/sewing.hpp"
+
+#include <algorithm>
+#include <map>
+#include <memory>
+#include <numeric>
+
+#include "weft/error.hpp"
+#include "weft/scene.hpp"
+#include "weft/simulation.hpp"
+
+namespace weft {
+namespace {
+
+Points as_points(const VecX& x) {
+  Points p(x.size() / 3, 3);
+  for (Eigen::Index i = 0; i < p.rows(); ++i) p.row(i) = x.segment<3>(3 * i).transpose();
+  return p;
+}
+
+FrameIntersections check_intersections(const TriMesh& mesh, const BindBody& body) {
+  std::vector<double> cloth(3 * mesh.num_vertices()), skin(3 * body.positions.rows());
+  for (int i = 0; i < mesh.num_vertices(); ++i)
+    for (int k = 0; k < 3; ++k) cloth[3 * i + k] = mesh.positions(i, k);
+  for (Eigen::Index i = 0; i < body.positions.rows(); ++i)
+    for (int k = 0; k < 3; ++k) skin[3 * i + k] = body.positions(i, k);
+  std::vector<std::array<int, 3>> body_triangles(body.triangles.rows());
+  for (Eigen::Index f = 0; f < body.triangles.rows(); ++f)
+    body_triangles[f] = {body.triangles(f, 0), body.triangles(f, 1), body.triangles(f, 2)};
+  FrameChecker checker;
+  return checker.check({cloth.data(), &mesh.triangles}, {{skin.data(), &body_triangles}});
+}
+
+}  // namespace
+
+EdgeUse edge_use(const std::vector<std::array<int, 3>>& triangles) {
+  std::map<std::pair<int, int>, std::array<int, 2>> uses;  // (min, max) -> {forward, backward}
+  for (const auto& t : triangles)
+    for (int k = 0; k < 3; ++k) {
+      const int a = t[k], b = t[(k + 1) % 3];
+      auto& u = uses[std::minmax(a, b)];
+      ++u[a < b ? 0 : 1];
+    }
+  EdgeUse out;
+  for (const auto& [edge, u] : uses) {
+    const int n = u[0] + u[1];
+    if (n == 1) ++out.boundary;
+    else if (n == 2) {
+      ++out.interior;
+      if (u[0] != 1) ++out.inconsistent;
+    } else {
+      ++out.non_manifold;
+    }
+  }
+  return out;
+}
+
+SewnGarment weld_seams(const PlacedGarment& placed, const Points& positions) {
+  const TriMesh& in = placed.mesh;
+  const int n = in.num_vertices();
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (const auto& p : placed.seam_pairs) {
+    const int a = find(p[0]), b = find(p[1]);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
+  SewnGarment out;
+  out.welded_vertex.assign(n, -1);
+  std::vector<int> index_of_root(n, -1);
+  int count = 0;
+  for (int i = 0; i < n; ++i) {
+    const int r = find(i);
+    if (index_of_root[r] < 0) index_of_root[r] = count++;
+    out.welded_vertex[i] = index_of_root[r];
+  }
+  TriMesh& m = out.mesh;
+  m.positions = Points::Zero(count, 3);
+  m.pattern.assign(count, Vec2::Zero());
+  std::vector<int> members(count, 0);
+  for (int i = n - 1; i >= 0; --i) {  // the lowest old index gives the vertex's pattern place
+    const int w = out.welded_vertex[i];
+    m.positions.row(w) += positions.row(i);
+    m.pattern[w] = in.pattern[i];
+    ++members[w];
+  }
+  for (int w = 0; w < count; ++w) m.positions.row(w) /= members[w];
+  bool several_places = false;
+  for (size_t t = 0; t < in.triangles.size(); ++t) {
+    const auto& tri = in.triangles[t];
+    const std::array<int, 3> w{out.welded_vertex[tri[0]], out.welded_vertex[tri[1]], out.welded_vertex[tri[2]]};
+    if (w[0] == w[1] || w[1] == w[2] || w[0] == w[2]) continue;  // collapsed where a dart closes
+    m.triangles.push_back(w);
+    m.corner_pattern.push_back({in.corner(t, 0), in.corner(t, 1), in.corner(t, 2)});
+    out.panel_of_triangle.push_back(placed.panel_of_triangle[t]);
+    for (int k = 0; k < 3; ++k) several_places = several_places || m.corner_pattern.back()[k] != m.pattern[w[k]];
+  }
+  if (!several_places) m.corner_pattern.clear();
+  return out;
+}
+
+SewnGarment sew_garment(const PlacedGarment& placed, const BindBody& body, const SewingOptions& options,
+                        const std::function<void(double, double)>& progress) {
+  Scene scene;
+  scene.description = "sewing";
+  scene.gravity = Vec3::Zero();
+  set_method(scene, "backward-euler", std::nullopt, "sewing");
+  scene.integrator.dt = options.dt_s;
+  scene.frame_interval = options.interval_s;
+  scene.duration = options.max_time_s;
+  scene.damping_ratio = 0.0;
+  scene.cloth.mesh = std::make_shared<const TriMesh>(placed.mesh);
+  scene.cloth.material = options.material;
+  scene.cloth.self_collision = options.self_collision;
+  for (const auto& p : placed.seam_pairs) scene.cloth.seams.push_back({p[0], p[1], options.seam_stiffness_N_m});
+  scene.bodies.push_back(body.spec);
+  scene.bodies.back().bind_pose_hold = std::max(body.spec.bind_pose_hold, options.max_time_s + 1.0);  // still while sewing
+  ColliderSpec collider;
+  collider.shape = ColliderShape::kBody;
+  collider.name = "body";
+  collider.body = 0;
+  collider.thickness = options.body_thickness_m;
+  collider.friction = 0.0;  // seams slide over the body while they close
+  scene.colliders.push_back(collider);
+  validate_timing(scene, "sewing");
+
+  SewnGarment out;
+  out.largest_gap_placed_m = largest_seam_gap(placed.mesh.positions, placed.seam_pairs);
+  Simulation sim(scene);
+  double gap = out.largest_gap_placed_m;
+  const int intervals = static_cast<int>(std::ceil(options.max_time_s / options.interval_s - 1e-9));
+  // Stops when the gap is small, or when it has not shrunk by a tenth over the last 0.2 s.
+  std::vector<double> history;
+  const size_t window = static_cast<size_t>(std::max(1.0, std::round(0.2 / options.interval_s)));
+  for (int k = 1; k <= intervals && gap > options.gap_m; ++k) {
+    if (history.size() > window && gap > 0.9 * history[history.size() - 1 - window]) break;
+    sim.advance_to(k * options.interval_s);
+    sim.state().v.setZero();  // quasi-static: the seams close without swinging
+    gap = largest_seam_gap(as_points(sim.state().x), placed.seam_pairs);
+    history.push_back(gap);
+    out.sewing_time_s = k * options.interval_s;
+    if (progress) progress(out.sewing_time_s, gap);
+  }
+  out.steps = static_cast<int>(sim.statistics().steps);
+  out.largest_gap_m = gap;
+  out.converged = gap <= options.gap_m;
+  out.sewn_positions = as_points(sim.state().x);
+  SewnGarment welded = weld_seams(placed, out.sewn_positions);
+  out.mesh = std::move(welded.mesh);
+  out.panel_of_triangle = std::move(welded.panel_of_triangle);
+  out.welded_vertex = std::move(welded.welded_vertex);
+  out.intersections = check_intersections(out.mesh, body);
+  return out;
+}
+
+}  // namespace weft
