@@ -272,9 +272,13 @@ int run_render(const RenderArgs& a) {
   // The ground: a horizontal plane collider where there is one, else y = 0 or below everything.
   if (!a.no_ground)
     options.ground_y = survey.horizontal_plane_y ? *survey.horizontal_plane_y : std::min(0.0, survey.framed.lo.y());
-  // The framing reaches down to the ground, so that the cloth is seen above it.
+  // The framing reaches down towards the ground (by at most half the objects' height), so
+  // that the cloth is seen above it.
   render::Bounds framed = survey.framed;
-  if (options.ground_y) framed.add(Vec3(framed.centre().x(), *options.ground_y, framed.centre().z()));
+  if (options.ground_y) {
+    const double reach = std::max(*options.ground_y, framed.lo.y() - 0.5 * (framed.hi.y() - framed.lo.y()));
+    framed.add(Vec3(framed.centre().x(), reach, framed.centre().z()));
+  }
   options.camera = given_camera ? *given_camera : render::frame_camera(framed, width, height);
   options.scene_bounds = survey.framed;
   if (a.color == "viscosity") {

@@ -56,8 +56,8 @@ Lights lights_for(const Projection& projection) {
 // highlight from the key light; `n` unit and facing the viewer, `v` unit towards the eye.
 Colour shade_surface(const Colour& base, const Vec3& n, const Vec3& v, const Lights& lights, double highlight,
                      double shininess) {
-  const double ambient = 0.14 + 0.08 * n.y();
-  const double key = 0.85 * std::max(0.0, n.dot(lights.key));
+  const double ambient = 0.30 + 0.06 * n.y();
+  const double key = 0.62 * std::max(0.0, n.dot(lights.key));
   const double head = 0.30 * std::max(0.0, n.dot(v));
   const Vec3 h = (lights.key + v).normalized();
   const double specular = n.dot(lights.key) > 0 ? highlight * std::pow(std::max(0.0, n.dot(h)), shininess) : 0.0;
@@ -193,7 +193,10 @@ std::array<std::uint8_t, 3> to_srgb_bytes(const Colour& c) {
 }
 
 void draw_colour_bar(RgbImage& image, const ColourBar& bar, int scale) {
-  const int bar_w = std::max(40, image.width / 5), bar_h = 3 * scale + 2;
+  // Wide enough for both end labels side by side, and for the title.
+  const int bar_w = std::max({image.width / 5, text_width(bar.low_label, scale) + text_width(bar.high_label, scale) + 4 * scale,
+                              text_width(bar.title, scale) / 2}),
+            bar_h = 3 * scale + 2;
   const int pad = 4 * scale, line = (kGlyphHeight + 3) * scale;
   const int x0 = image.width - pad - bar_w;
   const int y0 = image.height - pad - line - bar_h;
