@@ -2,7 +2,9 @@
 // A software rasteriser for `weft render` (docs/render.md): a pinhole camera, triangles clipped
 // at the near plane, drawn into a supersampled framebuffer with a depth buffer, and resolved
 // into an 8-bit image by averaging each pixel's samples.
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -119,10 +121,13 @@ void fill(Framebuffer& fb, const ScreenCorner& a, const ScreenCorner& b0, const 
   const ScreenCorner& b = area0 > 0 ? b0 : c0;
   const ScreenCorner& c = area0 > 0 ? c0 : b0;
   const double area = std::abs(area0);
-  const int x_min = std::max(0, static_cast<int>(std::floor(std::min({a.x, b.x, c.x}))));
-  const int y_min = std::max(0, static_cast<int>(std::floor(std::min({a.y, b.y, c.y}))));
-  const int x_max = std::min(fb.sample_columns() - 1, static_cast<int>(std::ceil(std::max({a.x, b.x, c.x}))));
-  const int y_max = std::min(fb.sample_rows() - 1, static_cast<int>(std::ceil(std::max({a.y, b.y, c.y}))));
+  // The bounding box of samples, clamped to the picture in floating point (a corner close to the
+  // near plane can project far outside it).
+  const double columns = fb.sample_columns() - 1, rows = fb.sample_rows() - 1;
+  const int x_min = static_cast<int>(std::clamp(std::floor(std::min({a.x, b.x, c.x})), 0.0, columns + 1));
+  const int y_min = static_cast<int>(std::clamp(std::floor(std::min({a.y, b.y, c.y})), 0.0, rows + 1));
+  const int x_max = static_cast<int>(std::clamp(std::ceil(std::max({a.x, b.x, c.x})), -1.0, columns));
+  const int y_max = static_cast<int>(std::clamp(std::ceil(std::max({a.y, b.y, c.y})), -1.0, rows));
   if (x_min > x_max || y_min > y_max) return;
   // Edge function of the edge p -> q at a sample s, (q - p) x (s - p): positive inside, and
   // the edge opposite a corner's weight (twice the area of the sub-triangle).
