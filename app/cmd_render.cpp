@@ -262,7 +262,7 @@ int run_render(const RenderArgs& a) {
         survey.framed.add(bb);
       }
     }
-    progress.update(static_cast<double>(++done) / static_cast<double>(work), "reading frames");
+    progress.update(static_cast<double>(++done) / static_cast<double>(work));
   }
 
   render::PictureOptions options;
