@@ -2,7 +2,7 @@
 BUILD ?= build
 JOBS ?= $(shell nproc)
 PACKAGES := cmake ninja-build g++ libeigen3-dev nlohmann-json3-dev libcli11-dev \
-            libgtest-dev libbenchmark-dev libpng-dev gnuplot-nox \
+            libgtest-dev libbenchmark-dev libpng-dev gnuplot-nox ffmpeg \
             clang libclang-rt-14-dev
 
 .PHONY: all deps build demo test sanitize fuzz bench results clean

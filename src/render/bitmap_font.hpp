@@ -1,5 +1,5 @@
 #pragma once
-// A 5x7 pixel bitmap font for labelling plots (digits, lowercase letters, a few signs).
+// A 5x7 pixel bitmap font for labelling plots (digits, lowercase letters, N, a few signs).
 #include <cstdint>
 #include <string>
 

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "support/command.hpp"
+#include "support/png.hpp"
 #include <png.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -25,6 +26,8 @@
 namespace {
 
 using weft::alpha_family_is_stable;
+using weft::test::PngInfo;
+using weft::test::read_png;
 using weft::alpha_family_spectral_radius;
 using weft::alpha_family_step_matrix;
 using weft::bdf2_spectral_radius;
@@ -344,46 +347,6 @@ TEST_F(StabilityCommand, BadParametersExitTwoNamingTheOption) {
         << arguments << " -> " << result.error_output;
     EXPECT_EQ(files_in_folder(), 0u) << arguments << ": wrote something";
   }
-}
-
-struct PngInfo {
-  bool signature_ok = false;
-  unsigned width = 0, height = 0;
-  int color_type = -1, bit_depth = 0;
-  std::vector<std::uint8_t> pixels;
-};
-
-PngInfo read_png(const std::filesystem::path& path) {
-  PngInfo info;
-  std::FILE* file = std::fopen(path.c_str(), "rb");
-  if (!file) return info;
-  png_byte signature[8] = {};
-  if (std::fread(signature, 1, 8, file) != 8 || png_sig_cmp(signature, 0, 8) != 0) {
-    std::fclose(file);
-    return info;
-  }
-  info.signature_ok = true;
-  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-  png_infop png_info = png_create_info_struct(png);
-  if (setjmp(png_jmpbuf(png))) {
-    png_destroy_read_struct(&png, &png_info, nullptr);
-    std::fclose(file);
-    info.width = info.height = 0;
-    return info;
-  }
-  png_init_io(png, file);
-  png_set_sig_bytes(png, 8);
-  png_read_info(png, png_info);
-  info.width = png_get_image_width(png, png_info);
-  info.height = png_get_image_height(png, png_info);
-  info.color_type = png_get_color_type(png, png_info);
-  info.bit_depth = png_get_bit_depth(png, png_info);
-  const size_t row_bytes = png_get_rowbytes(png, png_info);
-  info.pixels.resize(row_bytes * info.height);
-  for (unsigned y = 0; y < info.height; ++y) png_read_row(png, info.pixels.data() + y * row_bytes, nullptr);
-  png_destroy_read_struct(&png, &png_info, nullptr);
-  std::fclose(file);
-  return info;
 }
 
 TEST_F(StabilityCommand, WritesPngAndCsv) {

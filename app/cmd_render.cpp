@@ -1,0 +1,427 @@
+// `weft render DIR --out IMG_DIR`: pictures of a run without a screen (docs/render.md). Reads
+// the frames `weft run` wrote to DIR/frames, draws them with the software rasteriser of
+// src/render/ and writes PNG stills, or with --video an MP4 through ffmpeg.
+#include <signal.h>
+#include <sys/wait.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
+#include <unistd.h>
+
+#include "command.hpp"
+#include "io/run_frames.hpp"
+#include "progress.hpp"
+#include "render/picture.hpp"
+#include "weft/atomic_file.hpp"
+#include "weft/error.hpp"
+
+namespace fs = std::filesystem;
+using weft::InputError;
+using weft::Vec2;
+using weft::Vec3;
+namespace render = weft::render;
+
+namespace {
+
+struct RenderArgs {
+  std::string dir, out, frames, size = "960x720", camera, color = "none";
+  bool video = false, no_ground = false, no_caption = false;
+  std::optional<double> fps;
+  int samples = 3;
+  double uv_scale = 1;
+};
+
+constexpr int kDefaultStills = 4;
+
+// "WxH", each in [16, 8192].
+std::pair<int, int> parse_size(const std::string& text, bool video) {
+  int w = 0, h = 0;
+  char x = 0, extra = 0;
+  std::istringstream in(text);
+  if (!(in >> w >> x >> h) || x != 'x' || (in >> extra) || w < 16 || h < 16 || w > 8192 || h > 8192)
+    throw InputError("--size '" + text + "': expected WIDTHxHEIGHT in pixels, each from 16 to 8192 (e.g. 960x720)");
+  if (video && (w % 2 || h % 2))
+    throw InputError("--size '" + text + "': a video (H.264, yuv420p) needs an even width and height");
+  return {w, h};
+}
+
+// "ex,ey,ez,tx,ty,tz[,fov]".
+render::Camera parse_camera(const std::string& text) {
+  std::vector<double> v;
+  std::stringstream in(text);
+  std::string item;
+  const std::string expected =
+      "expected eye_x,eye_y,eye_z,target_x,target_y,target_z[,fov_deg] in metres and degrees (e.g. 1.2,1.5,2.5,0,0.8,0,30)";
+  while (std::getline(in, item, ',')) {
+    size_t used = 0;
+    double value = 0;
+    try {
+      value = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(value))
+      throw InputError("--camera '" + text + "': '" + item + "' is not a number; " + expected);
+    v.push_back(value);
+  }
+  if (v.size() != 6 && v.size() != 7)
+    throw InputError("--camera '" + text + "': " + std::to_string(v.size()) + " numbers; " + expected);
+  render::Camera c;
+  c.eye = Vec3(v[0], v[1], v[2]);
+  c.target = Vec3(v[3], v[4], v[5]);
+  if (v.size() == 7) c.fov_deg = v[6];
+  if (!(c.fov_deg >= 1 && c.fov_deg <= 170))
+    throw InputError("--camera '" + text + "': field of view " + std::to_string(c.fov_deg) + " degrees; expected 1 to 170");
+  const Vec3 d = c.target - c.eye;
+  if (!(d.norm() > 0)) throw InputError("--camera '" + text + "': the eye and the target are the same point");
+  if (d.normalized().cross(Vec3::UnitY()).norm() < 1e-6)
+    throw InputError("--camera '" + text + "': the view is straight up or down (Y is the picture's up); tilt it a little");
+  return c;
+}
+
+// "all", or a comma-separated list of frame numbers N and ranges A-B, each a frame the run has.
+std::vector<long> parse_frames(const std::string& text, const std::map<long, weft::RunFrameFiles>& have) {
+  const long first = have.begin()->first, last = have.rbegin()->first;
+  const std::string range = "the run has frames " + std::to_string(first) + " to " + std::to_string(last);
+  std::vector<long> out;
+  if (text == "all") {
+    for (const auto& [n, f] : have) out.push_back(n);
+    return out;
+  }
+  auto number = [&](const std::string& item, const std::string& s) {
+    size_t used = 0;
+    long value = -1;
+    try {
+      value = std::stol(s, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (s.empty() || used != s.size() || value < 0)
+      throw InputError("--frames '" + text + "': '" + item + "' is not a frame number or a range A-B (expected a " +
+                       "comma-separated list such as 0,50,100 or 0-20, or all)");
+    return value;
+  };
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    const size_t dash = item.find('-');
+    const long a = number(item, item.substr(0, dash));
+    const long b = dash == std::string::npos ? a : number(item, item.substr(dash + 1));
+    if (b < a) throw InputError("--frames '" + text + "': the range '" + item + "' runs backwards");
+    for (long n = a; n <= b; ++n) {
+      if (!have.count(n)) throw InputError("--frames '" + text + "': no frame " + std::to_string(n) + " (" + range + ")");
+      out.push_back(n);
+    }
+  }
+  if (out.empty()) throw InputError("--frames '" + text + "': no frames listed (" + range + ")");
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+// kDefaultStills frames spread evenly from the first to the last.
+std::vector<long> spread_frames(const std::map<long, weft::RunFrameFiles>& have) {
+  std::vector<long> all;
+  for (const auto& [n, f] : have) all.push_back(n);
+  std::vector<long> out;
+  for (int k = 0; k < kDefaultStills; ++k) {
+    const size_t i = static_cast<size_t>(std::lround(static_cast<double>(k) * static_cast<double>(all.size() - 1) / (kDefaultStills - 1)));
+    if (out.empty() || out.back() != all[i]) out.push_back(all[i]);
+  }
+  return out;
+}
+
+// A plane collider's surface: a flat quad (4 vertices, 2 triangles).
+bool is_plane(const weft::RunFrameMesh& m) {
+  if (m.vertex_count() != 4 || m.triangles.size() != 2) return false;
+  const Vec3 p0(m.xyz[0], m.xyz[1], m.xyz[2]);
+  auto p = [&](int i) -> Vec3 { return Vec3(m.xyz[3 * i], m.xyz[3 * i + 1], m.xyz[3 * i + 2]) - p0; };
+  const Vec3 n = p(1).cross(p(2));
+  return n.norm() > 0 && std::abs(n.normalized().dot(p(3))) < 1e-9 * (1 + p(3).norm());
+}
+bool is_horizontal_plane(const weft::RunFrameMesh& m) {
+  if (!is_plane(m)) return false;
+  for (int i = 1; i < 4; ++i)
+    if (std::abs(m.xyz[3 * i + 1] - m.xyz[1]) > 1e-9) return false;
+  return true;
+}
+
+// The cloth's largest principal stretch per triangle (render::largest_principal_stretch).
+std::vector<double> triangle_stretches(const weft::RunFrameMesh& m, double uv_scale) {
+  std::vector<double> s(m.triangles.size());
+  for (size_t t = 0; t < m.triangles.size(); ++t) {
+    std::array<Vec3, 3> x;
+    std::array<Vec2, 3> u;
+    for (int k = 0; k < 3; ++k) {
+      const int i = m.triangles[t][k];
+      x[k] = Vec3(m.xyz[3 * i], m.xyz[3 * i + 1], m.xyz[3 * i + 2]);
+      u[k] = uv_scale * Vec2(m.corner_texcoords[6 * t + 2 * k], m.corner_texcoords[6 * t + 2 * k + 1]);
+    }
+    s[t] = render::largest_principal_stretch(x[0], x[1], x[2], u[0], u[1], u[2]);
+  }
+  return s;
+}
+
+std::string format_number(const char* format, double value) {
+  char text[64];
+  std::snprintf(text, sizeof text, format, value);
+  return text;
+}
+
+std::string shell_quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+bool ffmpeg_on_path() { return std::system("command -v ffmpeg > /dev/null 2>&1") == 0; }
+
+// What the first pass over the frames learns: the framing, the ground, the colour maps' range.
+struct RunSurvey {
+  render::Bounds framed;  ///< the cloth and the colliders other than planes, over every frame
+  render::Bounds all;
+  std::optional<double> horizontal_plane_y;
+  double viscosity_peak = 0, stretch_deviation_peak = 0;
+};
+
+int run_render(const RenderArgs& a) {
+  const auto started = std::chrono::steady_clock::now();
+  if (a.color != "none" && a.color != "viscosity" && a.color != "strain")
+    throw InputError("--color '" + a.color + "': expected none, viscosity or strain");
+  const auto [width, height] = parse_size(a.size, a.video);
+  std::optional<render::Camera> given_camera;
+  if (!a.camera.empty()) given_camera = parse_camera(a.camera);
+  if (a.samples < 1 || a.samples > 8) throw InputError("--samples " + std::to_string(a.samples) + ": expected 1 to 8");
+  if (!(a.uv_scale > 0) || !std::isfinite(a.uv_scale)) throw InputError("--uv-scale: expected a number > 0");
+  if (a.fps && !(*a.fps > 0 && *a.fps <= 1000)) throw InputError("--fps: expected a rate in (0, 1000]");
+  const fs::path dir(a.dir);
+  const auto files = weft::find_run_frames(dir, "weft render");
+  const std::vector<long> selected =
+      !a.frames.empty() ? parse_frames(a.frames, files) : a.video ? parse_frames("all", files) : spread_frames(files);
+
+  // The run's frame interval, for the captions' times and the video's rate.
+  std::optional<double> frame_interval;
+  const fs::path summary_path = dir / "summary.json";
+  if (std::ifstream in(summary_path); in) {
+    try {
+      const auto j = nlohmann::json::parse(in);
+      if (j.contains("frame_interval") && j["frame_interval"].is_number() && j["frame_interval"].get<double>() > 0)
+        frame_interval = j["frame_interval"].get<double>();
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError(summary_path.string() + ": not JSON (" + e.what() + ")");
+    }
+  }
+  std::optional<double> fps = a.fps;
+  if (!fps && frame_interval) fps = 1 / *frame_interval;
+  if (a.video && !fps)
+    throw InputError(summary_path.string() + ": missing or without frame_interval; give the video's rate with --fps");
+  if (a.video && !ffmpeg_on_path())
+    throw InputError("ffmpeg not found on the PATH: weft render --video pipes its frames into ffmpeg (Debian: apt-get "
+                     "install ffmpeg, or make deps)");
+
+  // First pass: every frame is read (so that a bad one stops the command before anything is
+  // written) for the framing over the whole run and the colour maps' range.
+  weft::app::Progress progress("render");
+  progress.quiet_for(1.0);
+  RunSurvey survey;
+  size_t done = 0;
+  const size_t work = files.size() + selected.size();
+  for (const auto& [number, f] : files) {
+    const weft::RunFrameMesh cloth = weft::read_frame_mesh(f.cloth);
+    const render::Bounds cb = render::bounds_of(cloth.xyz);
+    survey.framed.add(cb);
+    survey.all.add(cb);
+    if (a.color == "viscosity") {
+      if (cloth.added_viscosity.empty())
+        throw InputError(f.cloth.string() + ": --color viscosity reads the added viscosity of PLY frames " +
+                         "(weft run --format ply); this frame has none");
+      for (double v : cloth.added_viscosity) survey.viscosity_peak = std::max(survey.viscosity_peak, v);
+    }
+    if (a.color == "strain") {
+      if (cloth.corner_texcoords.empty())
+        throw InputError(f.cloth.string() + ": --color strain needs the pattern coordinates of OBJ frames' texture " +
+                         "coordinates (weft run --format obj); this frame has none");
+      for (double s : triangle_stretches(cloth, a.uv_scale))
+        if (std::isfinite(s)) survey.stretch_deviation_peak = std::max(survey.stretch_deviation_peak, std::abs(s - 1));
+    }
+    for (const auto& [name, path] : f.colliders) {
+      const weft::RunFrameMesh body = weft::read_frame_mesh(path);
+      const render::Bounds bb = render::bounds_of(body.xyz);
+      survey.all.add(bb);
+      if (is_horizontal_plane(body)) {
+        survey.horizontal_plane_y = survey.horizontal_plane_y ? std::min(*survey.horizontal_plane_y, body.xyz[1]) : body.xyz[1];
+      } else if (!is_plane(body)) {
+        survey.framed.add(bb);
+      }
+    }
+    progress.update(static_cast<double>(++done) / static_cast<double>(work));
+  }
+
+  render::PictureOptions options;
+  options.width = width;
+  options.height = height;
+  options.samples_per_side = a.samples;
+  // The ground: a horizontal plane collider where there is one, else y = 0 or below everything.
+  if (!a.no_ground)
+    options.ground_y = survey.horizontal_plane_y ? *survey.horizontal_plane_y : std::min(0.0, survey.framed.lo.y());
+  // The framing reaches down towards the ground (by at most half the objects' height), so
+  // that the cloth is seen above it.
+  render::Bounds framed = survey.framed;
+  if (options.ground_y) {
+    const double reach = std::max(*options.ground_y, framed.lo.y() - 0.5 * (framed.hi.y() - framed.lo.y()));
+    framed.add(Vec3(framed.centre().x(), reach, framed.centre().z()));
+  }
+  options.camera = given_camera ? *given_camera : render::frame_camera(framed, width, height);
+  options.scene_bounds = survey.framed;
+  if (a.color == "viscosity") {
+    options.colour_bar = render::ColourBar{"added viscosity N s/m", "0", format_number("%.3g", survey.viscosity_peak),
+                                           {render::sequential_colour(0), render::sequential_colour(0.5), render::sequential_colour(1)}};
+  } else if (a.color == "strain") {
+    const double m = std::max(survey.stretch_deviation_peak, 1e-6);
+    options.colour_bar = render::ColourBar{"largest principal stretch", format_number("%.4g", 1 - m), format_number("%.4g", 1 + m),
+                                           {render::diverging_colour(-1), render::diverging_colour(0), render::diverging_colour(1)}};
+  }
+
+  const fs::path out(a.out);
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) {
+    std::cerr << "weft: error: cannot create " << out.string() << ": " << ec.message() << "\n";
+    return weft::app::kExitOutputFailed;
+  }
+
+  // The video: frames piped into ffmpeg, which writes a temporary file renamed into place.
+  const fs::path video_path = out / "render.mp4";
+  const fs::path video_temporary = out / (".render.mp4.tmp-" + std::to_string(::getpid()));
+  FILE* pipe = nullptr;
+  if (a.video) {
+    const std::string command = "ffmpeg -hide_banner -loglevel error -y -f rawvideo -pix_fmt rgb24 -s " +
+                                std::to_string(width) + "x" + std::to_string(height) + " -framerate " +
+                                format_number("%.6g", *fps) + " -i - -an -c:v libx264 -preset medium -crf 20 " +
+                                "-pix_fmt yuv420p -movflags +faststart -f mp4 " + shell_quote(video_temporary.string());
+    ::signal(SIGPIPE, SIG_IGN);  // a failed ffmpeg is reported by a failed write, not a signal
+    pipe = ::popen(command.c_str(), "w");
+    if (!pipe) {
+      std::cerr << "weft: error: cannot start ffmpeg (" << command << ")\n";
+      return weft::app::kExitOutputFailed;
+    }
+  }
+
+  std::vector<double> seconds_per_frame;
+  std::vector<fs::path> written;
+  for (long number : selected) {
+    const auto frame_start = std::chrono::steady_clock::now();
+    const weft::RunFrameFiles& f = files.at(number);
+    const weft::RunFrameMesh cloth = weft::read_frame_mesh(f.cloth);
+    std::vector<weft::RunFrameMesh> colliders;
+    for (const auto& [name, path] : f.colliders) {
+      weft::RunFrameMesh body = weft::read_frame_mesh(path);
+      // The ground stands for a horizontal plane collider.
+      if (!(options.ground_y && is_horizontal_plane(body))) colliders.push_back(std::move(body));
+    }
+    std::vector<render::PictureMesh> meshes;
+    render::PictureMesh cloth_mesh{&cloth.xyz, &cloth.triangles, render::Surface::kCloth, {}, {}};
+    if (a.color == "viscosity") {
+      for (double v : cloth.added_viscosity)
+        cloth_mesh.vertex_colours.push_back(render::sequential_colour(survey.viscosity_peak > 0 ? v / survey.viscosity_peak : 0));
+    } else if (a.color == "strain") {
+      const double m = std::max(survey.stretch_deviation_peak, 1e-6);
+      for (double s : triangle_stretches(cloth, a.uv_scale))
+        cloth_mesh.triangle_colours.push_back(render::diverging_colour(std::isfinite(s) ? (s - 1) / m : 0));
+    }
+    meshes.push_back(std::move(cloth_mesh));
+    for (const auto& body : colliders) meshes.push_back({&body.xyz, &body.triangles, render::Surface::kCollider, {}, {}});
+    if (!a.no_caption)
+      options.caption = (frame_interval ? "t = " + format_number("%.2f", static_cast<double>(number) * *frame_interval) + " s   " : "") +
+                        "frame " + std::to_string(number);
+    const weft::RgbImage image = render::render_picture(meshes, options);
+    if (pipe) {
+      if (std::fwrite(image.pixels.data(), 1, image.pixels.size(), pipe) != image.pixels.size()) {
+        ::pclose(pipe);
+        fs::remove(video_temporary, ec);
+        std::cerr << "weft: error: ffmpeg stopped taking frames at frame " << number << "; no video written\n";
+        return weft::app::kExitOutputFailed;
+      }
+    } else {
+      char name[32];
+      std::snprintf(name, sizeof name, "frame_%05ld.png", number);
+      const fs::path path = out / name;
+      try {
+        weft::write_files_atomically({{path, [&](const fs::path& temporary) { weft::write_png(image, temporary); }}});
+      } catch (const std::exception& e) {
+        std::cerr << "weft: error: " << e.what() << "; kept " << written.size() << " pictures written before it\n";
+        return weft::app::kExitOutputFailed;
+      }
+      written.push_back(path);
+    }
+    seconds_per_frame.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_start).count());
+    progress.update(static_cast<double>(++done) / static_cast<double>(work));
+  }
+  progress.finish();
+  if (pipe) {
+    const int status = ::pclose(pipe);
+    if (status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+      fs::remove(video_temporary, ec);
+      std::cerr << "weft: error: ffmpeg failed (exit status " << (WIFEXITED(status) ? WEXITSTATUS(status) : -1)
+                << "); no video written\n";
+      return weft::app::kExitOutputFailed;
+    }
+    fs::rename(video_temporary, video_path, ec);
+    if (ec) {
+      fs::remove(video_temporary, ec);
+      std::cerr << "weft: error: cannot write " << video_path.string() << "\n";
+      return weft::app::kExitOutputFailed;
+    }
+  }
+  std::vector<double> sorted = seconds_per_frame;
+  std::sort(sorted.begin(), sorted.end());
+  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  std::printf("%s %zu frame%s (%dx%d) in %.1f s, %.3f s per frame (median): %s\n", a.video ? "video of" : "rendered",
+              selected.size(), selected.size() == 1 ? "" : "s", width, height, total, sorted[sorted.size() / 2],
+              a.video ? video_path.c_str() : (out / "frame_NNNNN.png").c_str());
+  return weft::app::kExitOk;
+}
+
+weft::app::RegisterCommand reg{{"", "render", "Draw a run's frames as PNG pictures (or an MP4 video) without a screen",
+  [](CLI::App& sub) {
+    auto a = std::make_shared<RenderArgs>();
+    sub.add_option("dir", a->dir, "Output folder of `weft run` (reads DIR/frames and DIR/summary.json)")->required();
+    sub.add_option("--out", a->out, "Folder for the pictures (frame_NNNNN.png) or the video (render.mp4)")->required();
+    sub.add_option("--frames", a->frames,
+                   "Frames to draw: a comma-separated list of numbers and ranges A-B (0,50,100 or 0-20), or all "
+                   "(default: 4 spread over the run; with --video, all)");
+    sub.add_option("--size", a->size, "Picture size WIDTHxHEIGHT in pixels (default 960x720)");
+    sub.add_option("--camera", a->camera,
+                   "eye_x,eye_y,eye_z,target_x,target_y,target_z[,fov_deg] in metres, Y up (default: a 3/4 view from "
+                   "the front framing the cloth and bodies over the whole run, field of view 30)");
+    sub.add_option("--color", a->color,
+                   "none (the cloth in a fabric colour), viscosity (added viscosity per vertex, from PLY frames) or "
+                   "strain (largest principal stretch per triangle, from OBJ frames)");
+    sub.add_option("--uv-scale", a->uv_scale,
+                   "Metres per texture unit of the frames' texture coordinates, for --color strain (default 1; the "
+                   "scene's mesh.uv_scale for an OBJ cloth)");
+    sub.add_flag("--video", a->video, "Write render.mp4 (H.264, through ffmpeg) at the run's frame rate instead of PNGs");
+    sub.add_option("--fps", a->fps, "The video's frame rate (default 1 / frame_interval of summary.json: real time)");
+    sub.add_option("--samples", a->samples, "Anti-aliasing: samples per pixel along each side, 1 to 8 (default 3)");
+    sub.add_flag("--no-ground", a->no_ground, "Leave out the ground and the shadows");
+    sub.add_flag("--no-caption", a->no_caption, "Leave out the caption (time and frame)");
+    sub.footer(
+        "Draws the cloth (two-sided, a fabric colour or a colour map) and the colliders (grey) of each chosen frame\n"
+        "with a software rasteriser (no GPU or display needed), over a ground at y = 0 (or the lowest point, or a\n"
+        "horizontal plane collider) with the key light's shadows, and writes IMG_DIR/frame_NNNNN.png; with --video\n"
+        "the frames go through ffmpeg into IMG_DIR/render.mp4 (ffmpeg must be on the PATH). Every file is written\n"
+        "under a temporary name and renamed into place.\n"
+        "Exit status: 0 done, 2 bad input (a missing folder, an unreadable frame, a bad option; nothing written),\n"
+        "4 a picture or the video could not be written.");
+    return std::function<int()>([a] { return run_render(*a); });
+  }, 25}};
+
+}  // namespace
