@@ -331,8 +331,11 @@ PYBIND11_MODULE(weft, m) {
                            "a dict in the scene file's layout (relative paths in it against base_dir, default the "
                            "current folder). Bad input raises weft.InputError (a ValueError) with the message "
                            "`weft run` prints.")
-      .def(py::init<const py::object&, const std::optional<std::string>&>(), py::arg("scene"),
-           py::arg("base_dir") = py::none())
+      .def(py::init([](const py::object& scene, const py::object& base_dir) {
+             return std::make_unique<PySimulation>(
+                 scene, base_dir.is_none() ? std::nullopt : std::optional<std::string>(path_text(base_dir)));
+           }),
+           py::arg("scene"), py::arg("base_dir") = py::none())
       .def_property_readonly("time", [](const PySimulation& s) { return s.sim().state().t; }, "Simulated time (s)")
       .def_property_readonly("dt", [](const PySimulation& s) { return s.sim().scene().integrator.dt; },
                              "The scene's time step (s; for rk45 the largest step)")
