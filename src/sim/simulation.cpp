@@ -125,16 +125,20 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
 Simulation::~Simulation() = default;
 
 void Simulation::advance_to(double t) {
-  // Pins arriving before t: stepped to their arrival and stopped there (the arrival is on the
-  // step grid, so the steps are those of one advance to t).
+  // While pins move: a step at a time (each arrival is on the step grid), each moving pin's
+  // velocity set again after every step to reach its target at its arrival, so that a pin the
+  // self-collision fail-safe held still for a step (an impact zone holding a pin stops) catches
+  // up; pins that arrived are put on their targets and stopped.
   const double slack = 1e-9 * scene_.integrator.dt;
-  while (!pin_moves_.empty()) {
-    double first = pin_moves_.front().arrival;
-    for (const PinMove& m : pin_moves_) first = std::min(first, m.arrival);
-    if (first > t + slack) break;
-    integrator_->advance(state_, first, stats_);
+  while (!pin_moves_.empty() && state_.t < t - slack) {
+    double next = std::min(t, state_.t + scene_.integrator.dt);
+    for (const PinMove& m : pin_moves_) next = std::min(next, m.arrival);
+    integrator_->advance(state_, next, stats_);
     std::erase_if(pin_moves_, [&](const PinMove& m) {
-      if (m.arrival > first + slack) return false;
+      if (m.arrival > state_.t + slack) {
+        set_pin_velocity(m.node, (m.target - node(state_.x, m.node)) / (m.arrival - state_.t));
+        return false;
+      }
       node(state_.x, m.node) = m.target;
       set_pin_velocity(m.node, Vec3::Zero());
       return true;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "weft/error.hpp"
 #include "weft/simulation.hpp"
@@ -34,10 +35,15 @@ TEST(ScriptedMotion, DegreesFromRotationInvertsRotationFromDegrees) {
 }
 
 // A pin moves at a constant velocity and stops on its target; the other pin stays put.
+// (Without self-collision: its last-resort impact zones may hold a pin still for a step where
+// the explicit method shakes the cloth; the pin then catches up, and still arrives on time.)
 TEST(ScriptedMotion, MovedPinsArriveOnTheirTargetsAndStop) {
-  for (const char* method : {"implicit-midpoint", "bdf2", "rk4"}) {
+  for (const char* method : {"implicit-midpoint", "bdf2", "rk4", "rk4 with self-collision"}) {
     SCOPED_TRACE(method);
-    Simulation sim(sheet(method));
+    const bool self = std::string(method).find("self") != std::string::npos;
+    Scene scene = sheet(self ? "rk4" : method);
+    scene.cloth.self_collision = self;
+    Simulation sim(scene);
     std::vector<int> pins;
     for (int i = 0; i < sim.model().num_vertices(); ++i)
       if (sim.model().fixed[i]) pins.push_back(i);
@@ -48,7 +54,7 @@ TEST(ScriptedMotion, MovedPinsArriveOnTheirTargetsAndStop) {
     sim.move_pins({pins[0]}, {target}, 0.07);  // four steps
     EXPECT_EQ(sim.moving_pins(), 1u);
     sim.advance_to(0.05);
-    EXPECT_LT((node(sim.state().x, pins[0]) - (start + 0.5 * (target - start))).norm(), 1e-12);
+    if (!self) EXPECT_LT((node(sim.state().x, pins[0]) - (start + 0.5 * (target - start))).norm(), 1e-12);
     sim.advance_to(0.07);
     EXPECT_EQ(node(sim.state().x, pins[0]), target);
     EXPECT_EQ(sim.moving_pins(), 0u);
