@@ -3,7 +3,8 @@ BUILD ?= build
 JOBS ?= $(shell nproc)
 PACKAGES := cmake ninja-build g++ libeigen3-dev nlohmann-json3-dev libcli11-dev \
             libgtest-dev libbenchmark-dev libpng-dev gnuplot-nox ffmpeg \
-            clang libclang-rt-14-dev
+            clang libclang-rt-14-dev \
+            python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest
 
 .PHONY: all deps build demo test sanitize fuzz bench results clean
 
@@ -73,7 +74,7 @@ fuzz: deps $(SAN_BUILD)/build.ninja
 # the figures in docs/performance.md say which build gave them.
 BENCH_BUILD ?= build-native
 bench: deps
-	cmake -S . -B $(BENCH_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release -DWEFT_NATIVE=ON -DWEFT_BUILD_TESTS=OFF
+	cmake -S . -B $(BENCH_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release -DWEFT_NATIVE=ON -DWEFT_BUILD_TESTS=OFF -DWEFT_PYTHON=OFF
 	cmake --build $(BENCH_BUILD) -j $(JOBS) --target weft_bench
 	$(BENCH_BUILD)/weft_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 

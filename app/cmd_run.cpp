@@ -387,22 +387,13 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   std::vector<Triangles> collider_triangles(collider_count);
   std::vector<std::vector<std::array<int, 3>>> collider_triangle_lists(collider_count);
   auto collider_surface = [&](const Simulation& s, size_t k) {
-    const Collider& c = *s.colliders()[k];
-    if (c.spec().shape == ColliderShape::kBody) {
-      const WalkingBody& body = *s.bodies()[c.spec().body];
-      body.positions(s.state().t, collider_positions[k]);
-      if (collider_triangles[k].rows() == 0) collider_triangles[k] = body.triangles();
-    } else {
-      c.surface(s.state().t, collider_positions[k], collider_triangles[k]);
-    }
+    s.collider_surface(k, s.state().t, collider_positions[k], collider_triangles[k]);
     if (collider_triangle_lists[k].empty()) collider_triangle_lists[k] = triangle_list(collider_triangles[k]);
   };
   // Texture coordinates: the pattern coordinates in the units of the cloth's OBJ texture
   // coordinates (metres on a grid), so an OBJ cloth's own come back.
   const TriMesh& cloth_mesh = sim.model().mesh;
-  std::vector<float> cloth_texcoords(2 * cloth_mesh.pattern.size());
-  for (size_t i = 0; i < cloth_mesh.pattern.size(); ++i)
-    for (int d = 0; d < 2; ++d) cloth_texcoords[2 * i + d] = static_cast<float>(cloth_mesh.pattern[i][d] / scene.cloth.uv_scale);
+  const std::vector<float> cloth_texcoords = pattern_texcoords(cloth_mesh.pattern, scene.cloth.uv_scale);
   // The animations (glb, pc2) are written at the end from the frames recorded here.
   AnimatedMesh cloth_animation;
   cloth_animation.name = "cloth";

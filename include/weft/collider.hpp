@@ -60,5 +60,7 @@ struct ColliderSpec {
 
 /// Rotation by X, then Y, then Z degrees (as scenes give placements).
 Mat3 rotation_from_degrees(const Vec3& deg);
+/// Angles (X, Y, Z degrees) of a rotation matrix: rotation_from_degrees of the result is R.
+Vec3 degrees_from_rotation(const Mat3& R);
 
 }  // namespace weft

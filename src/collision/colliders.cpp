@@ -19,6 +19,12 @@ Mat3 rotation_from_degrees(const Vec3& deg) {
       .toRotationMatrix();
 }
 
+Vec3 degrees_from_rotation(const Mat3& R) {
+  // R = Rz(c) Ry(b) Rx(a): Eigen's angles about the axes 2, 1, 0 in that order.
+  const Vec3 zyx = R.eulerAngles(2, 1, 0);
+  return Vec3(zyx.z(), zyx.y(), zyx.x()) * (180.0 / M_PI);
+}
+
 Eigen::Isometry3d RigidMotion::at(double t) const {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   switch (kind) {

@@ -24,6 +24,8 @@ class Collider {
   explicit Collider(ColliderSpec spec) : spec_(std::move(spec)) {}
   virtual ~Collider() = default;
   const ColliderSpec& spec() const { return spec_; }
+  /// Replaces the rigid motion for the steps prepared from now on (Simulation::move_collider).
+  void set_motion(const RigidMotion& motion) { spec_.motion = motion; }
   /// Prepares the queries of the step from t0 to t1.
   virtual void prepare(double t0, double t1) = 0;
   /// The surface point closest to p at the step's start (end: at its end); false when p is

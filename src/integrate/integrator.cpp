@@ -196,7 +196,7 @@ void Integrator::step(State& s, double dt, StepStatistics& stats) {
   last_step_ok_ = true;
   single_step(s, dt, stats);
   if (last_step_ok_ || retry_depth_ >= kMaxStepHalvings) return;
-  s = std::move(start);
+  s = start;  // copied into s's own storage (State: x and v keep theirs)
   pulling_ = pulling;
   stuck_ = stuck;
   history_.clear();
@@ -786,8 +786,8 @@ bool Integrator::rk45_try(State& s, double h, double& error_norm, StepStatistics
   if (!handlers_.empty()) x_start_ = s.x;
   s.dx_prev = x5 - s.x;
   s.dv_prev = v5 - s.v;
-  s.x = std::move(x5);
-  s.v = std::move(v5);
+  s.x = x5;  // copied: x and v keep their storage (State)
+  s.v = v5;
   s.viscous_dissipated += dissipated;
   s.has_history = true;
   if (!handlers_.empty()) finish_contacts(s, s.t, h, stats);

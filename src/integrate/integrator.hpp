@@ -92,6 +92,8 @@ const std::vector<MethodInfo>& method_table();
 const MethodInfo* find_method(const std::string& name);
 std::string method_names();  ///< "forward-euler, backward-euler, ..."
 
+/// The integrators write into x and v in place: their storage stays the same from step to step
+/// (the Python module's numpy arrays view it).
 struct State {
   VecX x, v;             ///< positions (m) and velocities (m/s), 3n
   double t = 0;          ///< time (s)

@@ -78,6 +78,13 @@ std::vector<float> vertex_normals(const Real* xyz, int vertex_count, const std::
 template std::vector<float> vertex_normals<double>(const double*, int, const std::vector<std::array<int, 3>>&);
 template std::vector<float> vertex_normals<float>(const float*, int, const std::vector<std::array<int, 3>>&);
 
+std::vector<float> pattern_texcoords(const std::vector<Vec2>& pattern, double metres_per_unit) {
+  std::vector<float> uv(2 * pattern.size());
+  for (size_t i = 0; i < pattern.size(); ++i)
+    for (int d = 0; d < 2; ++d) uv[2 * i + d] = static_cast<float>(pattern[i][d] / metres_per_unit);
+  return uv;
+}
+
 namespace {
 
 // A text buffer that numbers are formatted straight into, as fixed-point integers (several

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "weft/types.hpp"
+
 namespace weft {
 
 /// The formats `weft run --format` and a scene's output.formats accept, for messages.
@@ -25,6 +27,10 @@ std::vector<std::string> split_format_list(const std::string& text);
 /// vertex whose triangles have no area).
 template <typename Real>
 std::vector<float> vertex_normals(const Real* xyz, int vertex_count, const std::vector<std::array<int, 3>>& triangles);
+
+/// Texture coordinates of a cloth, 2 per vertex: its pattern coordinates (m) in units of
+/// `metres_per_unit` (the scene's cloth uv_scale), as the frames and animations hold them.
+std::vector<float> pattern_texcoords(const std::vector<Vec2>& pattern, double metres_per_unit);
 
 /// An OBJ file of a cloth frame: `v` (9 decimals, m), `vt` (2 per vertex, 7 decimals), `vn`
 /// (3 per vertex, 7 decimals) and faces `f a/a/a` (1-based, one texture coordinate and one

@@ -70,11 +70,12 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
       const Mat3 R = rotation_from_degrees(c.rotation_deg);
       for (Eigen::Index v = 0; v < obj.positions.rows(); ++v)
         obj.positions.row(v) = (R * (c.scale * obj.positions.row(v).transpose()) + c.translation).transpose();
-      const RigidMotion motion = c.motion;
+      // The motion as scene_ holds it: move_collider may replace it between steps.
+      const RigidMotion* motion = &scene_.colliders[colliders_.size()].motion;
       colliders_.push_back(make_mesh_collider(
           c, obj.triangles,
           [placed = std::move(obj.positions), motion](double t, Points& out) {
-            const Eigen::Isometry3d T = motion.at(t);
+            const Eigen::Isometry3d T = motion->at(t);
             out.resize(placed.rows(), 3);
             for (Eigen::Index v = 0; v < placed.rows(); ++v) out.row(v) = (T * Vec3(placed.row(v))).transpose();
           },
@@ -136,6 +137,110 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
 }
 
 Simulation::~Simulation() = default;
+
+void Simulation::advance_to(double t) {
+  // While pins move: a step at a time (each arrival is on the step grid), each moving pin's
+  // velocity set again after every step to reach its target at its arrival, so that a pin the
+  // self-collision fail-safe held still for a step (an impact zone holding a pin stops) catches
+  // up; pins that arrived are put on their targets and stopped.
+  const double slack = 1e-9 * scene_.integrator.dt;
+  while (!pin_moves_.empty() && state_.t < t - slack) {
+    double next = std::min(t, state_.t + scene_.integrator.dt);
+    for (const PinMove& m : pin_moves_) next = std::min(next, m.arrival);
+    integrator_->advance(state_, next, stats_);
+    std::erase_if(pin_moves_, [&](const PinMove& m) {
+      if (m.arrival > state_.t + slack) {
+        set_pin_velocity(m.node, (m.target - node(state_.x, m.node)) / (m.arrival - state_.t));
+        return false;
+      }
+      node(state_.x, m.node) = m.target;
+      set_pin_velocity(m.node, Vec3::Zero());
+      return true;
+    });
+  }
+  integrator_->advance(state_, t, stats_);
+}
+
+double Simulation::arrival_time(double arrival, const std::string& what) const {
+  const double now = state_.t, dt = scene_.integrator.dt;
+  if (!(arrival > now) || !std::isfinite(arrival))
+    throw InputError(what + ": the arrival time " + std::to_string(arrival) + " s must be after the current time " +
+                     std::to_string(now) + " s");
+  if (scene_.integrator.method == Method::Rk45) return arrival;
+  return now + std::max(1L, std::lround((arrival - now) / dt)) * dt;
+}
+
+void Simulation::set_pin_velocity(int i, const Vec3& v) {
+  node(state_.v, i) = v;
+  // BDF-2 moves a node by beta dx_prev + dt_b v (with dv = 0 on a pin): a previous change of
+  // dt v, beta dt + dt_b = dt, makes that dt v from the next step on.
+  if (state_.has_history) {
+    node(state_.dx_prev, i) = scene_.integrator.dt * v;
+    node(state_.dv_prev, i).setZero();
+  }
+}
+
+void Simulation::move_pins(const std::vector<int>& nodes, const std::vector<Vec3>& targets, double arrival) {
+  const std::string what = "move_pins";
+  if (nodes.size() != targets.size())
+    throw InputError(what + ": " + std::to_string(nodes.size()) + " vertices but " + std::to_string(targets.size()) +
+                     " targets (one target per vertex)");
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    const int i = nodes[k];
+    if (i < 0 || i >= model_->num_vertices())
+      throw InputError(what + ": vertex " + std::to_string(i) + " does not exist (the cloth has " +
+                       std::to_string(model_->num_vertices()) + " vertices)");
+    if (!model_->fixed[i]) throw InputError(what + ": vertex " + std::to_string(i) + " is not pinned");
+    if (!targets[k].allFinite())
+      throw InputError(what + ": the target of vertex " + std::to_string(i) + " is not finite");
+  }
+  const double when = arrival_time(arrival, what);
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    const int i = nodes[k];
+    std::erase_if(pin_moves_, [i](const PinMove& m) { return m.node == i; });
+    pin_moves_.push_back({i, targets[k], when});
+    set_pin_velocity(i, (targets[k] - node(state_.x, i)) / (when - state_.t));
+  }
+}
+
+void Simulation::move_collider(size_t k, const Eigen::Isometry3d& target, double arrival) {
+  const std::string what = "move_collider";
+  if (k >= colliders_.size())
+    throw InputError(what + ": collider " + std::to_string(k) + " does not exist (the scene has " +
+                     std::to_string(colliders_.size()) + " colliders)");
+  ColliderSpec& spec = scene_.colliders[k];
+  if (spec.shape == ColliderShape::kBody)
+    throw InputError(what + ": " + spec.name + " is a walking body, moved by its motion file, not rigidly");
+  if (!target.matrix().allFinite()) throw InputError(what + ": the target pose of " + spec.name + " is not finite");
+  const double when = arrival_time(arrival, what);
+  const Eigen::Isometry3d now = spec.motion.at(state_.t);
+  RigidMotion motion;
+  motion.kind = RigidMotion::Kind::kKeyframes;
+  motion.keys = {{state_.t, now.translation(), degrees_from_rotation(now.linear())},
+                 {when, target.translation(), degrees_from_rotation(target.linear())}};
+  spec.motion = motion;
+  colliders_[k]->set_motion(motion);
+}
+
+void Simulation::collider_surface(size_t k, double t, Points& positions, Triangles& triangles) const {
+  const Collider& c = *colliders_.at(k);
+  if (c.spec().shape == ColliderShape::kBody) {
+    const WalkingBody& body = *bodies_[c.spec().body];
+    body.positions(t, positions);
+    if (triangles.rows() == 0) triangles = body.triangles();
+  } else {
+    c.surface(t, positions, triangles);
+  }
+}
+
+Eigen::Isometry3d Simulation::collider_pose(size_t k, double t) const {
+  if (k >= colliders_.size())
+    throw InputError("collider_pose: collider " + std::to_string(k) + " does not exist (the scene has " +
+                     std::to_string(colliders_.size()) + " colliders)");
+  if (scene_.colliders[k].shape == ColliderShape::kBody)
+    throw InputError("collider_pose: " + scene_.colliders[k].name + " is a walking body, without a rigid pose");
+  return scene_.colliders[k].motion.at(t);
+}
 
 void Simulation::reset_state(const VecX& x, const VecX& v) {
   state_ = State{};
