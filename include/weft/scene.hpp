@@ -1,6 +1,7 @@
 #pragma once
 // A validated scene (docs/scene-format.md): what to simulate, for how long, and how.
 #include <nlohmann/json.hpp>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -8,6 +9,7 @@
 #include <vector>
 
 #include "integrate/integrator.hpp"
+#include "garment/placement.hpp"
 #include "mesh/mesh.hpp"
 #include "weft/body.hpp"
 #include "weft/collider.hpp"
@@ -47,9 +49,22 @@ struct ClampSpec {
   RigidMotion motion;
 };
 
+/// A garment made from a sewing pattern (cloth.mesh.pattern): meshed, placed around the
+/// scene's first body in its bind pose and sewn while the scene is set up (docs/garments.md).
+struct GarmentSpec {
+  std::string pattern_file;                 ///< absolute, resolved against the scene
+  double edge_length_m = 0.015;
+  double clearance_m = 0.02;
+  /// Per panel: the body part, the direction it faces and a shift along the part's axis.
+  std::map<std::string, PanelPlacementOverride> panels;
+  double seam_stiffness_N_m = 1e4;
+  double sewing_time_s = 0.5;
+};
+
 struct ClothSpec {
   std::optional<GridSpec> grid;    ///< either a grid ...
   std::string obj_path;            ///< ... or an OBJ file (absolute, resolved against the scene)
+  std::optional<GarmentSpec> garment;  ///< ... or a garment sewn from a pattern
   /// ... or a mesh made in code (a garment being sewn); it comes first when set.
   std::shared_ptr<const TriMesh> mesh;
   /// Zero-length springs pulling pairs of vertices together (sewing; set in code).

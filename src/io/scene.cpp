@@ -1,5 +1,7 @@
 #include "weft/scene.hpp"
 
+#include "garment/pattern.hpp"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -130,9 +132,39 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
     parse_bending_model(c.bending_model, r.where("bending_model"));
   }
   const Reader mesh = r.object("mesh");
-  mesh.allow_only({"grid", "obj", "uv_scale"});
-  if (mesh.has("grid") == mesh.has("obj")) mesh.fail("grid", "give exactly one of 'grid' or 'obj'");
-  if (mesh.has("grid")) {
+  mesh.allow_only({"grid", "obj", "uv_scale", "pattern"});
+  if (int(mesh.has("grid")) + int(mesh.has("obj")) + int(mesh.has("pattern")) != 1)
+    mesh.fail("grid", "give exactly one of 'grid', 'obj' or 'pattern'");
+  if (mesh.has("pattern")) {
+    const Reader g = mesh.object("pattern");
+    g.allow_only({"file", "edge_length", "clearance", "panels", "seam_stiffness", "sewing_time"});
+    GarmentSpec gs;
+    const std::string p = g.string("file");
+    const fs::path path = fs::path(p).is_absolute() ? fs::path(p) : fs::path(base_dir) / p;
+    if (!fs::exists(path)) g.fail("file", "pattern file '" + path.string() + "' does not exist");
+    gs.pattern_file = path.lexically_normal().string();
+    if (g.has("edge_length")) gs.edge_length_m = g.number_in("edge_length", 0.002, 0.5, false);
+    if (g.has("clearance")) gs.clearance_m = g.number_in("clearance", 0.002, 0.2, false);
+    if (g.has("seam_stiffness")) gs.seam_stiffness_N_m = g.number_in("seam_stiffness", 0, 1e7, true);
+    if (g.has("sewing_time")) gs.sewing_time_s = g.number_in("sewing_time", 0, 60, true);
+    if (g.has("panels")) {
+      const Pattern pattern = load_pattern(gs.pattern_file);
+      const Reader panels = g.object("panels");
+      for (const auto& [name, value] : panels.json().items()) {
+        bool found = false;
+        for (const Panel& panel : pattern.panels) found = found || panel.name == name;
+        if (!found) panels.fail(name.c_str(), "the pattern " + gs.pattern_file + " has no panel '" + name + "'");
+        const Reader o = panels.object(name.c_str());
+        o.allow_only({"part", "angle_deg", "shift"});
+        PanelPlacementOverride po;
+        if (o.has("part")) po.part = parse_body_part(o.string("part"), o.where("part"));
+        if (o.has("angle_deg")) po.angle_deg = o.number_in("angle_deg", -360, 360, false);
+        if (o.has("shift")) po.shift_m = o.number_in("shift", -2, 2, false);
+        gs.panels[name] = po;
+      }
+    }
+    c.garment = gs;
+  } else if (mesh.has("grid")) {
     const Reader g = mesh.object("grid");
     g.allow_only({"size", "vertices", "pattern"});
     const auto& size = g.raw("size");
@@ -392,7 +424,21 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
   }
   if (r.has("patterns")) {
     const auto& p = r.raw("patterns");
-    if (!p.is_array() || !p.empty()) r.fail("patterns", "sewing patterns are reserved for a later version; leave the array empty");
+    if (!p.is_array() || !p.empty())
+      r.fail("patterns", "a garment's sewing pattern goes in cloth.mesh.pattern (docs/scene-format.md); this key, "
+                         "kept for older scenes, must be an empty array");
+  }
+  if (s.cloth.garment) {
+    if (s.bodies.empty())
+      throw InputError(file + ": key cloth.mesh.pattern: a garment is placed and sewn on the body; the scene has no "
+                              "collider of type body");
+    const BodyColliderSpec& b = s.bodies.front();
+    if (!(b.bind_pose_hold + b.blend > 0))
+      throw InputError(file + ": key cloth.mesh.pattern: the garment is sewn on the body in its bind pose, so the "
+                              "body must start in it: give its collider a bind_pose_hold or blend above 0");
+    if (r.object("cloth").has("placement"))
+      throw InputError(file + ": key cloth.placement: a garment is placed on the body; leave placement out (move "
+                              "panels with cloth.mesh.pattern.panels)");
   }
   if (r.has("output")) {
     const Reader o = r.object("output");

@@ -3,6 +3,7 @@
 #include "collision/colliders.hpp"
 #include "collision/clamps.hpp"
 #include "collision/self_contact.hpp"
+#include "garment/sewing.hpp"
 #include "sim/checkpoint.hpp"
 #include "weft/error.hpp"
 
@@ -18,6 +19,33 @@ namespace weft {
 namespace {
 // Shares of the set-up time by stage (the integrator and the energy reference take the rest).
 constexpr double kSetupShareMesh = 0.2, kSetupShareModel = 0.6, kSetupShareSystem = 0.1;
+/// The scene's garment: its pattern meshed, placed around the first body in its bind pose and
+/// sewn (garment/sewing.hpp), in the scene's cloth material.
+TriMesh sew_scene_garment(const Scene& scene, const Simulation::SetupProgress& on_setup) {
+  const GarmentSpec& g = *scene.cloth.garment;
+  const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": cloth.mesh.pattern";
+  if (on_setup) on_setup("garment: meshing " + g.pattern_file, 0.0);
+  const Pattern pattern = load_pattern(g.pattern_file);
+  GarmentMeshOptions mesh_options;
+  mesh_options.target_edge_m = g.edge_length_m;
+  const GarmentMesh garment = mesh_garment(pattern, mesh_options);
+  const BindBody body = load_bind_body(scene.bodies.front(), 1.0);
+  PlacementOptions placement;
+  placement.clearance_m = g.clearance_m;
+  placement.overrides = g.panels;
+  const PlacedGarment placed = place_garment(pattern, garment, body, placement);
+  SewingOptions sewing;
+  sewing.material = scene.cloth.material;
+  sewing.seam_stiffness_N_m = g.seam_stiffness_N_m;
+  sewing.max_time_s = g.sewing_time_s;
+  if (on_setup) on_setup("garment: sewing", 0.0);
+  SewnGarment sewn = sew_garment(placed, body, sewing);
+  if (sewn.intersections.count() > 0)
+    std::fprintf(stderr, "weft: warning: %s: the sewn garment starts with %zu intersecting triangle pairs\n",
+                 where.c_str(), sewn.intersections.count());
+  return std::move(sewn.mesh);
+}
+
 }  // namespace
 
 Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scene_(scene) {
@@ -26,7 +54,7 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
     if (on_setup) on_setup(name, fraction);
   };
   stage("cloth mesh", 0.0);
-  TriMesh mesh = build_cloth_mesh(scene.cloth);
+  TriMesh mesh = scene.cloth.garment ? sew_scene_garment(scene, on_setup) : build_cloth_mesh(scene.cloth);
   // Problems found while building the model (a degenerate triangle, a bad pin) name the
   // scene and the mesh they come from.
   const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": cloth" +

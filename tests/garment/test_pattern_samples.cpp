@@ -33,7 +33,7 @@ std::vector<Vec2> span_points(const SampledOutline& outline, int edge) {
   return pts;
 }
 
-TEST(PatternSamples, AllNineFilesArePresent) { EXPECT_EQ(sample_files().size(), 9u); }
+TEST(PatternSamples, AllTenFilesArePresent) { EXPECT_EQ(sample_files().size(), 10u); }  // nine copied, the derived coat
 
 TEST(PatternSamples, OutlinesAreClosedCounterClockwiseAndSimple) {
   for (const std::string& file : sample_files()) {
