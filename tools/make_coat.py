@@ -18,7 +18,7 @@ TARGET = ROOT / "data/patterns/coat/coat.json"
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--torso", type=float, default=58.0, help="cm added below the hem (default 58)")
-    parser.add_argument("--flare", type=float, default=5.0, help="cm the hem widens at each side seam (default 5)")
+    parser.add_argument("--flare", type=float, default=0.0, help="cm the hem widens at each side seam (default 0: panels rolled onto one cylinder would overlap at a flared hem)")
     parser.add_argument("--sleeve", type=float, default=12.0, help="cm added at the cuff (default 12: the cuff at the wrist)")
     args = parser.parse_args()
     spec = json.loads(SOURCE.read_text())
