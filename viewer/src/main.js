@@ -24,7 +24,8 @@ const viewer = {
   playing: false,
   speed: 1,
   colourMap: 'plain',
-  loadMs: 0,
+  loadMs: 0,       // from the script's start to the run shown
+  loadedAt: 0,     // ms from the navigation's start to the run shown
   renders: 0,
   fps: 0,
 };
@@ -35,7 +36,7 @@ window.weftViewer = {
     return {
       loaded: viewer.loaded, error: viewer.error, frames: viewer.times.length, time: viewer.time, frame: viewer.frame,
       playing: viewer.playing, speed: viewer.speed, colourMap: viewer.colourMap, loadMs: viewer.loadMs,
-      renders: viewer.renders, fps: viewer.fps,
+      loadedAt: viewer.loadedAt, renders: viewer.renders, fps: viewer.fps,
       positionsSource: viewer.manifest && viewer.manifest.positions_source,
       meshes: viewer.meshes.map((m) => ({name: m.name, vertices: m.vertices, triangles: m.indices.length / 3, frames: m.frames})),
     };
@@ -163,6 +164,7 @@ async function load() {
   viewer.loaded = true;
   setTime(viewer.times[0]);
   viewer.loadMs = performance.now() - start;
+  viewer.loadedAt = performance.now();
   status('');
 }
 
