@@ -91,6 +91,16 @@ fs::path find_viewer_dir() {
                            "); it is built by the target weft_viewer, which needs node and npm (see docs/viewer.md)");
 }
 
+// Sends `bytes` (which outlive the server) as they are. Not res.set_content: cpp-httplib would
+// then compress text with brotli or gzip on every request, which takes seconds for the
+// bundled page's half megabyte; on the loopback the plain bytes arrive sooner.
+void send(httplib::Response& res, const std::string& bytes, const std::string& type) {
+  res.set_header("Cache-Control", "no-store");
+  res.set_content_provider(bytes.size(), type, [&bytes](size_t offset, size_t length, httplib::DataSink& sink) {
+    return sink.write(bytes.data() + offset, std::min<size_t>(length, 1 << 20));
+  });
+}
+
 bool display_present() {
   for (const char* v : {"DISPLAY", "WAYLAND_DISPLAY"})
     if (const char* s = std::getenv(v); s && *s) return true;
@@ -130,26 +140,19 @@ int run_view(const ViewArgs& a) {
   });
   server.Get("/", [&assets](const httplib::Request&, httplib::Response& res) {
     const auto& [type, bytes] = assets.at("/index.html");
-    res.set_content(bytes, type);
+    send(res, bytes, type);
   });
   for (const auto& [path, asset] : assets)
-    server.Get(path, [&asset = asset](const httplib::Request&, httplib::Response& res) { res.set_content(asset.second, asset.first); });
+    server.Get(path, [&asset = asset](const httplib::Request&, httplib::Response& res) { send(res, asset.second, asset.first); });
   server.Get("/run/manifest.json", [&payload](const httplib::Request&, httplib::Response& res) {
-    res.set_header("Cache-Control", "no-store");
-    res.set_content(payload.manifest, "application/json");
+    send(res, payload.manifest, "application/json");
   });
   server.Get("/run/data.bin", [&payload](const httplib::Request&, httplib::Response& res) {
-    res.set_header("Cache-Control", "no-store");
-    res.set_content_provider(payload.data.size(), "application/octet-stream",
-                             [&payload](size_t offset, size_t length, httplib::DataSink& sink) {
-                               return sink.write(payload.data.data() + offset, std::min<size_t>(length, 1 << 20));
-                             });
+    send(res, payload.data, "application/octet-stream");
   });
   for (const auto& [name, bytes] : run_files)
-    server.Get("/run/" + name, [&bytes = bytes, json = name.ends_with(".json")](const httplib::Request&, httplib::Response& res) {
-      res.set_header("Cache-Control", "no-store");
-      res.set_content(bytes, json ? "application/json" : "text/csv");
-    });
+    server.Get("/run/" + name, [&bytes = bytes, type = name.ends_with(".json") ? "application/json" : "text/csv"](
+                                   const httplib::Request&, httplib::Response& res) { send(res, bytes, type); });
 
   const std::string host = "127.0.0.1";
   int port = a.port;

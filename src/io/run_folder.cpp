@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -41,9 +42,12 @@ std::map<long, RunFrameFiles> find_run_frames(const fs::path& dir) {
     }
   }
   for (const auto& [number, f] : found)
-    if (f.cloth.empty())
-      throw InputError(f.colliders.begin()->second.string() + ": a collider's frame without its cloth frame (expected " +
-                       (frames / "frame_").string() + std::to_string(number) + ".obj or .ply)");
+    if (f.cloth.empty()) {
+      char cloth_name[32];
+      std::snprintf(cloth_name, sizeof cloth_name, "frame_%05ld", number);
+      throw InputError(f.colliders.begin()->second.string() + ": a body frame without its cloth frame (expected " +
+                       (frames / cloth_name).string() + ".obj or .ply)");
+    }
   if (found.empty()) throw InputError(frames.string() + ": no frames (expected frame_NNNNN.obj or frame_NNNNN.ply files)");
   return found;
 }

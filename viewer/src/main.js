@@ -9,6 +9,7 @@ import {EnergyChart} from './energy.js';
 import {showSummary} from './summary.js';
 
 const $ = (id) => document.getElementById(id);
+const scriptStartedAt = performance.now();
 
 const CLOTH_COLOUR = new THREE.Color(0x5b84c4);
 const COLLIDER_COLOUR = new THREE.Color(0xb9b4ae);
@@ -28,6 +29,8 @@ const viewer = {
   loadedAt: 0,     // ms from the navigation's start to the run shown
   renders: 0,
   fps: 0,
+  updateMs: 0,     // time spent updating the meshes, per frame shown (running mean)
+  renderMs: 0,     // time spent in three.js's render call, per frame drawn (running mean)
 };
 
 // What the tests (and a curious user, from the console) can read of the page.
@@ -36,7 +39,7 @@ window.weftViewer = {
     return {
       loaded: viewer.loaded, error: viewer.error, frames: viewer.times.length, time: viewer.time, frame: viewer.frame,
       playing: viewer.playing, speed: viewer.speed, colourMap: viewer.colourMap, loadMs: viewer.loadMs,
-      loadedAt: viewer.loadedAt, renders: viewer.renders, fps: viewer.fps,
+      loadedAt: viewer.loadedAt, scriptStartedAt, rendererReadyAt, software, antialias, renders: viewer.renders, fps: viewer.fps, updateMs: viewer.updateMs, renderMs: viewer.renderMs,
       positionsSource: viewer.manifest && viewer.manifest.positions_source,
       meshes: viewer.meshes.map((m) => ({name: m.name, vertices: m.vertices, triangles: m.indices.length / 3, frames: m.frames})),
     };
@@ -59,10 +62,26 @@ window.weftViewer = {
 // ---------------------------------------------------------------------------------------------
 // Scene
 
+// Multisampling costs a software renderer (SwiftShader, llvmpipe: machines without a GPU) about
+// a third of its frame rate, so it is on only for a GPU; ?antialias=1 or 0 says otherwise.
+function softwareRenderer() {
+  const gl = document.createElement('canvas').getContext('webgl2');
+  if (!gl) return false;
+  const info = gl.getExtension('WEBGL_debug_renderer_info');
+  const name = info ? String(gl.getParameter(info.UNMASKED_RENDERER_WEBGL)) : '';
+  const lose = gl.getExtension('WEBGL_lose_context');
+  if (lose) lose.loseContext();
+  return /swiftshader|llvmpipe|softpipe|software/i.test(name);
+}
+const antialiasParameter = new URLSearchParams(location.search).get('antialias');
+const software = softwareRenderer();
+const antialias = antialiasParameter === null ? !software : antialiasParameter === '1';
+
 const canvas = $('scene');
-const renderer = new THREE.WebGLRenderer({canvas, antialias: true});
+const renderer = new THREE.WebGLRenderer({canvas, antialias});
 renderer.setPixelRatio(window.devicePixelRatio);
 const scene = new THREE.Scene();
+const rendererReadyAt = performance.now();
 scene.background = new THREE.Color(0xdfe3e8);
 const camera = new THREE.PerspectiveCamera(40, 1, 0.01, 1000);
 const controls = new OrbitControls(camera, canvas);
@@ -168,8 +187,8 @@ async function load() {
   status('');
 }
 
-// The camera looks at the cloth over the run and the colliders not much larger than it (a
-// floor plane would otherwise push the cloth out of sight).
+// The camera looks at the cloth over the run, the bodies, and the other colliders not much
+// larger than the cloth (a floor plane would otherwise push the cloth out of sight).
 function frameCamera() {
   const clothBox = new THREE.Box3();
   const cloth = viewer.meshes[0];
@@ -181,7 +200,8 @@ function frameCamera() {
   const clothSize = clothBox.getSize(new THREE.Vector3()).length();
   for (const m of viewer.meshes.slice(1)) {
     m.geometry.computeBoundingBox();
-    if (m.geometry.boundingBox.getSize(new THREE.Vector3()).length() < 4 * clothSize) box.union(m.geometry.boundingBox);
+    if (m.name.startsWith('body') || m.geometry.boundingBox.getSize(new THREE.Vector3()).length() < 2 * clothSize)
+      box.union(m.geometry.boundingBox);
   }
   const centre = box.getCenter(new THREE.Vector3());
   const radius = Math.max(0.05, 0.5 * box.getSize(new THREE.Vector3()).length());
@@ -332,6 +352,7 @@ function frameAt(t) {
 // Shows the run at time `t`: positions blended linearly between the frames around it (as the
 // glb's animation does), colours of the frame at or before it.
 function setTime(t) {
+  const began = performance.now();
   const times = viewer.times;
   t = Math.min(times[times.length - 1], Math.max(times[0], t));
   const k = frameAt(t);
@@ -363,6 +384,7 @@ function setTime(t) {
   $('time').textContent = `t = ${t.toFixed(3)} s   frame ${k} / ${times.length - 1}`;
   if (energyChart) energyChart.cursor(t);
   needsRender = true;
+  viewer.updateMs += 0.1 * (performance.now() - began - viewer.updateMs);
 }
 
 function seek(t) {
@@ -389,7 +411,9 @@ function tick(now) {
     lastTick = now;
   }
   if (needsRender) {
+    const began = performance.now();
     renderer.render(scene, camera);
+    viewer.renderMs += 0.1 * (performance.now() - began - viewer.renderMs);
     needsRender = false;
     viewer.renders += 1;
     renderTimes.push(now);

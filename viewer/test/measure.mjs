@@ -51,7 +51,7 @@ try {
   const state = await page.evaluate(() => weftViewer.state());
   if (state.error) throw new Error(state.error);
   const triangles = state.meshes.reduce((s, m) => s + m.triangles, 0);
-  console.log(`frames ${state.frames}; meshes ${state.meshes.map((m) => `${m.name} ${m.vertices} v / ${m.triangles} t`).join(', ')}; ${triangles} triangles`);
+  console.log(`renderer: ${state.software ? 'software' : 'GPU'}, antialias ${state.antialias}; frames ${state.frames}; meshes ${state.meshes.map((m) => `${m.name} ${m.vertices} v / ${m.triangles} t`).join(', ')}; ${triangles} triangles`);
   console.log(`weft view read the folder and served in ${serverSeconds.toFixed(2)} s; page load: ${(state.loadedAt / 1000).toFixed(2)} s from the navigation's start to the run shown (of which the page's script ${(state.loadMs / 1000).toFixed(2)} s: fetching run/data.bin and building the meshes); ${loadSeconds.toFixed(2)} s from puppeteer's goto to the first frame drawn`);
   for (const map of ['plain', 'strain']) {
     await page.select('#colour', map);
@@ -62,7 +62,9 @@ try {
     const r1 = await page.evaluate(() => [weftViewer.state().renders, weftViewer.state().time, performance.now()]);
     await page.click('#play');
     const fps = (r1[0] - r0[0]) / ((r1[2] - r0[2]) / 1000);
-    console.log(`playback, colour ${map}: ${fps.toFixed(1)} frames drawn per second over ${seconds} s`);
+    const s1 = await page.evaluate(() => weftViewer.state());
+    console.log(`playback, colour ${map}: ${fps.toFixed(1)} frames drawn per second over ${seconds} s ` +
+                `(per frame: ${s1.updateMs.toFixed(1)} ms updating the meshes, ${s1.renderMs.toFixed(1)} ms in three.js's render call)`);
   }
   if (screenshot) {
     await page.evaluate(() => weftViewer.setTime(weftViewer.state().frames > 1 ? 2.5 : 0));
