@@ -1,6 +1,7 @@
 #include "io/run_folder.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -52,24 +53,58 @@ std::map<long, RunFrameFiles> find_run_frames(const fs::path& dir) {
   return found;
 }
 
+namespace {
+
+// The numbers of one line, separated by spaces or tabs, parsed with from_chars (a frame has
+// tens of thousands of lines; streams would take most of the viewer's start). False when a
+// word is not a number or is not finite.
+template <typename T>
+bool parse_numbers(std::string_view line, std::vector<T>& out) {
+  out.clear();
+  const char* p = line.data();
+  const char* end = p + line.size();
+  while (true) {
+    while (p < end && (*p == ' ' || *p == '\t' || *p == '\r')) ++p;
+    if (p == end) return true;
+    T value{};
+    const auto [next, error] = std::from_chars(p, end, value);
+    if (error != std::errc() || next == p) return false;
+    if constexpr (std::is_floating_point_v<T>)
+      if (!std::isfinite(value)) return false;
+    out.push_back(value);
+    p = next;
+  }
+}
+
+}  // namespace
+
 PlyFrame read_ply_frame(const fs::path& path) {
-  std::istringstream in(read_input_file(path.string(), "PLY file"));
+  const std::string text = read_input_file(path.string(), "PLY file");
   const std::string name = path.string();
-  std::string line;
+  size_t at = 0;
+  std::string_view line;
   int line_no = 0;
+  auto next_line = [&]() {
+    if (at >= text.size()) return false;
+    size_t end = text.find('\n', at);
+    if (end == std::string::npos) end = text.size();
+    line = std::string_view(text).substr(at, end - at);
+    at = end + 1;
+    ++line_no;
+    return true;
+  };
   auto fail = [&](const std::string& what) -> InputError { return InputError(name + ":" + std::to_string(line_no) + ": " + what); };
   long vertices = -1, faces = -1;
   std::vector<std::string> vertex_properties;
   std::string element;
   bool ascii = false;
   while (true) {
-    if (!std::getline(in, line)) throw fail("the header has no end_header line");
-    ++line_no;
-    std::istringstream words(line);
+    if (!next_line()) throw fail("the header has no end_header line");
+    std::istringstream words{std::string(line)};
     std::string word;
     words >> word;
     if (line_no == 1) {
-      if (word != "ply") throw fail("not a PLY file (expected 'ply' on the first line, got '" + line + "')");
+      if (word != "ply") throw fail("not a PLY file (expected 'ply' on the first line, got '" + std::string(line) + "')");
       continue;
     }
     if (word == "end_header") break;
@@ -101,31 +136,26 @@ PlyFrame read_ply_frame(const fs::path& path) {
   PlyFrame frame;
   frame.xyz.resize(3 * static_cast<size_t>(vertices));
   if (viscosity_column >= 0) frame.added_viscosity.resize(static_cast<size_t>(vertices));
-  std::vector<double> values(vertex_properties.size());
+  std::vector<double> values;
   for (long i = 0; i < vertices; ++i) {
-    if (!std::getline(in, line))
-      throw fail("the file ends after " + std::to_string(i) + " of " + std::to_string(vertices) + " vertices");
-    ++line_no;
-    std::istringstream words(line);
-    for (double& v : values)
-      if (!(words >> v) || !std::isfinite(v))
-        throw fail("expected " + std::to_string(values.size()) + " numbers, got '" + line + "'");
+    if (!next_line()) throw fail("the file ends after " + std::to_string(i) + " of " + std::to_string(vertices) + " vertices");
+    if (!parse_numbers(line, values) || values.size() < vertex_properties.size())
+      throw fail("expected " + std::to_string(vertex_properties.size()) + " numbers, got '" + std::string(line) + "'");
     for (int axis = 0; axis < 3; ++axis) frame.xyz[3 * i + axis] = values[axis_column[axis]];
     if (viscosity_column >= 0) frame.added_viscosity[i] = values[viscosity_column];
   }
+  std::vector<long> corner;
   for (long f = 0; f < faces; ++f) {
-    if (!std::getline(in, line))
-      throw fail("the file ends after " + std::to_string(f) + " of " + std::to_string(faces) + " faces");
-    ++line_no;
-    std::istringstream words(line);
-    int n = 0;
-    words >> n;
-    std::vector<int> corner(n > 0 ? n : 0);
-    for (int& c : corner)
-      if (!(words >> c) || c < 0 || c >= vertices)
-        throw fail("expected a face of vertex indices in [0, " + std::to_string(vertices) + "), got '" + line + "'");
-    if (n < 3) throw fail("a face needs at least 3 vertices, got '" + line + "'");
-    for (int k = 1; k + 1 < n; ++k) frame.triangles.push_back({corner[0], corner[k], corner[k + 1]});
+    if (!next_line()) throw fail("the file ends after " + std::to_string(f) + " of " + std::to_string(faces) + " faces");
+    const bool parsed = parse_numbers(line, corner);
+    const long n = corner.empty() ? 0 : corner[0];
+    bool in_range = parsed && n >= 0 && static_cast<long>(corner.size()) >= n + 1;
+    for (long k = 1; in_range && k <= n; ++k) in_range = corner[k] >= 0 && corner[k] < vertices;
+    if (!in_range)
+      throw fail("expected a face of vertex indices in [0, " + std::to_string(vertices) + "), got '" + std::string(line) + "'");
+    if (n < 3) throw fail("a face needs at least 3 vertices, got '" + std::string(line) + "'");
+    for (long k = 2; k < n; ++k)
+      frame.triangles.push_back({static_cast<int>(corner[1]), static_cast<int>(corner[k]), static_cast<int>(corner[k + 1])});
   }
   return frame;
 }
