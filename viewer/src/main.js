@@ -434,7 +434,8 @@ $('scrub').addEventListener('input', (e) => {
 $('speed').addEventListener('change', (e) => { viewer.speed = Number(e.target.value); });
 $('colour').addEventListener('change', (e) => setColourMap(e.target.value));
 window.addEventListener('keydown', (e) => {
-  if (!viewer.loaded || e.target.tagName === 'SELECT') return;
+  // Controls handle their own keys (a focused button clicks on space, the slider moves on arrows).
+  if (!viewer.loaded || ['SELECT', 'INPUT', 'BUTTON'].includes(e.target.tagName)) return;
   if (e.key === ' ') { setPlaying(!viewer.playing); e.preventDefault(); }
   if (e.key === 'ArrowRight') { setPlaying(false); setTime(viewer.times[Math.min(viewer.frame + 1, viewer.times.length - 1)]); }
   if (e.key === 'ArrowLeft') { setPlaying(false); setTime(viewer.times[Math.max(viewer.frame - 1, 0)]); }
