@@ -8,9 +8,12 @@
 //     node viewer/test/browser_test.mjs WEFT_EXE SCRATCH_DIR
 //
 // Exit status 0 passed, 1 failed, 77 skipped (no Chromium: set WEFT_CHROMIUM to its path).
+// puppeteer-core comes from $WEFT_VIEWER_NPM_DIR/node_modules (the build's viewer-npm, which
+// ctest passes), else viewer/node_modules.
 import {spawn, spawnSync} from 'node:child_process';
 import {existsSync, mkdirSync, readFileSync, readdirSync, rmSync, writeFileSync} from 'node:fs';
 import {join} from 'node:path';
+import {loadPuppeteer} from './puppeteer.mjs';
 
 const [weft, scratch] = process.argv.slice(2);
 if (!weft || !scratch) {
@@ -22,8 +25,7 @@ if (!existsSync(chromium)) {
   console.log(`skipped: no Chromium at ${chromium} (Debian package chromium; or set WEFT_CHROMIUM)`);
   process.exit(77);
 }
-// Resolved from viewer/node_modules (npm ci of viewer/package-lock.json).
-const {default: puppeteer} = await import('puppeteer-core');
+const puppeteer = await loadPuppeteer();
 
 const started = Date.now();
 const failures = [];

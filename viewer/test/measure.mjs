@@ -4,11 +4,12 @@
 // shown), and the playback rate (frames drawn per second over SECONDS of play, with the plain
 // and the strain colour maps). Not a test: the figures depend on the machine (docs/viewer.md).
 //
-//     node viewer/test/measure.mjs WEFT_EXE RUN_DIR [SECONDS] [SCREENSHOT.png]
+//     WEFT_VIEWER_NPM_DIR=build/viewer-npm node viewer/test/measure.mjs WEFT_EXE RUN_DIR [SECONDS] [SCREENSHOT.png]
 import {spawn} from 'node:child_process';
 import {mkdtempSync, rmSync} from 'node:fs';
 import {tmpdir} from 'node:os';
 import {join} from 'node:path';
+import {loadPuppeteer} from './puppeteer.mjs';
 
 const [weft, runDir, secondsArg, screenshot] = process.argv.slice(2);
 if (!weft || !runDir) {
@@ -17,7 +18,7 @@ if (!weft || !runDir) {
 }
 const seconds = Number(secondsArg || 5);
 const chromium = process.env.WEFT_CHROMIUM || '/usr/bin/chromium';
-const {default: puppeteer} = await import('puppeteer-core');
+const puppeteer = await loadPuppeteer();
 
 const spawned = Date.now();
 const server = spawn(weft, ['view', runDir, '--port', '0', '--no-open'], {stdio: ['ignore', 'pipe', 'inherit']});
