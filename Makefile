@@ -3,7 +3,7 @@ BUILD ?= build
 JOBS ?= $(shell nproc)
 PACKAGES := cmake ninja-build g++ libeigen3-dev nlohmann-json3-dev libcli11-dev \
             libgtest-dev libbenchmark-dev libpng-dev gnuplot-nox ffmpeg \
-            clang libclang-rt-14-dev \
+            clang libclang-rt-14-dev libcpp-httplib-dev pkg-config chromium \
             python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest
 
 .PHONY: all deps build demo test sanitize fuzz bench results clean
@@ -19,7 +19,8 @@ deps:
 	  if [ "$$(id -u)" -ne 0 ]; then SUDO=sudo; else SUDO=; fi; \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
 	fi
-	@# node and npm run the glTF validator of the tests (tools/validate); a node installed
+	@# node and npm run the glTF validator of the tests (tools/validate) and bundle the viewer's
+	@# page (viewer/, `weft view`); a node installed
 	@# otherwise (not from Debian) is kept.
 	@if ! command -v npm >/dev/null 2>&1; then \
 	  echo "Installing: nodejs npm"; \
@@ -45,7 +46,7 @@ $(VALIDATOR): tools/validate/package.json tools/validate/package-lock.json | dep
 	npm ci --prefix tools/validate --no-audit --no-fund
 
 test: deps $(BUILD)/build.ninja $(VALIDATOR)
-	cmake --build $(BUILD) -j $(JOBS) --target weft weft_tests
+	cmake --build $(BUILD) -j $(JOBS) --target weft weft_viewer weft_tests
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 # The test suite under AddressSanitizer and UndefinedBehaviorSanitizer, in its own folder, built
@@ -62,7 +63,7 @@ $(SAN_BUILD)/build.ninja: | deps
 	  -DCMAKE_CXX_FLAGS_RELEASE="-O2 -DNDEBUG" -DWEFT_SANITIZE=address,undefined -DWEFT_FUZZ=ON -DWEFT_BUILD_BENCH=OFF
 
 sanitize: deps $(SAN_BUILD)/build.ninja $(VALIDATOR)
-	cmake --build $(SAN_BUILD) -j $(JOBS) --target weft weft_tests
+	cmake --build $(SAN_BUILD) -j $(JOBS) --target weft weft_viewer weft_tests
 	cd $(SAN_BUILD) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  ctest --output-on-failure -j $(JOBS) -E '$(SAN_SKIP)' $(SAN_CTEST_ARGS)
 

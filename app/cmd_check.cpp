@@ -2,13 +2,10 @@
 // triangles that intersect and the cloth-body pairs that do (docs/collisions.md, "Checking").
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <regex>
-#include <sstream>
 
 #include "collision/frame_check.hpp"
 #include "command.hpp"

@@ -1,6 +1,7 @@
 #include "io/run_frames.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -141,9 +142,12 @@ std::map<long, RunFrameFiles> find_run_frames(const fs::path& dir, const std::st
     }
   }
   for (const auto& [number, f] : found)
-    if (f.cloth.empty())
+    if (f.cloth.empty()) {
+      char cloth_name[32];
+      std::snprintf(cloth_name, sizeof cloth_name, "frame_%05ld", number);
       throw InputError(f.colliders.begin()->second.string() + ": a body frame without its cloth frame (expected " +
-                       (frames / "frame_").string() + std::to_string(number) + ".obj or .ply)");
+                       (frames / cloth_name).string() + ".obj or .ply)");
+    }
   if (found.empty()) throw InputError(frames.string() + ": no frames (expected frame_NNNNN.obj or frame_NNNNN.ply files)");
   return found;
 }
