@@ -2,11 +2,10 @@
 
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <regex>
-#include <sstream>
 
 #include "io/obj_file.hpp"
+#include "io/run_folder.hpp"
 #include "weft/error.hpp"
 
 namespace fs = std::filesystem;
@@ -34,85 +33,13 @@ RunFrameMesh read_obj_frame(const fs::path& path) {
 }
 
 // The ASCII PLY frames of `weft run --frame-format ply`.
-RunFrameMesh read_ply_frame(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path.string() + ": cannot read");
-  const std::string name = path.string();
-  std::string line;
-  int line_no = 0;
-  auto fail = [&](const std::string& what) -> InputError {
-    return InputError(name + ":" + std::to_string(line_no) + ": " + what);
-  };
-  long vertices = -1, faces = -1;
-  std::vector<std::string> vertex_properties;
-  std::string element;
-  bool ascii = false;
-  while (true) {
-    if (!std::getline(in, line)) throw fail("the header has no end_header line");
-    ++line_no;
-    std::istringstream words(line);
-    std::string word;
-    words >> word;
-    if (line_no == 1) {
-      if (word != "ply") throw fail("not a PLY file (expected 'ply' on the first line, got '" + line + "')");
-      continue;
-    }
-    if (word == "end_header") break;
-    if (word == "format") {
-      std::string format;
-      words >> format;
-      ascii = format == "ascii";
-    } else if (word == "element") {
-      long count = -1;
-      words >> element >> count;
-      if (count < 0) throw fail("element " + element + " needs a count >= 0");
-      if (element == "vertex") vertices = count;
-      if (element == "face") faces = count;
-    } else if (word == "property" && element == "vertex") {
-      std::string type, property;
-      words >> type >> property;
-      vertex_properties.push_back(property);
-    }
-  }
-  if (!ascii) throw fail("weft reads ASCII PLY frames only (format ascii 1.0)");
-  if (vertices < 0 || faces < 0) throw fail("the header needs a vertex and a face element");
-  int axis_column[3] = {-1, -1, -1}, viscosity_column = -1;
-  for (size_t k = 0; k < vertex_properties.size(); ++k) {
-    for (int axis = 0; axis < 3; ++axis)
-      if (vertex_properties[k] == std::string(1, "xyz"[axis])) axis_column[axis] = static_cast<int>(k);
-    if (vertex_properties[k] == "added_viscosity") viscosity_column = static_cast<int>(k);
-  }
-  if (axis_column[0] < 0 || axis_column[1] < 0 || axis_column[2] < 0)
-    throw fail("the vertex element needs properties x, y and z");
+/// A PLY frame through the run-folder reader (io/run_folder.hpp), which the viewer uses too.
+RunFrameMesh read_ply_mesh(const fs::path& path) {
+  PlyFrame ply = read_ply_frame(path);
   RunFrameMesh m;
-  m.xyz.resize(3 * static_cast<size_t>(vertices));
-  if (viscosity_column >= 0) m.added_viscosity.resize(static_cast<size_t>(vertices));
-  std::vector<double> values(vertex_properties.size());
-  for (long i = 0; i < vertices; ++i) {
-    if (!std::getline(in, line))
-      throw fail("the file ends after " + std::to_string(i) + " of " + std::to_string(vertices) + " vertices");
-    ++line_no;
-    std::istringstream words(line);
-    for (double& v : values)
-      if (!(words >> v) || !std::isfinite(v))
-        throw fail("expected " + std::to_string(values.size()) + " numbers, got '" + line + "'");
-    for (int axis = 0; axis < 3; ++axis) m.xyz[3 * i + axis] = values[axis_column[axis]];
-    if (viscosity_column >= 0) m.added_viscosity[i] = values[viscosity_column];
-  }
-  for (long f = 0; f < faces; ++f) {
-    if (!std::getline(in, line))
-      throw fail("the file ends after " + std::to_string(f) + " of " + std::to_string(faces) + " faces");
-    ++line_no;
-    std::istringstream words(line);
-    int n = 0;
-    words >> n;
-    std::vector<int> corner(n > 0 ? n : 0);
-    for (int& c : corner)
-      if (!(words >> c) || c < 0 || c >= vertices)
-        throw fail("expected a face of vertex indices in [0, " + std::to_string(vertices) + "), got '" + line + "'");
-    if (n < 3) throw fail("a face needs at least 3 vertices, got '" + line + "'");
-    for (int k = 1; k + 1 < n; ++k) m.triangles.push_back({corner[0], corner[k], corner[k + 1]});
-  }
+  m.xyz = std::move(ply.xyz);
+  m.triangles = std::move(ply.triangles);
+  m.added_viscosity = std::move(ply.added_viscosity);
   return m;
 }
 
@@ -153,7 +80,7 @@ std::map<long, RunFrameFiles> find_run_frames(const fs::path& dir, const std::st
 }
 
 RunFrameMesh read_frame_mesh(const fs::path& path) {
-  return path.extension() == ".ply" ? read_ply_frame(path) : read_obj_frame(path);
+  return path.extension() == ".ply" ? read_ply_mesh(path) : read_obj_frame(path);
 }
 
 }  // namespace weft
