@@ -148,6 +148,11 @@ struct AnimationOptions {
   /// Turn the limb segments (upper/lower arm and leg) of the bind pose onto the performer's
   /// reference-pose directions, so that joint angles are the performer's.
   bool align_limbs = true;
+  /// Extra abduction of the upper arms (radians) in every frame of the motion: each arm turns
+  /// away from the body about the torso's forward axis at the shoulder, the forearm and hand
+  /// following. Garments need room between arm and side that a performer's arms swinging
+  /// close to the hips do not leave.
+  double arm_spread_rad = 0.0;
 };
 
 /// A BVH motion retargeted by joint name onto a rig. Frame 0 of the BVH is its reference pose
@@ -180,6 +185,7 @@ class Animation {
   std::vector<double> ground_lift_m_;                   ///< per frame, see the constructor
   std::vector<Eigen::Quaterniond> reference_world_inverse_;
   std::vector<Eigen::Quaterniond> reference_to_bind_;  ///< per rig bone, see the constructor
+  std::vector<Eigen::Quaterniond> spread_;             ///< per BVH joint, AnimationOptions::arm_spread_rad
   double frame_time_s_ = 0.0, speed_scale_ = 1.0, start_time_s_ = 0.0;
   double duration_s_ = 0.0, length_scale_ = 1.0;
 };
@@ -198,6 +204,8 @@ struct BodyColliderSpec {
   /// seconds over which it then blends into the motion's first pose; the motion starts after both.
   double bind_pose_hold = 0.0;
   double blend = 0.0;
+  /// AnimationOptions::arm_spread_rad, given in the scene in degrees ("arm_spread_deg").
+  double arm_spread_deg = 0.0;
 };
 
 /// Validates keys and types; errors name `where` and the key. "type" may be present ("body").

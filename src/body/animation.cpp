@@ -97,6 +97,28 @@ Animation::Animation(const Rig& rig, const BvhMotion& motion, const AnimationOpt
     reference_to_bind_[b] = Eigen::Quaterniond::FromTwoVectors(
         rig.tail_bind[b] - rig.head_bind[b], reference[j] * segment);
   }
+  // Arm spread: the upper arm's local rotation is preceded by a turn about the torso's forward
+  // axis, expressed in the parent (shoulder) frame of the reference pose; in any frame it then
+  // turns the arm about the posed torso's forward axis, away from the side. The forward axis is
+  // the arm's reference (T-pose) direction crossed with up, so the turn by a positive angle
+  // takes a hanging arm outwards on either side.
+  spread_.assign(joints, Eigen::Quaterniond::Identity());
+  if (!std::isfinite(options.arm_spread_rad) || std::abs(options.arm_spread_rad) > 1.0)
+    throw InputError("arm spread must lie in [-1, 1] rad");
+  for (const char* name : {"LeftArm", "RightArm"}) {
+    const int j = motion.find(name);
+    if (options.arm_spread_rad == 0 || j < 0 || motion.joints[j].parent < 0) continue;
+    Vec3 segment = Vec3::Zero();
+    for (int c = 0; c < joints; ++c)
+      if (motion.joints[c].parent == j && motion.joints[c].offset.norm() > segment.norm())
+        segment = motion.joints[c].offset;
+    const Vec3 direction = reference[j] * segment;
+    const Vec3 axis = direction.cross(Vec3::UnitY());
+    if (axis.norm() < 1e-9 * std::max(direction.norm(), 1e-300)) continue;
+    const int p = motion.joints[j].parent;
+    spread_[j] = Eigen::Quaterniond(
+        Eigen::AngleAxisd(options.arm_spread_rad, reference[p].conjugate() * axis.normalized()));
+  }
   reference_world_inverse_.resize(joints);
   for (int j = 0; j < joints; ++j) reference_world_inverse_[j] = reference[j].conjugate();
 
@@ -172,7 +194,7 @@ void Animation::frame_poses(int f0, double a, double lift_m, std::vector<BonePos
   const Rig& rig = rig_;
   const size_t joints = bvh_parent_.size();
   std::vector<Eigen::Quaterniond> local(joints), world;
-  for (size_t j = 0; j < joints; ++j) local[j] = local_[f0][j].slerp(a, local_[f0 + 1][j]);
+  for (size_t j = 0; j < joints; ++j) local[j] = spread_[j] * local_[f0][j].slerp(a, local_[f0 + 1][j]);
   compose(bvh_parent_, local, world);
   const Vec3 root = (1 - a) * root_position_[f0] + a * root_position_[f0 + 1];
 

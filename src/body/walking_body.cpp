@@ -1,5 +1,6 @@
 // The walking mannequin: shipped body data + a motion, skinned at any time; and its collider
 // description for scenes.
+#include <numbers>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -59,10 +60,15 @@ BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string&
       const double seconds = value.get<double>();
       if (!(seconds >= 0 && seconds <= kMaxBodyStartTime_s)) throw InputError(at + ": must be in [0, 1e7] s, got " + value.dump());
       (key == "blend" ? spec.blend : spec.bind_pose_hold) = seconds;
+    } else if (key == "arm_spread_deg") {
+      if (!value.is_number()) throw InputError(at + ": expected a number (degrees)");
+      spec.arm_spread_deg = value.get<double>();
+      if (!(spec.arm_spread_deg >= -45 && spec.arm_spread_deg <= 45))
+        throw InputError(at + ": must be in [-45, 45] degrees, got " + value.dump());
     } else {
       throw InputError(where + ": unknown key \"" + key +
-                       "\" (expected type, motion, speed, skinning, start_time, bind_pose_hold, blend, thickness, "
-                       "friction)");
+                       "\" (expected type, motion, speed, skinning, start_time, bind_pose_hold, blend, arm_spread_deg, "
+                       "thickness, friction)");
     }
   }
   return spec;
@@ -86,6 +92,7 @@ WalkingBody::WalkingBody(const BodyColliderSpec& spec)
   motion_ = read_bvh(motion_file);
   try {
     AnimationOptions options{spec.speed, spec.start_time, {}, true};
+    options.arm_spread_rad = spec.arm_spread_deg * std::numbers::pi / 180;
     // The skinned mesh's lowest point touches the floor; the poses it gets are bind -> posed.
     options.lowest_point = [this](const std::vector<BonePose>& poses) {
       std::vector<BonePose> from_rest(poses.size());

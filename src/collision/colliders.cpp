@@ -438,6 +438,7 @@ class MeshCollider : public Collider {
   double step_motion() const override { return step_motion_; }
   const AabbTree* end_tree() const override { return &tree_end_; }
   const Points* end_vertices() const override { return &end_; }
+  const Points* start_vertices() const override { return &start_; }
   Vec3 end_vertex_normal(int v) const override { return vertex_normal(v, true).normalized(); }
   const std::vector<std::array<int, 3>>* triangle_list() const override { return &list_; }
 
@@ -625,6 +626,59 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
         out.push_back(contact);
       }
     }
+    if (c->end_tree() && c->start_vertices() && !triangles_.empty()) hold_faces_over_vertices(*c, x, v, dt, out);
+  }
+}
+
+void ColliderContacts::hold_faces_over_vertices(const Collider& c, const VecX& x, const VecX& v, double dt,
+                                                std::vector<NodeContact>& out) {
+  // A cloth face that sags over a ridge of a mesh collider (a shoulder, a knuckle: the
+  // collider's vertex between the face's vertices) is held like a node: its vertices, unless
+  // held themselves, may not approach the collider along that vertex's normal, and the face's
+  // point over the vertex ends the step at the thickness from where the vertex will be. The
+  // fail-safe would otherwise lift such faces after every solve and the solve pull them back,
+  // putting elastic energy in at each step.
+  const double thickness = c.spec().thickness;
+  predicted_ = x + dt * v;
+  face_pokes(c, predicted_, kHoldMargin * thickness, pokes_);
+  const Points& start = *c.start_vertices();
+  const Points& end = *c.end_vertices();
+  const int n = static_cast<int>(fixed_.size());
+  if (static_cast<int>(face_held_height_.size()) != n) face_held_height_.resize(n);
+  std::fill(face_held_height_.begin(), face_held_height_.end(), std::numeric_limits<double>::infinity());
+  for (const FacePoke& poke : pokes_) {
+    // Under an edge the fail-safe lifts the edge; holding its two vertices in the solve as
+    // well put energy in where sheets crumple in a funnel's neck (scenes/funnel.json).
+    if (poke.on_edge) continue;
+    const auto& t = triangles_[poke.face];
+    const Vec3 p_end = end.row(poke.vertex).transpose();
+    const Vec3 point = poke.weights[0] * node(x, t[0]) + poke.weights[1] * node(x, t[1]) + poke.weights[2] * node(x, t[2]);
+    // The face point's displacement along the normal that puts it at the thickness above the
+    // vertex's end position; each free vertex of the face is prescribed that displacement.
+    const double lift = thickness - (point - p_end).dot(poke.normal);
+    const Vec3 surface_velocity = (p_end - start.row(poke.vertex).transpose()) / dt;
+    for (int k = 0; k < 3; ++k) {
+      const int i = t[k];
+      if (fixed_[i] || poke.height >= face_held_height_[i]) continue;
+      // A node held against the surface closer than the face is to the vertex keeps that
+      // contact; otherwise the face's is the more pressing one (a node can have only one).
+      if (slot_[i] >= 0 && !std::isfinite(face_held_height_[i]) && best_gap_[i] <= poke.height) continue;
+      NodeContact contact;
+      contact.node = i;
+      contact.normal = poke.normal;
+      contact.normal_displacement = lift;
+      contact.surface_velocity = surface_velocity;
+      contact.friction = c.spec().friction;
+      face_held_height_[i] = poke.height;
+      touching_[i] = 1;
+      if (slot_[i] >= 0) {
+        out[slot_[i]] = contact;
+      } else {
+        slot_[i] = static_cast<int>(out.size());
+        best_gap_[i] = poke.height;
+        out.push_back(contact);
+      }
+    }
   }
 }
 
@@ -726,19 +780,23 @@ void ColliderContacts::lift_face(const std::array<int, 3>& t, const Vec3& weight
   }
 }
 
-void ColliderContacts::push_faces_off_vertices(const Collider& c, VecX& x1, VecX& v1, double dt,
-                                               ContactReport& report) {
-  // A collider vertex deeper than this behind a cloth face is taken to be on the face's other
-  // side (under an arm, say), not poking through it.
-  constexpr double kMaxPokeDepth = 0.02;
+namespace {
+// A collider vertex deeper than this behind a cloth face is taken to be on the face's other
+// side (under an arm, say), not poking through it.
+constexpr double kMaxPokeDepth = 0.02;
+}  // namespace
+
+void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit, std::vector<FacePoke>& out) {
+  out.clear();
   const double thickness = c.spec().thickness;
-  if (tree_.triangle_count() == 0) tree_ = AabbTree(triangles_, x1.data());
-  tree_.refit(x1.data(), thickness);
+  if (tree_.triangle_count() == 0) tree_ = AabbTree(triangles_, x.data());
+  tree_.refit(x.data(), std::max(limit, thickness));
   const Points& body = *c.end_vertices();
   const auto& body_triangles = *c.triangle_list();
   // Each (cloth face, collider vertex) pair once: the pairs of overlapping boxes give the
-  // candidates; the deepest correction per face is applied.
-  std::vector<std::pair<int, int>> candidates;
+  // candidates.
+  std::vector<std::pair<int, int>>& candidates = poke_candidates_;
+  candidates.clear();
   tree_.for_each_pair(*c.end_tree(), [&](int f, int b) {
     for (int k = 0; k < 3; ++k) candidates.emplace_back(f, body_triangles[b][k]);
   });
@@ -751,10 +809,15 @@ void ColliderContacts::push_faces_off_vertices(const Collider& c, VecX& x1, VecX
     if (fixed_[t[0]] && fixed_[t[1]] && fixed_[t[2]]) continue;
     const Vec3 p = body.row(vertex).transpose();
     const Vec3 n = c.end_vertex_normal(vertex);
-    const PointTriangleClosest q = closest_point_triangle(p, node(x1, t[0]), node(x1, t[1]), node(x1, t[2]));
-    if (q.feature.kind != FeatureKind::kFace) continue;  // a neighbouring face's
-    const double height = (q.point - p).dot(n);            // of the face above the vertex
-    if (height >= 0.5 * thickness || height < -kMaxPokeDepth) continue;
+    const PointTriangleClosest q = closest_point_triangle(p, node(x, t[0]), node(x, t[1]), node(x, t[2]));
+    if (q.feature.kind == FeatureKind::kVertex) continue;  // a neighbouring face's
+    const double height = (q.point - p).dot(n);              // of the face above the vertex
+    if (height >= limit || height < -kMaxPokeDepth) continue;
+    // A vertex under one of the face's edges (the edge across a ridge, the faces on both sides
+    // clear of it): the edge itself, found from both its faces, each move measured where the
+    // last left it. Only where the edge passes over the vertex, not beside it (the rim of a
+    // sleeve around an arm).
+    if (q.feature.kind == FeatureKind::kEdge && (q.point - p - height * n).norm() > 0.5 * thickness) continue;
     // The face must lie on the vertex's side of the collider: its own vertices' nearest
     // surface normals face the same way (not a face on the far side of a thin part). Lifting
     // faces more freely (those wrapped round an arm) moves so many vertices that the cloth's
@@ -766,18 +829,31 @@ void ColliderContacts::push_faces_off_vertices(const Collider& c, VecX& x1, VecX
       if (!side_normal_known_[i]) {
         SurfacePoint sp;
         side_normal_known_[i] = 1;
-        side_normal_[i] = c.closest(node(x1, i), kMaxPokeDepth + thickness, true, i, sp) ? sp.normal : Vec3::Zero();
+        side_normal_[i] = c.closest(node(x, i), kMaxPokeDepth + thickness, true, i, sp) ? sp.normal : Vec3::Zero();
       }
       same_side = side_normal_[i].dot(n) > 0.5;
     }
     if (!same_side) continue;
-    // As for vertices: a face resting at the thickness sags a little between its vertices over
-    // a curved surface, so only a face closer than half the thickness is moved.
-    if (height >= 0.5 * thickness || height < -kMaxPokeDepth) continue;
-    // Move the face's point over the vertex out to the thickness.
-    lift_face(t, q.weights, thickness - height, n, x1, v1, report);
+    out.push_back({f, vertex, q.weights, height, n, q.feature.kind == FeatureKind::kEdge});
   }
-  (void)dt;
+}
+
+void ColliderContacts::push_faces_off_vertices(const Collider& c, VecX& x1, VecX& v1, double /*dt*/,
+                                               ContactReport& report) {
+  // As for vertices: a face resting at the thickness sags a little between its vertices over
+  // a curved surface, so only a face closer than half the thickness is moved.
+  const double thickness = c.spec().thickness;
+  face_pokes(c, x1, 0.5 * thickness, pokes_);
+  // Move the face's point over the vertex out to the thickness (the pokes in turn, each
+  // measured where the earlier lifts left its face).
+  for (const FacePoke& poke : pokes_) {
+    const auto& t = triangles_[poke.face];
+    const Vec3 p = c.end_vertices()->row(poke.vertex).transpose();
+    const Vec3 point = poke.weights[0] * node(x1, t[0]) + poke.weights[1] * node(x1, t[1]) + poke.weights[2] * node(x1, t[2]);
+    const double height = (point - p).dot(poke.normal);
+    if (height >= 0.5 * thickness) continue;
+    lift_face(t, poke.weights, thickness - height, poke.normal, x1, v1, report);
+  }
 }
 
 }  // namespace weft

@@ -48,6 +48,7 @@ class Collider {
   /// colliders.
   virtual const AabbTree* end_tree() const { return nullptr; }
   virtual const Points* end_vertices() const { return nullptr; }
+  virtual const Points* start_vertices() const { return nullptr; }
   virtual Vec3 end_vertex_normal(int /*v*/) const { return Vec3::Zero(); }
   virtual const std::vector<std::array<int, 3>>* triangle_list() const { return nullptr; }
   /// The surface at time t as triangles (output frames, checks).
@@ -94,6 +95,26 @@ class ColliderContacts : public ContactHandler {
   /// Moves cloth faces that a mesh collider's vertex (a nose, a finger) came within the
   /// thickness of, or poked through, back out along that vertex's normal.
   void push_faces_off_vertices(const Collider& c, VecX& x1, VecX& v1, double dt, ContactReport& report);
+  /// A cloth face above a mesh collider's vertex: the face's closest point to the vertex lies
+  /// inside the face or on one of its edges (right over the vertex), `height` above the vertex
+  /// along the vertex's normal `normal`.
+  struct FacePoke {
+    int face = 0, vertex = 0;
+    Vec3 weights = Vec3::Zero();
+    double height = 0;
+    Vec3 normal = Vec3::Zero();
+    bool on_edge = false;  ///< the closest point lies on one of the face's edges
+  };
+  /// The pokes of collider c's vertices at the step's end into the cloth at x lower than
+  /// `limit`, at most kMaxPokeDepth behind the face, the face on the vertex's side of the
+  /// collider (its own vertices' nearest surface normals facing the same way).
+  void face_pokes(const Collider& c, const VecX& x, double limit, std::vector<FacePoke>& out);
+  std::vector<FacePoke> pokes_;
+  /// Holds the vertices of cloth faces that sag over collider c's vertices (step start).
+  void hold_faces_over_vertices(const Collider& c, const VecX& x, const VecX& v, double dt, std::vector<NodeContact>& out);
+  VecX predicted_;                        ///< x + dt v at the step's start
+  std::vector<double> face_held_height_;  ///< per node: the lowest poke holding it (inf: none)
+  std::vector<std::pair<int, int>> poke_candidates_;
   /// Lifts cloth faces that sag between their vertices to within half the thickness of a
   /// round collider (sphere, capsule) back to the thickness.
   void lift_faces_off_round(const Collider& c, VecX& x1, VecX& v1, ContactReport& report);
