@@ -3,7 +3,9 @@
 // PLY frames and the glb), `weft view` on a free port, and Debian's Chromium driven headless
 // by puppeteer-core. Checks that the page loads the run's frames and vertices, plays (the time
 // advances), pauses, scrubs (the slider shows that frame's positions), switches the colour
-// map, logs no console error, and that `weft view` stops cleanly on SIGTERM.
+// map, logs no console error, and that `weft view` stops cleanly on SIGTERM; and, on a second
+// run (an OBJ cloth at rest whose texture coordinates are in units of its scene's uv_scale),
+// that the strain is 0 with the run's uv_scale.
 //
 //     node viewer/test/browser_test.mjs WEFT_EXE SCRATCH_DIR
 //
