@@ -175,8 +175,8 @@ struct RunSurvey {
   render::Bounds all;
   std::optional<double> horizontal_plane_y;
   double viscosity_peak = 0;
-  std::vector<double> strain;  ///< every frame's vertex strain (render::vertex_strain), frame after frame
-  double strain_scale = 0;     ///< render::strain_scale of `strain`
+  std::optional<render::StrainScaleSampler> strain;  ///< every frame's vertex strain (render::vertex_strain)
+  double strain_scale = 0;                           ///< render::strain_scale over them
 };
 
 int run_render(const RenderArgs& a) {
@@ -242,7 +242,9 @@ int run_render(const RenderArgs& a) {
         throw InputError(f.cloth.string() + ": --color strain needs the pattern coordinates of OBJ frames' texture " +
                          "coordinates (weft run --format obj); this frame has none");
       const std::vector<double> strain = render::vertex_strain(cloth.xyz, cloth.triangles, cloth.corner_texcoords, uv_scale);
-      survey.strain.insert(survey.strain.end(), strain.begin(), strain.end());
+      // As many values in all as the viewer's (frames x vertices), so that it samples the same ones.
+      if (!survey.strain) survey.strain.emplace(files.size() * strain.size());
+      survey.strain->add(strain);
     }
     for (const auto& [name, path] : f.colliders) {
       const weft::RunFrameMesh body = weft::read_frame_mesh(path);
@@ -281,9 +283,7 @@ int run_render(const RenderArgs& a) {
   } else if (a.color == "strain") {
     // The viewer's scale: a percentile of |strain| over every vertex and frame, so that a few
     // vertices stretched far (a pinned corner) do not wash out the rest.
-    survey.strain_scale = render::strain_scale(survey.strain);
-    survey.strain.clear();
-    survey.strain.shrink_to_fit();
+    survey.strain_scale = survey.strain ? survey.strain->scale() : 0;
     const double m = survey.strain_scale;
     render::ColourBar bar{"strain: largest principal stretch - 1 (%)", format_number("%.3g", -100 * m),
                           "+" + format_number("%.3g", 100 * m), {}};

@@ -137,16 +137,30 @@ std::vector<double> vertex_strain(const std::vector<double>& xyz, const std::vec
   return sum;
 }
 
-double strain_scale(const std::vector<double>& values) {
-  const Appearance& a = appearance();
-  const size_t step = std::max<size_t>(1, values.size() / a.strain_max_samples);
-  std::vector<double> sample;
-  sample.reserve(values.size() / step + 1);
-  for (size_t k = 0; k < values.size(); k += step) sample.push_back(std::abs(values[k]));
-  if (sample.empty()) return 0;
-  const size_t at = std::min(sample.size() - 1, static_cast<size_t>(std::floor(a.strain_percentile / 100 * static_cast<double>(sample.size()))));
+StrainScaleSampler::StrainScaleSampler(size_t count)
+    : step_(std::max<size_t>(1, count / appearance().strain_max_samples)) {
+  sample_.reserve(count / step_ + 1);
+}
+
+void StrainScaleSampler::add(const std::vector<double>& values) {
+  // The values' indices in the whole sequence are seen_ .. seen_ + n - 1; every step_-th from 0.
+  for (size_t k = (step_ - seen_ % step_) % step_; k < values.size(); k += step_) sample_.push_back(std::abs(values[k]));
+  seen_ += values.size();
+}
+
+double StrainScaleSampler::scale() const {
+  if (sample_.empty()) return 0;
+  std::vector<double> sample = sample_;
+  const size_t at = std::min(sample.size() - 1, static_cast<size_t>(std::floor(appearance().strain_percentile / 100 *
+                                                                               static_cast<double>(sample.size()))));
   std::nth_element(sample.begin(), sample.begin() + static_cast<long>(at), sample.end());
   return sample[at];
+}
+
+double strain_scale(const std::vector<double>& values) {
+  StrainScaleSampler sampler(values.size());
+  sampler.add(values);
+  return sampler.scale();
 }
 
 }  // namespace weft::render

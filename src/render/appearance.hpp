@@ -61,4 +61,17 @@ std::vector<double> vertex_strain(const std::vector<double>& xyz, const std::vec
 /// from the first; 0 for none.
 double strain_scale(const std::vector<double>& values);
 
+/// strain_scale of values that arrive in parts (a frame at a time), keeping only those it
+/// samples: `count` values in all.
+class StrainScaleSampler {
+ public:
+  explicit StrainScaleSampler(size_t count);
+  void add(const std::vector<double>& values);
+  double scale() const;
+
+ private:
+  size_t step_ = 1, seen_ = 0;
+  std::vector<double> sample_;  ///< |value| of every step_-th value
+};
+
 }  // namespace weft::render

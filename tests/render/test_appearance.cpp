@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -91,6 +92,25 @@ TEST(Appearance, StrainScaleIsAPercentileThatOneOutlierDoesNotMove) {
   values[17] = 50;  // one far outlier
   EXPECT_EQ(strain_scale(values), scale);
   EXPECT_EQ(strain_scale({}), 0);
+}
+
+TEST(Appearance, TheScaleOfValuesInPartsIsTheScaleOfTheWhole) {
+  // More values than the scale samples, so that it takes every k-th, across the parts.
+  std::vector<double> all;
+  StrainScaleSampler sampler(1234567);
+  for (int part = 0; part < 7; ++part) {
+    std::vector<double> values(part == 6 ? 1234567 - 6 * 176367 : 176367);
+    for (size_t k = 0; k < values.size(); ++k) values[k] = std::sin(0.001 * static_cast<double>(all.size() + k)) * (1 + part);
+    all.insert(all.end(), values.begin(), values.end());
+    sampler.add(values);
+  }
+  ASSERT_EQ(all.size(), 1234567u);
+  EXPECT_EQ(sampler.scale(), strain_scale(all));
+  // The stride matters: a scale of every value differs.
+  std::vector<double> abs_all(all.size());
+  for (size_t k = 0; k < all.size(); ++k) abs_all[k] = std::abs(all[k]);
+  std::sort(abs_all.begin(), abs_all.end());
+  EXPECT_NE(sampler.scale(), abs_all[static_cast<size_t>(0.99 * static_cast<double>(abs_all.size()))]);
 }
 
 // Runs `command`, returns its standard output, or "" with `ok` false when it fails.
