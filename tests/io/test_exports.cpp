@@ -92,7 +92,7 @@ std::map<std::string, UsdaMesh> read_usda_meshes(const std::string& text) {
     UsdaMesh& m = meshes[starts[k].first];
     const size_t idx = body.find("int[] faceVertexIndices = [");
     if (idx != std::string::npos) {
-      const size_t open = body.find('[', idx), close = body.find(']', open);
+      const size_t open = body.find("= [", idx) + 2, close = body.find(']', open);
       for (float f : parse_tuples(body.substr(open + 1, close - open - 1))) m.indices.push_back(static_cast<int>(f));
     }
     const size_t samples = body.find("point3f[] points.timeSamples = {");
@@ -102,7 +102,7 @@ std::map<std::string, UsdaMesh> read_usda_meshes(const std::string& text) {
       for (auto it = std::sregex_iterator(block.begin(), block.end(), sample); it != std::sregex_iterator(); ++it)
         m.points[std::stoi((*it)[1].str())] = parse_tuples((*it)[2].str());
     } else if (const size_t still = body.find("point3f[] points = ["); still != std::string::npos) {
-      const size_t open = body.find('[', still), close = body.find(']', open);
+      const size_t open = body.find("= [", still) + 2, close = body.find(']', open);
       m.points[-1] = parse_tuples(body.substr(open + 1, close - open - 1));
     }
   }

@@ -6,7 +6,6 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -79,16 +78,16 @@ TEST(Appearance, VertexStrainIsZeroAtRestAndTheStretchOfAUniformStretch) {
   const std::vector<double> uv = corners_of(s, 4.0);
   for (double v : vertex_strain(placed(1, 1), s.triangles, uv, 0.25)) EXPECT_NEAR(v, 0, 1e-12);
   for (double v : vertex_strain(placed(1.1, 0.95), s.triangles, uv, 0.25)) EXPECT_NEAR(v, 0.1, 1e-12);
-  // Read with the wrong scale (1), the cloth at rest looks 4 times too long.
-  for (double v : vertex_strain(placed(1, 1), s.triangles, uv, 1.0)) EXPECT_NEAR(v, 3, 1e-12);
+  // Read with the wrong scale (1), the pattern is 4 times the cloth: compressed to a quarter.
+  for (double v : vertex_strain(placed(1, 1), s.triangles, uv, 1.0)) EXPECT_NEAR(v, -0.75, 1e-12);
 }
 
 TEST(Appearance, StrainScaleIsAPercentileThatOneOutlierDoesNotMove) {
   std::vector<double> values(1000);
   for (size_t k = 0; k < values.size(); ++k) values[k] = (k % 2 ? -1.0 : 1.0) * 0.001 * static_cast<double>(k % 10);
+  // A tenth of the values have |value| 0.009, the largest: the 99th percentile is that.
   const double scale = strain_scale(values);
-  EXPECT_GT(scale, 0);
-  EXPECT_LE(scale, 0.009);
+  EXPECT_EQ(scale, 0.001 * 9);
   values[17] = 50;  // one far outlier
   EXPECT_EQ(strain_scale(values), scale);
   EXPECT_EQ(strain_scale({}), 0);
@@ -106,11 +105,7 @@ TEST(Appearance, TheScaleOfValuesInPartsIsTheScaleOfTheWhole) {
   }
   ASSERT_EQ(all.size(), 1234567u);
   EXPECT_EQ(sampler.scale(), strain_scale(all));
-  // The stride matters: a scale of every value differs.
-  std::vector<double> abs_all(all.size());
-  for (size_t k = 0; k < all.size(); ++k) abs_all[k] = std::abs(all[k]);
-  std::sort(abs_all.begin(), abs_all.end());
-  EXPECT_NE(sampler.scale(), abs_all[static_cast<size_t>(0.99 * static_cast<double>(abs_all.size()))]);
+  EXPECT_GT(sampler.scale(), 6);  // the last part's values reach 7
 }
 
 // Runs `command`, returns its standard output, or "" with `ok` false when it fails.
