@@ -128,10 +128,12 @@ varying vec3 vNormal;
 varying vec3 vColour;
 void main() {
   vec3 v = normalize(cameraPosition - vWorld);
-  vec3 face = normalize(cross(dFdx(vWorld), dFdy(vWorld)));
-  if (dot(face, v) < 0.0) face = -face;
   vec3 n = (gl_FrontFacing ? 1.0 : -1.0) * normalize(vNormal);
-  if (creases && dot(n, face) <= creaseCosine) n = face;
+  if (creases) {
+    vec3 face = normalize(cross(dFdx(vWorld), dFdy(vWorld)));
+    if (dot(face, v) < 0.0) face = -face;
+    if (dot(n, face) <= creaseCosine) n = face;
+  }
   if (dot(n, v) < 0.0) n = normalize(n - 1.01 * dot(n, v) * v);
   vec3 base = coloured ? vColour * (gl_FrontFacing ? 1.0 : backFactor) : (gl_FrontFacing ? frontColour : backColour);
   float nl = dot(n, keyLight);
