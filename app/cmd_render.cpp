@@ -209,7 +209,7 @@ int run_render(const RenderArgs& a) {
     }
     if (j.contains("frame_interval") && j["frame_interval"].is_number() && j["frame_interval"].get<double>() > 0)
       frame_interval = j["frame_interval"].get<double>();
-    if (!a.uv_scale) uv_scale = weft::run_uv_scale(j, summary_path.string());
+    if (!a.uv_scale && a.color == "strain") uv_scale = weft::run_uv_scale(j, summary_path.string());
   }
   std::optional<double> fps = a.fps;
   if (!fps && frame_interval) fps = 1 / *frame_interval;
@@ -422,7 +422,8 @@ weft::app::RegisterCommand reg{{"", "render", "Draw a run's frames as PNG pictur
         "with a software rasteriser (no GPU or display needed), over a ground at y = 0 (or the lowest point, or a\n"
         "horizontal plane collider) with the key light's shadows, and writes IMG_DIR/frame_NNNNN.png; with --video\n"
         "the frames go through ffmpeg into IMG_DIR/render.mp4 (ffmpeg must be on the PATH). Every file is written\n"
-        "under a temporary name and renamed into place.\n"
+        "under a temporary name and renamed into place. The colour maps, colours and shading are the viewer's; the\n"
+        "strain's scale reaches the 99th percentile of |strain| over the run, and the command prints it.\n"
         "Exit status: 0 done, 2 bad input (a missing folder, an unreadable frame, a bad option; nothing written),\n"
         "4 a picture or the video could not be written.");
     return std::function<int()>([a] { return run_render(*a); });

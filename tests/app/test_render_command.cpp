@@ -183,6 +183,13 @@ TEST_F(RenderCommand, BadInputExitsTwoNamingItAndWritesNothing) {
     EXPECT_NE(r.error_output.find(message), std::string::npos) << arguments << " -> " << r.error_output;
     EXPECT_FALSE(fs::exists(out)) << arguments << ": wrote something";
   }
+  // A summary whose uv_scale is not a scale, for --color strain.
+  std::ofstream(run / "summary.json") << R"({"frame_interval": 0.02, "uv_scale": -1})";
+  const auto scale = weft("render " + dir + " --color strain");
+  EXPECT_EQ(scale.exit_code, 2);
+  EXPECT_NE(scale.error_output.find("summary.json: uv_scale -1: expected a number > 0"), std::string::npos) << scale.error_output;
+  EXPECT_FALSE(fs::exists(out));
+  std::ofstream(run / "summary.json") << R"({"frame_interval": 0.02})";
   // Without ffmpeg on the PATH, --video says so.
   const auto r = weft("render " + dir + " --video", "PATH=/nowhere");
   EXPECT_EQ(r.exit_code, 2);
