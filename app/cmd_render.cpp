@@ -36,10 +36,11 @@ struct RenderArgs {
   bool video = false, no_ground = false, no_caption = false;
   std::optional<double> fps;
   int samples = 3;
-  double uv_scale = 1;
+  std::optional<double> uv_scale;  ///< default: the run's, from summary.json
 };
 
 constexpr int kDefaultStills = 4;
+constexpr int kColourBarSteps = 16;  // the colour bar's samples of a ramp, interpolated between
 
 // "WxH", each in [16, 8192].
 std::pair<int, int> parse_size(const std::string& text, bool video) {
@@ -154,22 +155,6 @@ bool is_horizontal_plane(const weft::RunFrameMesh& m) {
   return true;
 }
 
-// The cloth's largest principal stretch per triangle (render::largest_principal_stretch).
-std::vector<double> triangle_stretches(const weft::RunFrameMesh& m, double uv_scale) {
-  std::vector<double> s(m.triangles.size());
-  for (size_t t = 0; t < m.triangles.size(); ++t) {
-    std::array<Vec3, 3> x;
-    std::array<Vec2, 3> u;
-    for (int k = 0; k < 3; ++k) {
-      const int i = m.triangles[t][k];
-      x[k] = Vec3(m.xyz[3 * i], m.xyz[3 * i + 1], m.xyz[3 * i + 2]);
-      u[k] = uv_scale * Vec2(m.corner_texcoords[6 * t + 2 * k], m.corner_texcoords[6 * t + 2 * k + 1]);
-    }
-    s[t] = render::largest_principal_stretch(x[0], x[1], x[2], u[0], u[1], u[2]);
-  }
-  return s;
-}
-
 std::string format_number(const char* format, double value) {
   char text[64];
   std::snprintf(text, sizeof text, format, value);
@@ -189,7 +174,9 @@ struct RunSurvey {
   render::Bounds framed;  ///< the cloth and the colliders other than planes, over every frame
   render::Bounds all;
   std::optional<double> horizontal_plane_y;
-  double viscosity_peak = 0, stretch_deviation_peak = 0;
+  double viscosity_peak = 0;
+  std::optional<render::StrainScaleSampler> strain;  ///< every frame's vertex strain (render::vertex_strain)
+  double strain_scale = 0;                           ///< render::strain_scale over them
 };
 
 int run_render(const RenderArgs& a) {
@@ -200,24 +187,29 @@ int run_render(const RenderArgs& a) {
   std::optional<render::Camera> given_camera;
   if (!a.camera.empty()) given_camera = parse_camera(a.camera);
   if (a.samples < 1 || a.samples > 8) throw InputError("--samples " + std::to_string(a.samples) + ": expected 1 to 8");
-  if (!(a.uv_scale > 0) || !std::isfinite(a.uv_scale)) throw InputError("--uv-scale: expected a number > 0");
+  if (a.uv_scale && (!(*a.uv_scale > 0) || !std::isfinite(*a.uv_scale)))
+    throw InputError("--uv-scale " + format_number("%g", *a.uv_scale) + ": expected a number > 0");
   if (a.fps && !(*a.fps > 0 && *a.fps <= 1000)) throw InputError("--fps: expected a rate in (0, 1000]");
   const fs::path dir(a.dir);
   const auto files = weft::find_run_frames(dir, "weft render");
   const std::vector<long> selected =
       !a.frames.empty() ? parse_frames(a.frames, files) : a.video ? parse_frames("all", files) : spread_frames(files);
 
-  // The run's frame interval, for the captions' times and the video's rate.
+  // The run's frame interval, for the captions' times and the video's rate, and the metres per
+  // unit of its texture coordinates, for the strain.
   std::optional<double> frame_interval;
+  double uv_scale = a.uv_scale.value_or(1.0);
   const fs::path summary_path = dir / "summary.json";
   if (std::ifstream in(summary_path); in) {
+    nlohmann::json j;
     try {
-      const auto j = nlohmann::json::parse(in);
-      if (j.contains("frame_interval") && j["frame_interval"].is_number() && j["frame_interval"].get<double>() > 0)
-        frame_interval = j["frame_interval"].get<double>();
+      j = nlohmann::json::parse(in);
     } catch (const nlohmann::json::exception& e) {
       throw InputError(summary_path.string() + ": not JSON (" + e.what() + ")");
     }
+    if (j.contains("frame_interval") && j["frame_interval"].is_number() && j["frame_interval"].get<double>() > 0)
+      frame_interval = j["frame_interval"].get<double>();
+    if (!a.uv_scale && a.color == "strain") uv_scale = weft::run_uv_scale(j, summary_path.string());
   }
   std::optional<double> fps = a.fps;
   if (!fps && frame_interval) fps = 1 / *frame_interval;
@@ -249,8 +241,10 @@ int run_render(const RenderArgs& a) {
       if (cloth.corner_texcoords.empty())
         throw InputError(f.cloth.string() + ": --color strain needs the pattern coordinates of OBJ frames' texture " +
                          "coordinates (weft run --format obj); this frame has none");
-      for (double s : triangle_stretches(cloth, a.uv_scale))
-        if (std::isfinite(s)) survey.stretch_deviation_peak = std::max(survey.stretch_deviation_peak, std::abs(s - 1));
+      const std::vector<double> strain = render::vertex_strain(cloth.xyz, cloth.triangles, cloth.corner_texcoords, uv_scale);
+      // As many values in all as the viewer's (frames x vertices), so that it samples the same ones.
+      if (!survey.strain) survey.strain.emplace(files.size() * strain.size());
+      survey.strain->add(strain);
     }
     for (const auto& [name, path] : f.colliders) {
       const weft::RunFrameMesh body = weft::read_frame_mesh(path);
@@ -282,12 +276,21 @@ int run_render(const RenderArgs& a) {
   options.camera = given_camera ? *given_camera : render::frame_camera(framed, width, height);
   options.scene_bounds = survey.framed;
   if (a.color == "viscosity") {
-    options.colour_bar = render::ColourBar{"added viscosity N s/m", "0", format_number("%.3g", survey.viscosity_peak),
-                                           {render::sequential_colour(0), render::sequential_colour(0.5), render::sequential_colour(1)}};
+    render::ColourBar bar{"added viscosity N s/m", "0", format_number("%.3g", survey.viscosity_peak), {}};
+    for (int k = 0; k <= kColourBarSteps; ++k) bar.stops.push_back(render::sequential_colour(static_cast<double>(k) / kColourBarSteps));
+    options.colour_bar = bar;
+    std::printf("colour scale: added viscosity 0 to %.6g N s/m\n", survey.viscosity_peak);
   } else if (a.color == "strain") {
-    const double m = std::max(survey.stretch_deviation_peak, 1e-6);
-    options.colour_bar = render::ColourBar{"largest principal stretch", format_number("%.4g", 1 - m), format_number("%.4g", 1 + m),
-                                           {render::diverging_colour(-1), render::diverging_colour(0), render::diverging_colour(1)}};
+    // The viewer's scale: a percentile of |strain| over every vertex and frame, so that a few
+    // vertices stretched far (a pinned corner) do not wash out the rest.
+    survey.strain_scale = survey.strain ? survey.strain->scale() : 0;
+    const double m = survey.strain_scale;
+    render::ColourBar bar{"strain: largest principal stretch - 1 (%)", format_number("%.3g", -100 * m),
+                          "+" + format_number("%.3g", 100 * m), {}};
+    for (int k = 0; k <= kColourBarSteps; ++k)
+      bar.stops.push_back(render::diverging_colour(2.0 * static_cast<double>(k) / kColourBarSteps - 1));
+    options.colour_bar = bar;
+    std::printf("colour scale: strain -%.6g%% to +%.6g%% (texture coordinates times uv_scale %.6g)\n", 100 * m, 100 * m, uv_scale);
   }
 
   const fs::path out(a.out);
@@ -333,9 +336,9 @@ int run_render(const RenderArgs& a) {
       for (double v : cloth.added_viscosity)
         cloth_mesh.vertex_colours.push_back(render::sequential_colour(survey.viscosity_peak > 0 ? v / survey.viscosity_peak : 0));
     } else if (a.color == "strain") {
-      const double m = std::max(survey.stretch_deviation_peak, 1e-6);
-      for (double s : triangle_stretches(cloth, a.uv_scale))
-        cloth_mesh.triangle_colours.push_back(render::diverging_colour(std::isfinite(s) ? (s - 1) / m : 0));
+      const double scale = survey.strain_scale > 0 ? 1 / survey.strain_scale : 0;
+      for (double s : render::vertex_strain(cloth.xyz, cloth.triangles, cloth.corner_texcoords, uv_scale))
+        cloth_mesh.vertex_colours.push_back(render::diverging_colour(s * scale));
     }
     meshes.push_back(std::move(cloth_mesh));
     for (const auto& body : colliders) meshes.push_back({&body.xyz, &body.triangles, render::Surface::kCollider, {}, {}});
@@ -404,10 +407,11 @@ weft::app::RegisterCommand reg{{"", "render", "Draw a run's frames as PNG pictur
                    "the front framing the cloth and bodies over the whole run, field of view 30)");
     sub.add_option("--color", a->color,
                    "none (the cloth in a fabric colour), viscosity (added viscosity per vertex, from PLY frames) or "
-                   "strain (largest principal stretch per triangle, from OBJ frames)");
+                   "strain (largest principal stretch - 1, averaged to the vertices, from OBJ frames); the colour "
+                   "maps and shading are the viewer's (weft view)");
     sub.add_option("--uv-scale", a->uv_scale,
-                   "Metres per texture unit of the frames' texture coordinates, for --color strain (default 1; the "
-                   "scene's mesh.uv_scale for an OBJ cloth)");
+                   "Metres per unit of the frames' texture coordinates, for --color strain (default: uv_scale of "
+                   "DIR/summary.json, the scene's cloth mesh.uv_scale; 1 for a run that did not record it)");
     sub.add_flag("--video", a->video, "Write render.mp4 (H.264, through ffmpeg) at the run's frame rate instead of PNGs");
     sub.add_option("--fps", a->fps, "The video's frame rate (default 1 / frame_interval of summary.json: real time)");
     sub.add_option("--samples", a->samples, "Anti-aliasing: samples per pixel along each side, 1 to 8 (default 3)");
@@ -418,7 +422,8 @@ weft::app::RegisterCommand reg{{"", "render", "Draw a run's frames as PNG pictur
         "with a software rasteriser (no GPU or display needed), over a ground at y = 0 (or the lowest point, or a\n"
         "horizontal plane collider) with the key light's shadows, and writes IMG_DIR/frame_NNNNN.png; with --video\n"
         "the frames go through ffmpeg into IMG_DIR/render.mp4 (ffmpeg must be on the PATH). Every file is written\n"
-        "under a temporary name and renamed into place.\n"
+        "under a temporary name and renamed into place. The colour maps, colours and shading are the viewer's; the\n"
+        "strain's scale reaches the 99th percentile of |strain| over the run, and the command prints it.\n"
         "Exit status: 0 done, 2 bad input (a missing folder, an unreadable frame, a bad option; nothing written),\n"
         "4 a picture or the video could not be written.");
     return std::function<int()>([a] { return run_render(*a); });

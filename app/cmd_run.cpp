@@ -153,7 +153,7 @@ class OutputFolder {
   void clear(long first_frame, bool keep_checkpoint) const {
     static const std::regex frame(R"((frame_|body\d+_|collider\d+_)(\d{5,})\.(obj|ply)((\.\d+)?\.tmp)?)");
     static const std::regex top(
-        R"((energy\.csv|summary\.json|checkpoint\.weft|checkpoint_frames\.weft|animation\.glb|animation\.pc2|animation_rest\.obj)(\.\d+\.tmp)?)");
+        R"((energy\.csv|summary\.json|checkpoint\.weft|checkpoint_frames\.weft|animation\.glb|animation\.pc2|animation_rest\.obj|animation\.usda)(\.\d+\.tmp)?)");
     std::error_code ec;
     if (fs::is_directory(frames(), ec)) {
       for (const auto& e : fs::directory_iterator(frames())) {
@@ -359,7 +359,9 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   }
   // A fresh run replaces an earlier run's outputs; a resumed one those past its checkpoint.
   out.clear(first_frame, resume);
-  const bool write_glb = has_format(a.formats, "glb"), write_pc2 = has_format(a.formats, "pc2");
+  const bool write_glb = has_format(a.formats, "glb"), write_pc2 = has_format(a.formats, "pc2"),
+             write_usda = has_format(a.formats, "usda");
+  const bool animate = write_glb || write_pc2 || write_usda;  // frames recorded for the animations
   const std::string frame_format = has_format(a.formats, "ply") ? "ply" : has_format(a.formats, "obj") ? "obj" : "";
   const bool frame_files = !a.no_frames && !frame_format.empty();
   if (frame_files) {
@@ -394,20 +396,20 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   // coordinates (metres on a grid), so an OBJ cloth's own come back.
   const TriMesh& cloth_mesh = sim.model().mesh;
   const std::vector<float> cloth_texcoords = pattern_texcoords(cloth_mesh.pattern, scene.cloth.uv_scale);
-  // The animations (glb, pc2) are written at the end from the frames recorded here.
+  // The animations (glb, pc2, usda) are written at the end from the frames recorded here.
   AnimatedMesh cloth_animation;
   cloth_animation.name = "cloth";
   cloth_animation.triangles = cloth_mesh.triangles;
   cloth_animation.texcoords = cloth_texcoords;
   cloth_animation.vertex_count = cloth_mesh.num_vertices();
-  std::vector<AnimatedMesh> collider_animations(write_glb ? collider_count : 0);
+  std::vector<AnimatedMesh> collider_animations(write_glb || write_usda ? collider_count : 0);
   std::vector<double> frame_times;
   std::vector<const AnimatedMesh*> animations{&cloth_animation};
   for (const auto& c : collider_animations) animations.push_back(&c);
-  if (resume && (write_glb || write_pc2)) {
+  if (resume && animate) {
     const fs::path file = out.recorded_frames();
     if (!fs::exists(file))
-      throw InputError(file.string() + ": missing; the animations (glb, pc2) of a resumed run need the frames "
+      throw InputError(file.string() + ": missing; the animations (glb, pc2, usda) of a resumed run need the frames "
                                        "recorded before its checkpoint");
     std::vector<AnimatedMesh*> meshes{&cloth_animation};
     for (auto& c : collider_animations) meshes.push_back(&c);
@@ -416,7 +418,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   std::vector<double> export_seconds;  // per frame: writing its files and recording it
   auto write_checkpoint = [&](const RunResult& r) {
     checkpoint_header_out["intersections"] = tally.state();
-    if ((write_glb || write_pc2) && !out.write(out.recorded_frames(), [&](std::ostream& o) {
+    if (animate && !out.write(out.recorded_frames(), [&](std::ostream& o) {
           write_recorded_frames(o, animations, frame_times);
         }))
       return;
@@ -435,7 +437,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     tally.seconds += std::chrono::duration<double>(Clock::now() - check_start).count();
     if (!out.failures.empty()) return;
     const auto export_start = Clock::now();
-    if (write_glb || write_pc2) {
+    if (animate) {
       const VecX eta = write_glb ? s.system().added_viscosity_per_vertex() : VecX();
       cloth_animation.add_frame(s.state().x.data(), s.model().num_vertices(), write_glb ? eta.data() : nullptr);
       frame_times.push_back(s.state().t);
@@ -513,6 +515,9 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     if (write_glb) {
       out.write(out.dir() / "animation.glb", [&](std::ostream& o) { weft::write_glb(o, animations, frame_times); });
     }
+    if (write_usda) {
+      out.write(out.dir() / "animation.usda", [&](std::ostream& o) { weft::write_usda(o, animations, frame_times); });
+    }
     if (write_pc2) {
       out.write(out.dir() / "animation.pc2", [&](std::ostream& o) { weft::write_pc2(o, cloth_animation); });
       out.write(out.dir() / "animation_rest.obj", [&](std::ostream& o) { write_rest_obj(o, cloth_animation); });
@@ -574,6 +579,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     std::string files = frame_files ? "frames/, " : "";
     if (write_glb) files += "animation.glb, ";
     if (write_pc2) files += "animation.pc2, animation_rest.obj, ";
+    if (write_usda) files += "animation.usda, ";
     std::fprintf(stderr, "results in %s (%senergy.csv, summary.json)\n", a.out.c_str(), files.c_str());
   }
   if (r.steps.cg_failures > 0)
@@ -617,21 +623,23 @@ weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write fram
                    "Adaptive damping target as a fraction of critical (0 turns it off; default 0.05 for "
                    "Implicit Midpoint and BDF-2, 0 for the others)");
     sub.add_option("--format", a->format_list,
-                   "What to write, comma-separated, any of obj, ply (frames), glb, pc2 (animations); "
+                   "What to write, comma-separated, any of obj, ply (frames), glb, pc2, usda (animations); "
                    "default: the scene's output.formats, else obj (docs/exports.md)");
     sub.add_option("--frame-format", a->frame_format,
                    "The per-frame format, obj or ply (with per-vertex added viscosity), in place of the "
                    "scene's; --format ply is the same")
         ->check(CLI::IsMember({"obj", "ply"}));
     sub.add_flag("--no-frames", a->no_frames,
-                 "Do not write the per-frame files (the glb and pc2 animations are still written when chosen)");
+                 "Do not write the per-frame files (the glb, pc2 and usda animations are still written when chosen)");
     sub.add_flag("--quiet,-q", a->quiet, "No progress bar or summary line");
     sub.footer(
         "Writes DIR/frames/frame_00000.obj ... (one per output frame, the first at time 0), DIR/energy.csv\n"
         "(time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total in J) and DIR/summary.json\n"
-        "(with --format glb also DIR/animation.glb; pc2: DIR/animation.pc2 and DIR/animation_rest.obj),\n"
-        "after removing those of an earlier run in DIR. Ctrl-C stops at the next frame boundary and writes\n"
-        "DIR/checkpoint.weft; `weft run --resume DIR` continues with the same result as an uninterrupted run.\n"
+        "(with --format glb also DIR/animation.glb; pc2: DIR/animation.pc2 and DIR/animation_rest.obj;\n"
+        "usda: DIR/animation.usda), after removing those of an earlier run in DIR. Ctrl-C stops at the next\n"
+        "frame boundary and writes "
+        "DIR/checkpoint.weft; `weft run --resume DIR` continues with the same result as an\n"
+        "uninterrupted run.\n"
         "Exit status: 0 ok (also when solves hit the iteration cap: a warning, summary status solver_capped),\n"
         "2 bad input (nothing written), 3 unstable (frames so far kept), 4 an output could not be written\n"
         "(the message says what was kept), 130 interrupted (checkpoint written).");

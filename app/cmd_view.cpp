@@ -67,6 +67,7 @@ Payload make_payload(const weft::RunRecording& rec, const std::string& dir, cons
                              {"times", rec.times},
                              {"positions_source", rec.positions_source},
                              {"viscosity_source", rec.viscosity_source},
+                             {"uv_scale", rec.uv_scale},
                              {"data_bytes", p.data.size()},
                              {"run_files", run_files},
                              {"meshes", meshes}};

@@ -262,11 +262,19 @@ class PySimulation {
   void write_energy_csv(const std::string& path) const {
     write_file(path, [&](std::ostream& o) { o << weft::energy_csv(energy_); });
   }
-  void write_glb(const std::string& path) const {
-    require_frames("write_glb");
+  /// The cloth, then the colliders, as recorded.
+  std::vector<const weft::AnimatedMesh*> animated_meshes() const {
     std::vector<const weft::AnimatedMesh*> meshes{&cloth_};
     for (const weft::AnimatedMesh& c : colliders_) meshes.push_back(&c);
-    write_file(path, [&](std::ostream& o) { weft::write_glb(o, meshes, frame_times_); });
+    return meshes;
+  }
+  void write_glb(const std::string& path) const {
+    require_frames("write_glb");
+    write_file(path, [&](std::ostream& o) { weft::write_glb(o, animated_meshes(), frame_times_); });
+  }
+  void write_usda(const std::string& path) const {
+    require_frames("write_usda");
+    write_file(path, [&](std::ostream& o) { weft::write_usda(o, animated_meshes(), frame_times_); });
   }
   void write_pc2(const std::string& path, std::optional<std::string> rest_path) const {
     require_frames("write_pc2");
@@ -437,6 +445,8 @@ PYBIND11_MODULE(weft, m) {
            "energy.csv of the recorded frames")
       .def("write_glb", [](const PySimulation& s, const py::object& p) { s.write_glb(path_text(p)); }, py::arg("path"),
            "An animated glTF binary of the recorded frames (cloth and colliders)")
+      .def("write_usda", [](const PySimulation& s, const py::object& p) { s.write_usda(path_text(p)); }, py::arg("path"),
+           "A USD ASCII stage of the recorded frames (cloth and colliders, points time-sampled)")
       .def(
           "write_pc2",
           [](const PySimulation& s, const py::object& p, const py::object& rest) {

@@ -32,7 +32,7 @@ def step_like_weft_run(sim, out):
 @pytest.mark.parametrize("scene_name", ["sheet", "sphere"])
 def test_stepping_gives_the_frames_and_energies_of_weft_run(tmp_path, scene_name, request):
     scene = write_scene(tmp_path / "scene.json", request.getfixturevalue(scene_name))
-    status, err = run_weft("run", scene, "--out", tmp_path / "cli", "--format", "obj,glb,pc2", "--quiet")
+    status, err = run_weft("run", scene, "--out", tmp_path / "cli", "--format", "obj,glb,pc2,usda", "--quiet")
     assert status == 0, err
     sim = weft.Simulation(scene)
     step_like_weft_run(sim, tmp_path / "py")
@@ -48,7 +48,8 @@ def test_stepping_gives_the_frames_and_energies_of_weft_run(tmp_path, scene_name
     assert (tmp_path / "energy.csv").read_bytes() == (tmp_path / "cli" / "energy.csv").read_bytes()
     sim.write_glb(tmp_path / "animation.glb")
     sim.write_pc2(tmp_path / "animation.pc2")
-    for name in ["animation.glb", "animation.pc2", "animation_rest.obj"]:
+    sim.write_usda(tmp_path / "animation.usda")
+    for name in ["animation.glb", "animation.pc2", "animation_rest.obj", "animation.usda"]:
         assert (tmp_path / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
     cli_summary = json.loads((tmp_path / "cli" / "summary.json").read_text())
     summary = sim.summary()

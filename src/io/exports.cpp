@@ -37,7 +37,7 @@ std::vector<std::string> split_format_list(const std::string& text) {
 }
 
 std::vector<std::string> checked_output_formats(const std::vector<std::string>& names, const std::string& where) {
-  static const std::vector<std::string> known = {"obj", "ply", "glb", "pc2"};
+  static const std::vector<std::string> known = {"obj", "ply", "glb", "pc2", "usda"};
   if (names.empty()) throw InputError(where + ": no output format given (expected one or more of " + kOutputFormatNames + ")");
   std::vector<std::string> out;
   for (const auto& n : names) {
@@ -438,6 +438,74 @@ void write_pc2(std::ostream& out, const AnimatedMesh& mesh) {
   out.write(reinterpret_cast<const char*>(&sample_rate), 4);
   out.write(reinterpret_cast<const char*>(&samples), 4);
   write_floats(out, mesh.positions.data(), mesh.positions.size());
+}
+
+namespace {
+
+// "(x, y, z)" or "(u, v)": each float in the shortest text that reads back as it.
+void append_tuple(std::string& text, const float* v, int components) {
+  text += '(';
+  for (int d = 0; d < components; ++d) {
+    char buffer[32];
+    const auto end = std::to_chars(buffer, buffer + sizeof buffer, v[d]).ptr;
+    if (d) text += ", ";
+    text.append(buffer, end);
+  }
+  text += ')';
+}
+
+// "[(..), (..), ...]" of `count` tuples, 8 to a line after the first.
+std::string tuple_array(const float* data, size_t count, int components, const std::string& indent) {
+  std::string text = "[";
+  for (size_t i = 0; i < count; ++i) {
+    if (i) text += i % 8 ? ", " : ",\n" + indent;
+    append_tuple(text, data + i * components, components);
+  }
+  return text + "]";
+}
+
+}  // namespace
+
+void write_usda(std::ostream& out, const std::vector<const AnimatedMesh*>& meshes, const std::vector<double>& frame_times) {
+  const size_t frames = frame_times.size();
+  const double rate = frames > 1 && frame_times.back() > frame_times.front()
+                          ? static_cast<double>(frames - 1) / (frame_times.back() - frame_times.front())
+                          : 24.0;
+  out << "#usda 1.0\n(\n    defaultPrim = \"weft\"\n    doc = \"weft run: the cloth and colliders over the run\"\n"
+      << "    metersPerUnit = 1\n    upAxis = \"Y\"\n    startTimeCode = 0\n    endTimeCode = " << (frames ? frames - 1 : 0)
+      << "\n    timeCodesPerSecond = " << nlohmann::json(rate).dump() << "\n    framesPerSecond = " << nlohmann::json(rate).dump()
+      << "\n)\n\ndef Xform \"weft\"\n{\n";
+  for (const AnimatedMesh* m : meshes) {
+    if (!m->consistent || m->vertex_count == 0) continue;
+    if (static_cast<size_t>(m->frame_count()) != frames)
+      throw std::runtime_error(m->name + ": " + std::to_string(m->frame_count()) + " frames recorded, " +
+                               std::to_string(frames) + " frame times");
+    const size_t n = static_cast<size_t>(m->vertex_count), n3 = 3 * n;
+    out << "    def Mesh \"" << m->name << "\"\n    {\n        uniform bool doubleSided = 1\n"
+        << "        uniform token orientation = \"rightHanded\"\n        uniform token subdivisionScheme = \"none\"\n"
+        << "        int[] faceVertexCounts = [";
+    for (size_t t = 0; t < m->triangles.size(); ++t) out << (t ? ", 3" : "3");
+    out << "]\n        int[] faceVertexIndices = [";
+    for (size_t t = 0; t < m->triangles.size(); ++t)
+      out << (t ? ", " : "") << m->triangles[t][0] << ", " << m->triangles[t][1] << ", " << m->triangles[t][2];
+    out << "]\n";
+    const float* p = m->positions.data();
+    bool moves = false;
+    for (size_t f = 1; f < frames && !moves; ++f) moves = !std::equal(p, p + n3, p + f * n3);
+    if (!moves) {
+      out << "        point3f[] points = " << tuple_array(p, n, 3, "            ") << "\n";
+    } else {
+      out << "        point3f[] points.timeSamples = {\n";
+      for (size_t f = 0; f < frames; ++f)
+        out << "            " << f << ": " << tuple_array(p + f * n3, n, 3, "                ") << ",\n";
+      out << "        }\n";
+    }
+    if (m->texcoords.size() == 2 * n)
+      out << "        texCoord2f[] primvars:st = " << tuple_array(m->texcoords.data(), n, 2, "            ")
+          << " (\n            interpolation = \"vertex\"\n        )\n";
+    out << "    }\n";
+  }
+  out << "}\n";
 }
 
 void write_rest_obj(std::ostream& out, const AnimatedMesh& mesh) {

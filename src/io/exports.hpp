@@ -1,7 +1,7 @@
 #pragma once
 // The animation exports of `weft run` (docs/exports.md): OBJ frames with texture coordinates
-// and normals, a glTF 2.0 binary (.glb) whose meshes play the run as morph targets, and a PC2
-// point cache with its rest mesh.
+// and normals, a glTF 2.0 binary (.glb) whose meshes play the run as morph targets, a PC2
+// point cache with its rest mesh, and a USD ASCII stage (.usda) with time-sampled points.
 #include <array>
 #include <ostream>
 #include <string>
@@ -12,7 +12,7 @@
 namespace weft {
 
 /// The formats `weft run --format` and a scene's output.formats accept, for messages.
-constexpr const char* kOutputFormatNames = "obj, ply, glb, pc2";
+constexpr const char* kOutputFormatNames = "obj, ply, glb, pc2, usda";
 
 /// Checks a list of format names (`where` prefixes messages): each one of kOutputFormatNames,
 /// obj and ply not both (both write DIR/frames/frame_NNNNN). Returns them without repeats, in
@@ -74,6 +74,15 @@ void write_pc2(std::ostream& out, const AnimatedMesh& mesh);
 /// The first frame of `mesh` as an OBJ with texture coordinates and normals, vertices in the
 /// cache's order (the rest mesh a PC2 cache is applied to).
 void write_rest_obj(std::ostream& out, const AnimatedMesh& mesh);
+
+/// USD ASCII (.usda): a stage in metres with Y up whose time codes are the frame numbers, at
+/// timeCodesPerSecond = 1 / the mean interval of `frame_times` (24 for a single frame); under
+/// the prim /weft one Mesh per mesh (the first the cloth), named as the mesh, with its
+/// triangles, the texture coordinates as primvars:st (vertex interpolation, v up) when it has
+/// them, and `points` time-sampled at every frame (points without samples for a mesh whose
+/// frames are all alike). Coordinates are written in the shortest form that reads back as the
+/// same float. Throws std::runtime_error when a mesh's frame count differs from the times'.
+void write_usda(std::ostream& out, const std::vector<const AnimatedMesh*>& meshes, const std::vector<double>& frame_times);
 
 /// The frames recorded so far, for a checkpoint (a resumed run's animations start from them):
 /// each mesh's vertex count, frame count, positions and viscosities, then the frame times.

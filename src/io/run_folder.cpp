@@ -374,6 +374,7 @@ RunRecording read_run_folder(const std::string& dir_name) {
                      "weft run writes them with --format obj, ply or glb)");
 
   RunRecording rec;
+  rec.uv_scale = run_uv_scale(summary, summary_path.string());
   std::vector<double> glb_times;
   if (has_glb) {
     rec.meshes = read_glb_meshes(glb, glb_times);

@@ -44,6 +44,7 @@ struct RunRecording {
   std::string positions_source;   ///< "glb" (DIR/animation.glb), "obj" or "ply" (DIR/frames)
   std::string viscosity_source;   ///< "ply" (per frame), "glb" (each vertex's peak over the run) or ""
   std::vector<double> times;      ///< the frames' times in s
+  double uv_scale = 1;            ///< metres per unit of the texture coordinates (summary.json's uv_scale)
   std::vector<RunMesh> meshes;    ///< the cloth first
 };
 
@@ -53,7 +54,8 @@ struct RunRecording {
 /// the glb when there is one (it is binary, so quick to read), else from the frames; the added
 /// viscosity per frame from PLY frames, else each vertex's peak from the glb's vertex colours.
 /// Times come from energy.csv's rows when it has one per frame, else from the glb's animation,
-/// else from summary.json's frame_interval. Throws InputError naming the folder or file (and line) when `dir` is
+/// else from summary.json's frame_interval; the texture coordinates' scale from summary.json's
+/// uv_scale (1 without it). Throws InputError naming the folder or file (and line) when `dir` is
 /// missing, is not a run folder, or holds a file that cannot be read.
 RunRecording read_run_folder(const std::string& dir);
 

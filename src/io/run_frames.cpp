@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <nlohmann/json.hpp>
 #include <regex>
 
 #include "io/obj_file.hpp"
@@ -81,6 +82,14 @@ std::map<long, RunFrameFiles> find_run_frames(const fs::path& dir, const std::st
 
 RunFrameMesh read_frame_mesh(const fs::path& path) {
   return path.extension() == ".ply" ? read_ply_mesh(path) : read_obj_frame(path);
+}
+
+double run_uv_scale(const nlohmann::json& summary, const std::string& summary_path) {
+  if (!summary.is_object() || !summary.contains("uv_scale")) return 1.0;
+  const nlohmann::json& v = summary["uv_scale"];
+  if (!v.is_number() || !(v.get<double>() > 0) || !std::isfinite(v.get<double>()))
+    throw InputError(summary_path + ": uv_scale " + v.dump() + ": expected a number > 0 (metres per texture unit)");
+  return v.get<double>();
 }
 
 }  // namespace weft

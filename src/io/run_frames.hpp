@@ -5,6 +5,7 @@
 #include <array>
 #include <filesystem>
 #include <map>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
@@ -33,5 +34,11 @@ struct RunFrameMesh {
 /// optionally added_viscosity; a face element of index lists, polygons split as fans), by the
 /// file's extension. Throws InputError naming the file and line.
 RunFrameMesh read_frame_mesh(const std::filesystem::path& path);
+
+/// The metres per unit of a run's texture coordinates: `uv_scale` of its summary.json (the
+/// scene's cloth mesh.uv_scale, which `weft run` records), or 1 for a summary without it (runs
+/// of weft before it was recorded). Throws InputError naming `summary_path` and the key when
+/// the value is not a number > 0.
+double run_uv_scale(const nlohmann::json& summary, const std::string& summary_path);
 
 }  // namespace weft

@@ -9,14 +9,6 @@
 namespace weft::render {
 namespace {
 
-Colour from_srgb(int r, int g, int b) {
-  auto linear = [](int v) {
-    const float c = static_cast<float>(v) / 255;
-    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
-  };
-  return {linear(r), linear(g), linear(b)};
-}
-
 float smoothstep(float edge0, float edge1, float x) {
   const float t = std::clamp((x - edge0) / (edge1 - edge0), 0.0f, 1.0f);
   return t * t * (3 - 2 * t);
@@ -35,10 +27,6 @@ const Colour& ground_colour() {
   static const Colour c = from_srgb(222, 220, 214);
   return c;
 }
-const Colour& collider_colour() {
-  static const Colour c = from_srgb(178, 178, 176);
-  return c;
-}
 
 // Lights, in world axes, set from the camera so that every view is lit alike: a key light from
 // above, to the left of and behind the viewer, and a headlight at the eye.
@@ -47,8 +35,9 @@ struct Lights {
 };
 
 Lights lights_for(const Projection& projection) {
-  Vec3 key = -0.35 * projection.right() + Vec3(0, 1.6, 0) - 0.35 * projection.forward();
-  key.y() = std::max(key.y(), 0.3 * key.norm());
+  const Shading& s = shading();
+  Vec3 key = s.key_right * projection.right() + Vec3(0, s.key_up, 0) - s.key_back * projection.forward();
+  key.y() = std::max(key.y(), s.key_min_elevation * key.norm());
   return {key.normalized()};
 }
 
@@ -56,9 +45,10 @@ Lights lights_for(const Projection& projection) {
 // highlight from the key light; `n` unit and facing the viewer, `v` unit towards the eye.
 Colour shade_surface(const Colour& base, const Vec3& n, const Vec3& v, const Lights& lights, double highlight,
                      double shininess) {
-  const double ambient = 0.30 + 0.06 * n.y();
-  const double key = 0.62 * std::max(0.0, n.dot(lights.key));
-  const double head = 0.30 * std::max(0.0, n.dot(v));
+  const Shading& s = shading();
+  const double ambient = s.ambient + s.ambient_up * n.y();
+  const double key = s.key * std::max(0.0, n.dot(lights.key));
+  const double head = s.headlight * std::max(0.0, n.dot(v));
   const Vec3 h = (lights.key + v).normalized();
   const double specular = n.dot(lights.key) > 0 ? highlight * std::pow(std::max(0.0, n.dot(h)), shininess) : 0.0;
   return base * static_cast<float>(ambient + key + head) + Colour::Constant(static_cast<float>(specular));
@@ -147,8 +137,8 @@ void draw_mesh(Framebuffer& fb, const Projection& projection, const Lights& ligh
     for (int k = 0; k < 3; ++k) {
       const Vec3 vn(normals[3 * tri[k]], normals[3 * tri[k] + 1], normals[3 * tri[k] + 2]);
       // A collider's sharp edges (a box's) keep their faces flat: a vertex normal more than
-      // 45 degrees from the face's is replaced by the face's.
-      corner_normal[k] = (cloth || vn.dot(face_unit) > 0.7) ? vn : face_unit;
+      // about 45 degrees (collider_crease_cosine) from the face's is replaced by the face's.
+      corner_normal[k] = (cloth || vn.dot(face_unit) > shading().collider_crease_cosine) ? vn : face_unit;
     }
     std::array<Colour, 3> corner_colour;
     for (int k = 0; k < 3; ++k) {
@@ -156,7 +146,8 @@ void draw_mesh(Framebuffer& fb, const Projection& projection, const Lights& ligh
                          : !mesh.vertex_colours.empty() ? mesh.vertex_colours[tri[k]]
                          : (cloth && !front)            ? cloth_back_colour()
                                                         : own;
-      if (cloth && !front && (!mesh.triangle_colours.empty() || !mesh.vertex_colours.empty())) corner_colour[k] *= 0.8f;
+      if (cloth && !front && (!mesh.triangle_colours.empty() || !mesh.vertex_colours.empty()))
+        corner_colour[k] *= static_cast<float>(shading().coloured_back_factor);
     }
     const std::array<Vec3, 3> corners{view[tri[0]], view[tri[1]], view[tri[2]]};
     draw_triangle(fb, projection, corners, [&](const Vec3& b) {
@@ -167,7 +158,8 @@ void draw_mesh(Framebuffer& fb, const Projection& projection, const Lights& ligh
       normal.normalize();
       if (normal.dot(v) < 0) normal = (normal - 1.01 * normal.dot(v) * v).normalized();
       const Colour base = b[0] * corner_colour[0] + b[1] * corner_colour[1] + b[2] * corner_colour[2];
-      return cloth ? shade_surface(base, normal, v, lights, 0.05, 12) : shade_surface(base, normal, v, lights, 0.18, 40);
+      return cloth ? shade_surface(base, normal, v, lights, shading().cloth_highlight, shading().cloth_shininess)
+                   : shade_surface(base, normal, v, lights, shading().collider_highlight, shading().collider_shininess);
     });
   }
 }
@@ -220,42 +212,6 @@ Bounds bounds_of(const std::vector<double>& xyz) {
   Bounds b;
   for (size_t i = 0; i + 2 < xyz.size(); i += 3) b.add(Vec3(xyz[i], xyz[i + 1], xyz[i + 2]));
   return b;
-}
-
-Colour cloth_colour() {
-  static const Colour c = from_srgb(70, 115, 175);
-  return c;
-}
-Colour cloth_back_colour() {
-  static const Colour c = from_srgb(110, 140, 180);
-  return c;
-}
-
-Colour sequential_colour(double fraction) {
-  static const std::array<Colour, 3> stop{from_srgb(232, 230, 222), from_srgb(245, 160, 50), from_srgb(190, 20, 30)};
-  const float f = static_cast<float>(std::clamp(fraction, 0.0, 1.0)) * 2;
-  return f < 1 ? Colour((1 - f) * stop[0] + f * stop[1]) : Colour((2 - f) * stop[1] + (f - 1) * stop[2]);
-}
-
-Colour diverging_colour(double signed_fraction) {
-  static const Colour low = from_srgb(40, 90, 200), mid = from_srgb(232, 230, 222), high = from_srgb(200, 30, 30);
-  const float f = static_cast<float>(std::clamp(signed_fraction, -1.0, 1.0));
-  return f < 0 ? Colour((1 + f) * mid - f * low) : Colour((1 - f) * mid + f * high);
-}
-
-double largest_principal_stretch(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec2& u0, const Vec2& u1,
-                                 const Vec2& u2) {
-  Mat2 du;
-  du << u1 - u0, u2 - u0;
-  const double det = du.determinant();
-  if (!(std::abs(det) > 0)) return std::nan("");
-  Eigen::Matrix<double, 3, 2> dx;
-  dx << x1 - x0, x2 - x0;
-  const Eigen::Matrix<double, 3, 2> f = dx * du.inverse();
-  // The largest eigenvalue of the right Cauchy-Green tensor F^T F, a symmetric 2 x 2.
-  const Mat2 c = f.transpose() * f;
-  const double mean = 0.5 * (c(0, 0) + c(1, 1)), half_diff = 0.5 * (c(0, 0) - c(1, 1));
-  return std::sqrt(mean + std::sqrt(half_diff * half_diff + c(0, 1) * c(0, 1)));
 }
 
 void draw_label(RgbImage& image, int x, int y, const std::string& text, int scale, const std::array<std::uint8_t, 3>& ink) {

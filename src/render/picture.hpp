@@ -1,7 +1,8 @@
 #pragma once
 // Shaded pictures of a run's frame for `weft render` (docs/render.md): the cloth two-sided in a
 // fabric colour (or a colour map), the colliders in grey, lit by a key light and a headlight
-// (Lambert diffuse, a Blinn highlight), over a ground that fades into the background and takes
+// (Lambert diffuse, a Blinn highlight; colours and constants from appearance.hpp, as the
+// viewer's), over a ground that fades into the background and takes
 // the objects' shadows from the key light; a caption and a colour bar drawn in the bitmap font.
 #include <array>
 #include <limits>
@@ -9,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "render/appearance.hpp"
 #include "render/raster.hpp"
 
 namespace weft::render {
@@ -67,22 +69,6 @@ RgbImage render_picture(const std::vector<PictureMesh>& meshes, const PictureOpt
 /// width and height) to spare.
 Camera frame_camera(const Bounds& box, int width, int height, double fov_deg = 30, double azimuth_deg = 35,
                     double elevation_deg = 20, double margin = 0.12);
-
-/// The cloth's own colour (linear RGB), front and back.
-Colour cloth_colour();
-Colour cloth_back_colour();
-
-/// Colour maps, linear RGB: `fraction` in [0, 1] from a pale neutral to red (added viscosity);
-/// `signed_fraction` in [-1, 1] from blue through the pale neutral (0) to red (strain).
-Colour sequential_colour(double fraction);
-Colour diverging_colour(double signed_fraction);
-
-/// The largest principal stretch of a triangle whose corners are at x0, x1, x2 and whose rest
-/// shape has the 2D pattern coordinates u0, u1, u2: the largest singular value of the
-/// deformation gradient F = [x1 - x0, x2 - x0] [u1 - u0, u2 - u0]^-1 (1 for a triangle at rest,
-/// also when it is rotated). NaN when the pattern triangle has no area.
-double largest_principal_stretch(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec2& u0, const Vec2& u1,
-                                 const Vec2& u2);
 
 /// Draws `text` in the bitmap font (bitmap_font.hpp) at (x, y) (top-left), `scale` pixels per
 /// font pixel, in `ink` (sRGB bytes).

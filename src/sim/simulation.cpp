@@ -606,6 +606,9 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
   j["dt"] = sc.integrator.dt;
   j["duration"] = sc.duration;
   j["frame_interval"] = sc.frame_interval;
+  // Metres per unit of the texture coordinates the frames and animations hold (the pattern
+  // divided by it), so that readers (weft render, weft view) measure strain against the pattern.
+  j["uv_scale"] = sc.cloth.uv_scale;
   j["vertices"] = r.vertices;
   j["triangles"] = r.triangles;
   j["steps"] = r.steps.steps;

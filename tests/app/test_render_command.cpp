@@ -6,6 +6,8 @@
 #include <cstring>
 #include <set>
 
+#include "io/run_folder.hpp"
+#include "render/appearance.hpp"
 #include "support/command.hpp"
 #include "support/png.hpp"
 #include "weft/types.hpp"
@@ -173,6 +175,7 @@ TEST_F(RenderCommand, BadInputExitsTwoNamingItAndWritesNothing) {
       {dir + " --video --size 161x120", "needs an even width and height"},
       {dir + " --color rainbow", "--color 'rainbow'"},
       {dir + " --color viscosity", "--color viscosity reads the added viscosity of PLY frames"},
+      {dir + " --color strain --uv-scale -2", "--uv-scale -2: expected a number > 0"},
   };
   for (const auto& [arguments, message] : cases) {
     const auto r = weft("render " + arguments);
@@ -180,6 +183,13 @@ TEST_F(RenderCommand, BadInputExitsTwoNamingItAndWritesNothing) {
     EXPECT_NE(r.error_output.find(message), std::string::npos) << arguments << " -> " << r.error_output;
     EXPECT_FALSE(fs::exists(out)) << arguments << ": wrote something";
   }
+  // A summary whose uv_scale is not a scale, for --color strain.
+  std::ofstream(run / "summary.json") << R"({"frame_interval": 0.02, "uv_scale": -1})";
+  const auto scale = weft("render " + dir + " --color strain");
+  EXPECT_EQ(scale.exit_code, 2);
+  EXPECT_NE(scale.error_output.find("summary.json: uv_scale -1: expected a number > 0"), std::string::npos) << scale.error_output;
+  EXPECT_FALSE(fs::exists(out));
+  std::ofstream(run / "summary.json") << R"({"frame_interval": 0.02})";
   // Without ffmpeg on the PATH, --video says so.
   const auto r = weft("render " + dir + " --video", "PATH=/nowhere");
   EXPECT_EQ(r.exit_code, 2);
@@ -191,6 +201,67 @@ TEST_F(RenderCommand, BadInputExitsTwoNamingItAndWritesNothing) {
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.error_output.find("frame_00003.obj:2:"), std::string::npos) << bad.error_output;
   EXPECT_FALSE(fs::exists(out));
+}
+
+// The strain scale `weft render --color strain ARGUMENTS` prints (in %), or -1 when it fails.
+double printed_strain_scale(const fs::path& folder, const std::string& arguments) {
+  const fs::path out = folder / "stdout.txt";
+  const int status = std::system(("'" + std::string(WEFT_EXE) + "' render " + arguments + " --color strain > '" + out.string() +
+                                  "' 2> /dev/null").c_str());
+  const std::string text = weft::test::read_text(out);
+  const size_t at = text.find("colour scale: strain -");
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || at == std::string::npos) return -1;
+  return std::stod(text.substr(at + std::strlen("colour scale: strain -")));
+}
+
+TEST_F(RenderCommand, AnObjClothAtRestShowsNoStrainWithTheRunsUvScale) {
+  // A 0.5 m square of 3 x 3 vertices whose texture coordinates are in units of 2.5 m, without
+  // gravity: it stays at rest, so its strain is 0 when the texture coordinates are read times
+  // 2.5, and 1.5 (150%) when read as metres.
+  std::string obj;
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) obj += "v " + std::to_string(0.25 * i) + " " + std::to_string(0.25 * j) + " 0\n";
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) obj += "vt " + std::to_string(0.1 * i) + " " + std::to_string(0.1 * j) + "\n";
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      const std::string a = std::to_string(3 * j + i + 1), b = std::to_string(3 * j + i + 2), c = std::to_string(3 * j + i + 5),
+                        d = std::to_string(3 * j + i + 4);
+      obj += "f " + a + "/" + a + " " + b + "/" + b + " " + c + "/" + c + "\nf " + a + "/" + a + " " + c + "/" + c + " " + d + "/" + d + "\n";
+    }
+  write("square.obj", obj);
+  const auto scene = write("scene.json", R"({"weft_scene": 1, "duration": 0.04, "frame_interval": 0.02, "gravity": [0, 0, 0],
+    "integrator": {"method": "implicit-midpoint", "dt": 0.02},
+    "cloth": {"mesh": {"obj": "square.obj", "uv_scale": 2.5},
+              "material": {"surface_density": 0.15, "weft": 100, "warp": 100, "shear": 10, "bending_rigidity": 1e-4}}})");
+  const fs::path run = folder_ / "run";
+  const auto r = weft("run " + quoted(scene) + " --out " + quoted(run) + " --format obj");
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
+  EXPECT_NE(weft::test::read_text(run / "summary.json").find("\"uv_scale\": 2.5"), std::string::npos);
+
+  // weft render takes the scale from the run; --uv-scale overrides it.
+  const std::string dir = quoted(run) + " --out " + quoted(folder_ / "pictures") + " --size 64x48 --samples 1";
+  const double at_rest = printed_strain_scale(folder_, dir);
+  ASSERT_GE(at_rest, 0);
+  EXPECT_LT(at_rest, 1e-3);  // % (the OBJ frames' decimals)
+  EXPECT_NEAR(printed_strain_scale(folder_, dir + " --uv-scale 1"), 150, 1e-3);
+
+  // The viewer's data: the run folder reader gives the scale with the per-vertex texture
+  // coordinates, from which the page computes the same strain (tests/render/test_appearance.cpp).
+  const weft::RunRecording rec = weft::read_run_folder(run.string());
+  EXPECT_EQ(rec.uv_scale, 2.5);
+  const weft::RunMesh& cloth = rec.meshes.front();
+  std::vector<std::array<int, 3>> triangles;
+  std::vector<double> corner_uv;
+  for (size_t t = 0; 3 * t < cloth.indices.size(); ++t) {
+    triangles.push_back({int(cloth.indices[3 * t]), int(cloth.indices[3 * t + 1]), int(cloth.indices[3 * t + 2])});
+    for (int k : triangles.back()) corner_uv.insert(corner_uv.end(), {cloth.texcoords[2 * k], cloth.texcoords[2 * k + 1]});
+  }
+  const size_t n = 3 * static_cast<size_t>(cloth.vertex_count);
+  for (int f = 0; f < cloth.frames; ++f) {
+    const std::vector<double> xyz(cloth.positions.begin() + f * n, cloth.positions.begin() + (f + 1) * n);
+    for (double v : weft::render::vertex_strain(xyz, triangles, corner_uv, rec.uv_scale)) EXPECT_LT(std::abs(v), 1e-5) << "frame " << f;
+  }
 }
 
 }  // namespace

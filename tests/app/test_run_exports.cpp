@@ -185,6 +185,35 @@ TEST_F(RunExports, Pc2ReadBackGivesEveryFramesPositions) {
   EXPECT_EQ(rest.texcoords.size(), 2u * kVertices);
 }
 
+TEST_F(RunExports, UsdaHoldsEveryFramesPositionsAsTimeSamples) {
+  const auto out = run_with("--format obj,usda");
+  const std::string text = read_text(out / "animation.usda");
+  EXPECT_EQ(text.rfind("#usda 1.0\n", 0), 0u);
+  EXPECT_NE(text.find("def Mesh \"cloth\""), std::string::npos);
+  EXPECT_NE(text.find("endTimeCode = " + std::to_string(kFrames - 1) + "\n"), std::string::npos);
+  // Each frame's sample: "            F: [(x, y, z), ...]," in the cloth's prim, the first.
+  for (int f = 0; f < kFrames; ++f) {
+    const std::string key = "\n            " + std::to_string(f) + ": [";
+    const size_t at = text.find(key);
+    ASSERT_NE(at, std::string::npos) << "frame " << f;
+    const std::string sample = text.substr(at + key.size(), text.find(']', at) - at - key.size());
+    std::vector<float> read;
+    std::string number;
+    for (char c : sample + ",") {
+      if (c == '(' || c == ' ' || c == '\n') continue;
+      if (c == ',' || c == ')') {
+        if (!number.empty()) read.push_back(std::stof(number));
+        number.clear();
+      } else {
+        number += c;
+      }
+    }
+    const auto x = frame_positions(out, f);
+    ASSERT_EQ(read.size(), x.size()) << "frame " << f;
+    for (size_t k = 0; k < x.size(); ++k) expect_float_of(x[k], read[k], "frame " + std::to_string(f) + " coordinate " + std::to_string(k));
+  }
+}
+
 TEST_F(RunExports, GlbHoldsEveryFrameAsMorphTargetsOfTheFirst) {
   const auto out = run_with("--format obj,glb --damping-ratio 0.05");
   const Glb g = read_glb(out / "animation.glb");
@@ -265,7 +294,7 @@ TEST_F(RunExports, UnknownOrConflictingFormatsExitTwoNamingTheValue) {
   const auto out = folder_ / "out";
   auto r = weft("run '" + s.string() + "' --out '" + out.string() + "' --format obj,fbx");
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.error_output.find("command line: --format: unknown output format 'fbx' (expected obj, ply, glb, pc2)"),
+  EXPECT_NE(r.error_output.find("command line: --format: unknown output format 'fbx' (expected obj, ply, glb, pc2, usda)"),
             std::string::npos) << r.error_output;
   EXPECT_FALSE(fs::exists(out));
   r = weft("run '" + s.string() + "' --out '" + out.string() + "' --format obj,ply");
@@ -277,7 +306,7 @@ TEST_F(RunExports, UnknownOrConflictingFormatsExitTwoNamingTheValue) {
   const auto bad = write("bad.json", scene(R"("output": {"formats": ["obj", "usd"]})"));
   r = weft("run '" + bad.string() + "' --out '" + out.string() + "'");
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.error_output.find(bad.string() + ": key output.formats: unknown output format 'usd' (expected obj, ply, glb, pc2)"),
+  EXPECT_NE(r.error_output.find(bad.string() + ": key output.formats: unknown output format 'usd' (expected obj, ply, glb, pc2, usda)"),
             std::string::npos) << r.error_output;
   EXPECT_FALSE(fs::exists(out));
 }

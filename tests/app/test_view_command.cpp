@@ -131,6 +131,22 @@ TEST_F(ViewCommand, AFrameOfAnotherMeshIsNamed) {
   EXPECT_NE(r.error_output.find("not the mesh of"), std::string::npos) << r.error_output;
 }
 
+TEST_F(ViewCommand, TheRunsUvScaleReachesThePageAndABadOneIsNamed) {
+  const fs::path dir = run("run", "glb");
+  EXPECT_EQ(weft::read_run_folder(dir.string()).uv_scale, 1.0);  // a grid cloth
+  std::string summary = read_text(dir / "summary.json");
+  const std::string key = "\"uv_scale\": 1.0";
+  ASSERT_NE(summary.find(key), std::string::npos);
+  std::ofstream(dir / "summary.json") << summary.replace(summary.find(key), key.size(), "\"uv_scale\": 0.25");
+  EXPECT_EQ(weft::read_run_folder(dir.string()).uv_scale, 0.25);
+  summary = read_text(dir / "summary.json");
+  const std::string scaled = "\"uv_scale\": 0.25";
+  std::ofstream(dir / "summary.json") << summary.replace(summary.find(scaled), scaled.size(), "\"uv_scale\": \"wide\"");
+  const auto r = weft("view '" + dir.string() + "' --no-open");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.error_output.find("summary.json: uv_scale \"wide\": expected a number > 0"), std::string::npos) << r.error_output;
+}
+
 TEST_F(ViewCommand, APortInUseExitsTwo) {
   const fs::path dir = run("run", "glb");
   // Hold a port on 127.0.0.1 for the duration of the test.

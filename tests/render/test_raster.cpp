@@ -197,12 +197,4 @@ TEST(Picture, LargestPrincipalStretch) {
   EXPECT_TRUE(std::isnan(largest_principal_stretch(placed(u0), placed(u1), placed(u2), u0, u1, 2 * u1)));
 }
 
-TEST(Picture, ColourMapsRunFromNeutralToTheirEnds) {
-  EXPECT_TRUE(sequential_colour(0).isApprox(diverging_colour(0)));
-  EXPECT_GT(sequential_colour(1).x(), 3 * sequential_colour(1).z());  // red
-  EXPECT_GT(diverging_colour(1).x(), 3 * diverging_colour(1).z());    // red
-  EXPECT_GT(diverging_colour(-1).z(), 3 * diverging_colour(-1).x());  // blue
-  EXPECT_TRUE(sequential_colour(2).isApprox(sequential_colour(1)));   // clamped
-}
-
 }  // namespace

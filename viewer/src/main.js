@@ -4,15 +4,17 @@
 // the cloth and colliders, the energies with a cursor at the current time, and the summary.
 import * as THREE from 'three';
 import {OrbitControls} from 'three/addons/controls/OrbitControls.js';
-import {strainField, symmetricScale} from './strain.js';
+import {strainField} from './strain.js';
+import {makeAppearance, srgbEncodeByte} from './appearance.js';
+import appearanceTable from '../../src/render/appearance.json';
 import {EnergyChart} from './energy.js';
 import {showSummary} from './summary.js';
 
 const $ = (id) => document.getElementById(id);
 const scriptStartedAt = performance.now();
 
-const CLOTH_COLOUR = new THREE.Color(0x5b84c4);
-const COLLIDER_COLOUR = new THREE.Color(0xb9b4ae);
+// The colour maps, colours and shading of `weft render` (src/render/appearance.json).
+const look = makeAppearance(appearanceTable);
 
 const viewer = {
   loaded: false,
@@ -57,6 +59,14 @@ window.weftViewer = {
     return seen.size;
   },
   setTime: (t) => setTime(t),
+  /** The run's uv_scale, the strain map's scale and the largest |strain| at frame `frame` (the strain computed if need be). */
+  strain(frame) {
+    ensureStrain();
+    const n = viewer.meshes[0].vertices;
+    let largest = 0;
+    for (const v of strain.perFrame.subarray(frame * n, (frame + 1) * n)) largest = Math.max(largest, Math.abs(v));
+    return {uvScale: viewer.manifest.uv_scale, scale: colourScale.strain, largest};
+  },
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -85,11 +95,86 @@ const rendererReadyAt = performance.now();
 scene.background = new THREE.Color(0xdfe3e8);
 const camera = new THREE.PerspectiveCamera(40, 1, 0.01, 1000);
 const controls = new OrbitControls(camera, canvas);
-scene.add(new THREE.HemisphereLight(0xffffff, 0x8d8780, 1.6));
-const sun = new THREE.DirectionalLight(0xffffff, 1.6);
-scene.add(sun);
 let needsRender = true;
 controls.addEventListener('change', () => { needsRender = true; });
+
+// The shading of `weft render` (src/render/picture.cpp, constants from appearance.json): a sky
+// and ground ambient, a key light set from the camera (so every view is lit alike), a headlight
+// at the eye and a Blinn highlight from the key light, in linear RGB, two-sided: the cloth's
+// back side in its back colour (a colour map's colours darkened), each side's normal turned
+// towards the eye. A collider's normal further from its face's than the crease angle gives way
+// to the face's (a box keeps flat faces).
+const shadingVertex = `
+varying vec3 vWorld;
+varying vec3 vNormal;
+varying vec3 vColour;
+void main() {
+  vec4 world = modelMatrix * vec4(position, 1.0);
+  vWorld = world.xyz;
+  vNormal = mat3(modelMatrix) * normal;
+#ifdef USE_COLOR
+  vColour = color;
+#else
+  vColour = vec3(1.0);
+#endif
+  gl_Position = projectionMatrix * viewMatrix * world;
+}`;
+const shadingFragment = `
+uniform vec3 frontColour, backColour, keyLight;
+uniform float ambient, ambientUp, keyStrength, headlight, highlight, shininess, backFactor, creaseCosine;
+uniform bool coloured, creases;
+varying vec3 vWorld;
+varying vec3 vNormal;
+varying vec3 vColour;
+void main() {
+  vec3 v = normalize(cameraPosition - vWorld);
+  vec3 n = (gl_FrontFacing ? 1.0 : -1.0) * normalize(vNormal);
+  if (creases) {
+    vec3 face = normalize(cross(dFdx(vWorld), dFdy(vWorld)));
+    if (dot(face, v) < 0.0) face = -face;
+    if (dot(n, face) <= creaseCosine) n = face;
+  }
+  if (dot(n, v) < 0.0) n = normalize(n - 1.01 * dot(n, v) * v);
+  vec3 base = coloured ? vColour * (gl_FrontFacing ? 1.0 : backFactor) : (gl_FrontFacing ? frontColour : backColour);
+  float nl = dot(n, keyLight);
+  float light = ambient + ambientUp * n.y + keyStrength * max(0.0, nl) + headlight * max(0.0, dot(n, v));
+  float specular = nl > 0.0 ? highlight * pow(max(0.0, dot(n, normalize(keyLight + v))), shininess) : 0.0;
+  gl_FragColor = vec4(base * light + vec3(specular), 1.0);
+  #include <colorspace_fragment>
+}`;
+const keyLight = new THREE.Vector3();
+
+function surfaceMaterial(isCloth) {
+  const sh = look.shading;
+  const surface = isCloth ? sh.cloth : sh.collider;
+  const colour = (c) => new THREE.Vector3(...c);
+  return new THREE.ShaderMaterial({
+    vertexShader: shadingVertex,
+    fragmentShader: shadingFragment,
+    vertexColors: isCloth,
+    side: THREE.DoubleSide,
+    polygonOffset: !isCloth, polygonOffsetFactor: 1, polygonOffsetUnits: 1,
+    uniforms: {
+      frontColour: {value: colour(isCloth ? look.clothFront : look.collider)},
+      backColour: {value: colour(isCloth ? look.clothBack : look.collider)},
+      keyLight: {value: keyLight},
+      ambient: {value: sh.ambient}, ambientUp: {value: sh.ambient_up}, keyStrength: {value: sh.key},
+      headlight: {value: sh.headlight}, highlight: {value: surface.highlight}, shininess: {value: surface.shininess},
+      backFactor: {value: sh.coloured_back_factor}, creaseCosine: {value: sh.collider_crease_cosine},
+      coloured: {value: false}, creases: {value: !isCloth},
+    },
+  });
+}
+
+// The key light from the camera's axes, as picture.cpp's lights_for.
+function updateKeyLight() {
+  const sh = look.shading, d = sh.key_direction;
+  const forward = camera.getWorldDirection(new THREE.Vector3());
+  const right = new THREE.Vector3().crossVectors(forward, camera.up).normalize();
+  keyLight.copy(right).multiplyScalar(d.right).add(new THREE.Vector3(0, d.up, 0)).addScaledVector(forward, -d.back);
+  keyLight.y = Math.max(keyLight.y, sh.key_min_elevation * keyLight.length());
+  keyLight.normalize();
+}
 
 function resize() {
   const r = canvas.parentElement.getBoundingClientRect();
@@ -160,10 +245,9 @@ async function load() {
       const colour = new THREE.BufferAttribute(new Float32Array(3 * m.vertices), 3);
       colour.setUsage(THREE.DynamicDrawUsage);
       geometry.setAttribute('color', colour);
-      material = new THREE.MeshLambertMaterial({vertexColors: true, side: THREE.DoubleSide});
+      material = surfaceMaterial(true);
     } else {
-      material = new THREE.MeshLambertMaterial({color: COLLIDER_COLOUR, side: THREE.DoubleSide,
-                                                polygonOffset: true, polygonOffsetFactor: 1, polygonOffsetUnits: 1});
+      material = surfaceMaterial(false);
     }
     mesh.geometry = geometry;
     mesh.object = new THREE.Mesh(geometry, material);
@@ -212,9 +296,6 @@ function frameCamera() {
   camera.updateProjectionMatrix();
   controls.target.copy(centre);
   controls.update();
-  sun.position.copy(centre).add(new THREE.Vector3(1, 2, 1.5).multiplyScalar(radius));
-  sun.target.position.copy(centre);
-  sun.target.updateMatrixWorld();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -248,32 +329,17 @@ function ensureStrain() {
   const perFrame = new Float32Array(cloth.frames * cloth.vertices);
   for (let f = 0; f < cloth.frames; ++f)
     strainField(cloth.positions.subarray(3 * f * cloth.vertices, 3 * (f + 1) * cloth.vertices), cloth.texcoords, cloth.indices,
-                perFrame.subarray(f * cloth.vertices, (f + 1) * cloth.vertices));
+                viewer.manifest.uv_scale ?? 1, perFrame.subarray(f * cloth.vertices, (f + 1) * cloth.vertices));
   strain = {perFrame};
-  colourScale.strain = symmetricScale(perFrame);
+  colourScale.strain = look.strainScale(perFrame);
 }
 
-// White through orange to dark red for 0..1 (the glb's white-to-red, with more steps).
-function sequential(s, out) {
-  s = Math.min(1, Math.max(0, s));
-  const stops = [[0.97, 0.97, 0.95], [0.99, 0.75, 0.35], [0.89, 0.29, 0.13], [0.55, 0.05, 0.05]];
-  const x = s * (stops.length - 1), k = Math.min(stops.length - 2, Math.floor(x)), a = x - k;
-  for (let c = 0; c < 3; ++c) out[c] = stops[k][c] * (1 - a) + stops[k + 1][c] * a;
-}
-
-// Blue (compressed) through white (unstretched) to red (stretched) for -1..1.
-function diverging(s, out) {
-  s = Math.min(1, Math.max(-1, s));
-  const white = [0.96, 0.96, 0.96], blue = [0.13, 0.4, 0.75], red = [0.75, 0.1, 0.12];
-  const end = s < 0 ? blue : red, a = Math.abs(s);
-  for (let c = 0; c < 3; ++c) out[c] = white[c] * (1 - a) + end[c] * a;
-}
-
+// The ramps give linear RGB (vertex colours, which the shading lights); CSS takes sRGB.
 function cssGradient(ramp, from, to) {
   const out = [0, 0, 0], stops = [];
-  for (let k = 0; k <= 8; ++k) {
-    ramp(from + (to - from) * k / 8, out);
-    stops.push(`rgb(${out.map((c) => Math.round(255 * c)).join(',')})`);
+  for (let k = 0; k <= 16; ++k) {
+    ramp(from + (to - from) * k / 16, out);
+    stops.push(`rgb(${out.map(srgbEncodeByte).join(',')})`);
   }
   return `linear-gradient(to right, ${stops.join(', ')})`;
 }
@@ -284,12 +350,12 @@ function showLegend() {
   if (viewer.colourMap === 'viscosity') {
     $('legend-title').textContent = viewer.meshes[0].viscosityFrames === 1 ? 'added viscosity, peak over the run (N s/m)'
                                                                             : 'added viscosity (N s/m)';
-    $('legend-bar').style.background = cssGradient(sequential, 0, 1);
+    $('legend-bar').style.background = cssGradient(look.sequential, 0, 1);
     $('legend-min').textContent = '0';
     $('legend-max').textContent = colourScale.viscosity.toPrecision(3);
   } else if (viewer.colourMap === 'strain') {
     $('legend-title').textContent = 'strain: largest principal stretch - 1 (%)';
-    $('legend-bar').style.background = cssGradient(diverging, -1, 1);
+    $('legend-bar').style.background = cssGradient(look.diverging, -1, 1);
     $('legend-min').textContent = (-100 * colourScale.strain).toPrecision(3);
     $('legend-max').textContent = `+${(100 * colourScale.strain).toPrecision(3)}`;
   }
@@ -304,7 +370,7 @@ function colourCloth(frame) {
     const base = cloth.viscosityFrames > 1 ? Math.min(frame, cloth.viscosityFrames - 1) * n : 0;
     const scale = colourScale.viscosity > 0 ? 1 / colourScale.viscosity : 0;
     for (let i = 0; i < n; ++i) {
-      sequential(cloth.viscosity[base + i] * scale, rgb);
+      look.sequential(cloth.viscosity[base + i] * scale, rgb);
       c[3 * i] = rgb[0], c[3 * i + 1] = rgb[1], c[3 * i + 2] = rgb[2];
     }
   } else if (viewer.colourMap === 'strain' && cloth.texcoords) {
@@ -312,12 +378,14 @@ function colourCloth(frame) {
     const values = strain.perFrame.subarray(frame * n, (frame + 1) * n);
     const scale = colourScale.strain > 0 ? 1 / colourScale.strain : 0;
     for (let i = 0; i < n; ++i) {
-      diverging(values[i] * scale, rgb);
+      look.diverging(values[i] * scale, rgb);
       c[3 * i] = rgb[0], c[3 * i + 1] = rgb[1], c[3 * i + 2] = rgb[2];
     }
   } else {
-    for (let i = 0; i < n; ++i) c[3 * i] = CLOTH_COLOUR.r, c[3 * i + 1] = CLOTH_COLOUR.g, c[3 * i + 2] = CLOTH_COLOUR.b;
+    // White: the shader then takes the cloth's own front and back colours.
+    c.fill(1);
   }
+  cloth.object.material.uniforms.coloured.value = viewer.colourMap !== 'plain';
   attribute.needsUpdate = true;
 }
 
@@ -412,6 +480,7 @@ function tick(now) {
   }
   if (needsRender) {
     const began = performance.now();
+    updateKeyLight();
     renderer.render(scene, camera);
     viewer.renderMs += 0.1 * (performance.now() - began - viewer.renderMs);
     needsRender = false;

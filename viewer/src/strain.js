@@ -1,21 +1,24 @@
 // Strain of a cloth frame against its rest shape: the texture coordinates that weft writes are
-// the pattern coordinates (metres on a grid cloth), so the map from a triangle's texture
-// coordinates to its positions is its deformation gradient F (3 x 2), and the largest principal
-// stretch is the square root of the largest eigenvalue of C = F^T F.
+// the pattern coordinates divided by the run's uv_scale (metres per texture unit, 1 on a grid
+// cloth), so the map from a triangle's texture coordinates times uv_scale to its positions is
+// its deformation gradient F (3 x 2), and the largest principal stretch is the square root of
+// the largest eigenvalue of C = F^T F. The same as render::vertex_strain (src/render/appearance.hpp),
+// which `weft render` uses; tests/render/test_appearance.cpp compares the two.
 
 /**
- * Per vertex, the area-weighted mean over its triangles of (largest principal stretch - 1).
- * positions: 3 per vertex; texcoords: 2 per vertex; indices: 3 per triangle; out: 1 per vertex.
- * Triangles whose texture coordinates have no area are left out.
+ * Per vertex, the mean over its triangles of (largest principal stretch - 1), weighted by their
+ * areas in texture space. positions: 3 per vertex; texcoords: 2 per vertex; indices: 3 per
+ * triangle; uvScale: metres per texture unit; out: 1 per vertex. Triangles of texture-space
+ * area (times uvScale^2) 1e-14 or less are left out; a vertex with none gets 0.
  */
-export function strainField(positions, texcoords, indices, out) {
+export function strainField(positions, texcoords, indices, uvScale, out) {
   const n = out.length;
-  const weight = new Float32Array(n);
+  const weight = new Float64Array(n);
   out.fill(0);
   for (let t = 0; t < indices.length; t += 3) {
     const i = indices[t], j = indices[t + 1], k = indices[t + 2];
-    const du1 = texcoords[2 * j] - texcoords[2 * i], dv1 = texcoords[2 * j + 1] - texcoords[2 * i + 1];
-    const du2 = texcoords[2 * k] - texcoords[2 * i], dv2 = texcoords[2 * k + 1] - texcoords[2 * i + 1];
+    const du1 = uvScale * (texcoords[2 * j] - texcoords[2 * i]), dv1 = uvScale * (texcoords[2 * j + 1] - texcoords[2 * i + 1]);
+    const du2 = uvScale * (texcoords[2 * k] - texcoords[2 * i]), dv2 = uvScale * (texcoords[2 * k + 1] - texcoords[2 * i + 1]);
     const det = du1 * dv2 - du2 * dv1;
     const area = 0.5 * Math.abs(det);
     if (!(area > 1e-14)) continue;
@@ -33,14 +36,4 @@ export function strainField(positions, texcoords, indices, out) {
     weight[i] += area, weight[j] += area, weight[k] += area;
   }
   for (let v = 0; v < n; ++v) out[v] = weight[v] > 0 ? out[v] / weight[v] : 0;
-}
-
-/** The 99th percentile of |values| (of at most 200,000 evenly spaced samples): a colour scale that one outlier does not flatten. */
-export function symmetricScale(values) {
-  const step = Math.max(1, Math.floor(values.length / 200000));
-  const sample = [];
-  for (let k = 0; k < values.length; k += step) sample.push(Math.abs(values[k]));
-  if (!sample.length) return 0;
-  sample.sort((a, b) => a - b);
-  return sample[Math.min(sample.length - 1, Math.floor(0.99 * sample.length))];
 }

@@ -3,7 +3,9 @@
 // PLY frames and the glb), `weft view` on a free port, and Debian's Chromium driven headless
 // by puppeteer-core. Checks that the page loads the run's frames and vertices, plays (the time
 // advances), pauses, scrubs (the slider shows that frame's positions), switches the colour
-// map, logs no console error, and that `weft view` stops cleanly on SIGTERM.
+// map, logs no console error, and that `weft view` stops cleanly on SIGTERM; and, on a second
+// run (an OBJ cloth at rest whose texture coordinates are in units of its scene's uv_scale),
+// that the strain is 0 with the run's uv_scale.
 //
 //     node viewer/test/browser_test.mjs WEFT_EXE SCRATCH_DIR
 //
@@ -71,20 +73,49 @@ function objVertexCount(file) {
   return readFileSync(file, 'utf8').split('\n').filter((l) => l.startsWith('v ')).length;
 }
 
-// `weft view` on a port the system picks; its URL is on the second line it prints.
-const server = spawn(weft, ['view', runDir, '--port', '0', '--no-open'], {stdio: ['ignore', 'pipe', 'pipe']});
-let serverOut = '', serverErr = '';
-server.stderr.on('data', (d) => { serverErr += d; });
-const exited = new Promise((resolve) => server.on('exit', (code, signal) => resolve({code, signal})));
-const url = await new Promise((resolve, reject) => {
-  const timer = setTimeout(() => reject(new Error(`weft view printed no URL in 30 s: ${serverOut}${serverErr}`)), 30000);
-  server.stdout.on('data', (d) => {
-    serverOut += d;
-    const m = serverOut.match(/serving (http:\/\/127\.0\.0\.1:\d+\/)/);
-    if (m) { clearTimeout(timer); resolve(m[1]); }
+// `weft view DIR` on a port the system picks; its URL is on the second line it prints.
+async function startView(dir) {
+  const server = spawn(weft, ['view', dir, '--port', '0', '--no-open'], {stdio: ['ignore', 'pipe', 'pipe']});
+  const view = {server, out: '', err: ''};
+  server.stderr.on('data', (d) => { view.err += d; });
+  view.exited = new Promise((resolve) => server.on('exit', (code, signal) => resolve({code, signal})));
+  view.url = await new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error(`weft view printed no URL in 30 s: ${view.out}${view.err}`)), 30000);
+    server.stdout.on('data', (d) => {
+      view.out += d;
+      const m = view.out.match(/serving (http:\/\/127\.0\.0\.1:\d+\/)/);
+      if (m) { clearTimeout(timer); resolve(m[1]); }
+    });
+    server.on('exit', (code) => reject(new Error(`weft view exited (${code}) before serving: ${view.err}`)));
   });
-  server.on('exit', (code) => reject(new Error(`weft view exited (${code}) before serving: ${serverErr}`)));
-});
+  return view;
+}
+const view = await startView(runDir);
+const url = view.url;
+
+// A second run: an OBJ cloth at rest (no gravity) whose texture coordinates are in units of
+// 2.5 m (the scene's mesh.uv_scale), so its strain is 0 only when read times 2.5.
+let obj = '';
+for (let j = 0; j < 3; ++j) for (let i = 0; i < 3; ++i) obj += `v ${0.25 * i} ${0.25 * j} 0\n`;
+for (let j = 0; j < 3; ++j) for (let i = 0; i < 3; ++i) obj += `vt ${0.1 * i} ${0.1 * j}\n`;
+for (let j = 0; j < 2; ++j) for (let i = 0; i < 2; ++i) {
+  const [a, b, c, d] = [3 * j + i + 1, 3 * j + i + 2, 3 * j + i + 5, 3 * j + i + 4];
+  obj += `f ${a}/${a} ${b}/${b} ${c}/${c}\nf ${a}/${a} ${c}/${c} ${d}/${d}\n`;
+}
+writeFileSync(join(scratch, 'square.obj'), obj);
+const restScenePath = join(scratch, 'rest.json');
+writeFileSync(restScenePath, JSON.stringify({
+  weft_scene: 1, duration: 0.04, frame_interval: 0.02, gravity: [0, 0, 0],
+  integrator: {method: 'implicit-midpoint', dt: 0.02},
+  cloth: {mesh: {obj: 'square.obj', uv_scale: 2.5}, material: 'cotton'},
+}));
+const restDir = join(scratch, 'rest');
+const restRun = spawnSync(weft, ['run', restScenePath, '--out', restDir, '--format', 'obj'], {encoding: 'utf8'});
+if (restRun.status !== 0) {
+  console.error(`weft run of the OBJ cloth failed (exit ${restRun.status}):\n${restRun.stderr}`);
+  process.exit(1);
+}
+const restView = await startView(restDir);
 
 const browser = await puppeteer.launch({
   executablePath: chromium,
@@ -164,12 +195,25 @@ try {
         'back to plain: one colour, no legend');
   const summaryRows = await page.evaluate(() => document.querySelectorAll('#summary tr').length);
   check(summaryRows > 5, `summary table: ${summaryRows} rows`);
+
+  // The OBJ cloth at rest: no strain with the run's uv_scale.
+  const restPage = await browser.newPage();
+  restPage.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
+  restPage.on('pageerror', (e) => consoleErrors.push(`page error: ${e.message}`));
+  await restPage.goto(restView.url, {waitUntil: 'load'});
+  await restPage.waitForFunction(() => window.weftViewer && (weftViewer.state().loaded || weftViewer.state().error), {timeout: 30000});
+  await restPage.select('#colour', 'strain');
+  const rest = await restPage.evaluate(() => weftViewer.strain(weftViewer.state().frames - 1));
+  check(rest.uvScale === 2.5 && rest.largest < 1e-4,
+        `an OBJ cloth at rest with uv_scale 2.5: uv_scale ${rest.uvScale}, largest |strain| ${rest.largest.toExponential(2)}`);
 } finally {
   await browser.close();
 }
 check(consoleErrors.length === 0, `no console errors${consoleErrors.length ? `: ${consoleErrors.join(' | ')}` : ''}`);
-server.kill('SIGTERM');
-const {code} = await exited;
-check(code === 0, `weft view stopped on SIGTERM with exit status ${code}${serverErr ? `: ${serverErr}` : ''}`);
+for (const v of [view, restView]) {
+  v.server.kill('SIGTERM');
+  const {code} = await v.exited;
+  check(code === 0, `weft view stopped on SIGTERM with exit status ${code}${v.err ? `: ${v.err}` : ''}`);
+}
 console.log(`${failures.length ? 'FAILED' : 'passed'} in ${((Date.now() - started) / 1000).toFixed(1)} s`);
 process.exit(failures.length ? 1 : 0);
