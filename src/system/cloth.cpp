@@ -7,6 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "weft/error.hpp"
 
@@ -527,18 +528,19 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
   // the step, triangles [begin, end): the step matrix blocks come from four matrices per
   // triangle (Muu, Muv, Mvu, Mvv, below; write_triangle_blocks) built from the moduli
   // T = A (ck t + cd eta) and the outer products of U and V.
+  // One material: its constants read once, before the loop; several: per triangle.
   const MaterialConstants* constants = material_constants_.data();
-  // One material: a local copy, which the loop keeps at hand (the arrays it writes cannot
-  // alias it).
-  const MaterialConstants one = constants[0];
+  const Material& mat0 = *constants[0].material;
+  const double C0 = constants[0].C, mu0 = constants[0].mu, mv0 = constants[0].mv, ms0 = constants[0].ms;
   const double ck = out.ck, cd = out.cd;
   const auto [X, Vel, W, F, KW, blocks, q, qd, viscosity] = membrane_arrays(x, v, w, out);
   double energy = 0, power = 0;
   for (size_t t = begin; t < end; ++t) {
     const PackedTriangle& tr = triangles_[t];
-    const MaterialConstants& k = kMixed ? constants[tr.material] : one;
-    const Material& mat = *k.material;
-    const double C = k.C, mu = k.mu, mv = k.mv, ms = k.ms;
+    const MaterialConstants* k = kMixed ? &constants[tr.material] : nullptr;
+    const Material& mat = kMixed ? *k->material : mat0;
+    const double C = kMixed ? k->C : C0, mu = kMixed ? k->mu : mu0, mv = kMixed ? k->mv : mv0,
+                 ms = kMixed ? k->ms : ms0;
     const double A = tr.area;
     const double* ru = tr.ru;
     const double* rv = tr.rv;
@@ -692,8 +694,9 @@ struct TriangleBatch {
     }
   }
   /// U = sum_k r_u,k y_k and V = sum_k r_v,k y_k of a vertex field y (positions give the
-  /// deformation gradient, velocities its rate).
-  void gradient(const double* y, D4* U, D4* V) const {
+  /// deformation gradient, velocities its rate). Always inlined: an out-of-line copy would be
+  /// compiled for the baseline instruction set, not for the kernel's clone.
+  __attribute__((always_inline)) void gradient(const double* y, D4* U, D4* V) const {
     for (int c = 0; c < 3; ++c) {
       const D4 y0 = gather(y, 0, c), y1 = gather(y, 1, c), y2 = gather(y, 2, c);
       U[c] = ru[0] * y0 + ru[1] * y1 + ru[2] * y2;
@@ -701,7 +704,7 @@ struct TriangleBatch {
     }
   }
   /// Component c of the batch's k-th vertices in a vertex field y.
-  D4 gather(const double* y, int k, int c) const {
+  __attribute__((always_inline)) D4 gather(const double* y, int k, int c) const {
     return D4{y[o[k][0] + c], y[o[k][1] + c], y[o[k][2] + c], y[o[k][3] + c]};
   }
   /// The viscosities of the four triangles, mode m (weft, warp, shear).
@@ -711,18 +714,9 @@ struct TriangleBatch {
 };
 }  // namespace
 
+template <bool kMixed>
 WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t end,
                                                              StepAssembly& out) const {
-  if (mixed_)
-    assemble_membranes_batched_impl<true>(x, v, w, end, out);
-  else
-    assemble_membranes_batched_impl<false>(x, v, w, end, out);
-}
-
-template <bool kMixed>
-__attribute__((always_inline)) inline void ClothSystem::assemble_membranes_batched_impl(const VecX& x, const VecX& v,
-                                                                                        const VecX& w, size_t end,
-                                                                                        StepAssembly& out) const {
   // assemble_membranes<true> with the element arithmetic of four triangles at a time, lane l
   // of every D4 belonging to triangle t + l: the same expressions, so the same values. The
   // results go through a small per-batch table (the four matrices then transposed to one
@@ -731,9 +725,21 @@ __attribute__((always_inline)) inline void ClothSystem::assemble_membranes_batch
   // The batch's U and V are kept in out.element_data for step_viscous_power.
   // Linear curves: the tangent moduli are the moduli (clamped), the same for every triangle
   // of a material; with several materials each lane takes its triangle's.
+  // One material: scalars, set once; several: four lanes, set per batch.
+  using Moduli = std::conditional_t<kMixed, D4, double>;
   const MaterialConstants* constants = material_constants_.data();
-  D4 mu = splat(constants[0].mu), mv = splat(constants[0].mv), ms = splat(constants[0].ms), C = splat(constants[0].C);
-  D4 tu = splat(constants[0].tu), tv = splat(constants[0].tv), ts = splat(constants[0].ts), tc = splat(constants[0].tc);
+  Moduli mu{}, mv{}, ms{}, C{}, tu{}, tv{}, ts{}, tc{};
+  if constexpr (!kMixed) {
+    const MaterialConstants& c = constants[0];
+    mu = c.mu;
+    mv = c.mv;
+    ms = c.ms;
+    C = c.C;
+    tu = c.tu;
+    tv = c.tv;
+    ts = c.ts;
+    tc = c.tc;
+  }
   const double ck = out.ck, cd = out.cd;
   const auto [X, Vel, W, F, KW, blocks, q, qd, viscosity] = membrane_arrays(x, v, w, out);
   D4 energy = splat(0), power = splat(0);
@@ -941,7 +947,10 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_step_kernel(const VecX& x, const VecX
   if (linear_moduli_ && jacobians) {
     const size_t batched = count - count % 4;
     out.element_data.resize(6 * batched);
-    assemble_membranes_batched(x, v, w, batched, out);
+    if (mixed_)
+      assemble_membranes_batched<true>(x, v, w, batched, out);
+    else
+      assemble_membranes_batched<false>(x, v, w, batched, out);
     if (mixed_)
       assemble_membranes<true, true>(x, v, w, jacobians, batched, count, out);
     else

@@ -188,12 +188,9 @@ class ClothSystem : public System {
   void assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, size_t begin, size_t end,
                           StepAssembly& out) const;
   /// The same for triangles [0, end) (a multiple of 4), linear curves, with Jacobians: the
-  /// element arithmetic of four triangles at a time in four-wide vectors.
-  void assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t end, StepAssembly& out) const;
-  /// Its work, inlined into it (and so compiled per instruction set) for one material or several.
+  /// element arithmetic of four triangles at a time in four-wide vectors; kMixed as above.
   template <bool kMixed>
-  void assemble_membranes_batched_impl(const VecX& x, const VecX& v, const VecX& w, size_t end,
-                                       StepAssembly& out) const;
+  void assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t end, StepAssembly& out) const;
   /// Adaptive viscosity and the per-step statistics of a material whose curves are all
   /// linear: the tangent moduli do not depend on the strain, so neither do they.
   void prepare_linear_damping(double dt);

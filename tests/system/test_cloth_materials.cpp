@@ -13,6 +13,8 @@
 #include "garment/sewing.hpp"
 #include "system/cloth.hpp"
 #include "weft/error.hpp"
+#include "weft/scene.hpp"
+#include "weft/simulation.hpp"
 
 namespace weft {
 namespace {
@@ -307,6 +309,36 @@ TEST(PanelGrain, APanelCutWithItsWarpAlongXStretchesAlongXByTheWarpCurve) {
     const double stress = grain_deg == 0 ? m.weft.stress(strain) : m.warp.stress(strain);
     EXPECT_NEAR(pull, stress * stretch * 0.2, 1e-9 * stress);
   }
+}
+
+TEST(ClothMaterials, AGarmentScenesPanelsAreMadeOfTheirOwnMaterials) {
+  // The shirt at 4 cm, sewn briefly (how well does not matter here): a sleeve of denim makes the
+  // garment heavier than an all-cotton one by the sleeve's area times the difference in density.
+  const std::string shirt = std::string(WEFT_SOURCE_DIR) + "/data/patterns/garmentcode/shirt_mean_specification.json";
+  const auto scene = [&](const std::string& panels) {
+    return R"({"weft_scene": 1, "duration": 0.02, "frame_interval": 0.02,
+      "integrator": {"method": "implicit-midpoint", "dt": 0.01},
+      "colliders": [{"type": "body", "bind_pose_hold": 0.5}],
+      "cloth": {"material": "cotton", "mesh": {"pattern": {"file": ")" +
+           shirt + R"(", "edge_length": 0.04, "sewing_time": 0.02, "panels": {)" + panels + "}}}}}";
+  };
+  const Simulation cotton(parse_scene_text(scene(""), "s.json", "."));
+  const Simulation mixed(parse_scene_text(scene(R"("left_sleeve_f": {"material": "denim"})"), "s.json", "."));
+  EXPECT_EQ(cotton.model().materials.size(), 1u);
+  ASSERT_EQ(mixed.model().materials.size(), 2u);
+  ASSERT_EQ(mixed.model().mesh.triangles.size(), cotton.model().mesh.triangles.size());
+  GarmentMeshOptions o;
+  o.target_edge_m = 0.04;
+  const Pattern pattern = load_pattern(shirt);
+  const GarmentMesh gm = mesh_garment(pattern, o);
+  double sleeve_area = 0;
+  for (const GarmentPanelMesh& p : gm.panels)
+    if (p.name == "left_sleeve_f") sleeve_area = panel_area(p);
+  ASSERT_GT(sleeve_area, 0);
+  const double extra = (material_preset("denim").surface_density_kg_m2 - material_preset("cotton").surface_density_kg_m2) *
+                       sleeve_area;
+  EXPECT_NEAR(mixed.model().mass.sum() - cotton.model().mass.sum(), extra, 1e-9 * cotton.model().mass.sum());
+  EXPECT_GT(std::abs(extra), 1e-3 * cotton.model().mass.sum());
 }
 
 }  // namespace
