@@ -42,6 +42,8 @@ struct GarmentArgs {
   bool no_sew = false;
   double clearance_m = 0.02;
   std::string material = "cotton";
+  std::vector<std::string> panel_materials;  ///< NAME=PRESET
+  std::vector<std::string> panel_grains;     ///< NAME=DEGREES
   double seam_stiffness_N_m = 1e4;
   double sewing_time_s = 0.5;
 };
@@ -327,6 +329,24 @@ nlohmann::json sewing_summary(const Pattern& pattern, const PlacedGarment& place
                              {"body", sewn.intersections.cloth_body.empty() ? 0 : sewn.intersections.cloth_body[0].count}}}};
 }
 
+/// The NAME=VALUE options given per panel (--panel-material, --panel-grain), by panel name.
+std::map<std::string, std::string> per_panel_values(const Pattern& pattern, const std::vector<std::string>& given,
+                                                    const std::string& option, const std::string& value_name) {
+  std::map<std::string, std::string> out;
+  for (const std::string& g : given) {
+    const size_t eq = g.rfind('=');
+    if (eq == std::string::npos || eq == 0 || eq + 1 == g.size())
+      throw InputError(option + " '" + g + "': expected NAME=" + value_name);
+    const std::string name = g.substr(0, eq);
+    bool found = false;
+    for (const Panel& panel : pattern.panels) found = found || panel.name == name;
+    if (!found) throw InputError(option + " '" + g + "': the pattern " + pattern.file + " has no panel '" + name + "'");
+    if (!out.emplace(name, g.substr(eq + 1)).second)
+      throw InputError(option + " '" + g + "': panel '" + name + "' is given twice");
+  }
+  return out;
+}
+
 PendingFile text_output(const fs::path& path, std::string text) {
   return {path, [text = std::move(text)](const fs::path& temporary) {
             std::ofstream f(temporary, std::ios::binary);
@@ -351,10 +371,40 @@ int run_garment(const GarmentArgs& a) {
   check_output_folder(a.out);
   // Everything is read and meshed before the first file is written.
   const Pattern pattern = load_pattern(a.pattern_file);
-  const auto start = std::chrono::steady_clock::now();
-  const std::clock_t cpu_start = std::clock();
+  // Per panel: its fabric (the --material preset unless --panel-material names one) and grain.
+  std::vector<Material> panel_materials;
+  std::vector<std::string> panel_material_names;
+  const auto material_names = per_panel_values(pattern, a.panel_materials, "--panel-material", "PRESET");
+  for (const Panel& panel : pattern.panels) {
+    const auto own = material_names.find(panel.name);
+    if (own == material_names.end()) {
+      panel_materials.push_back(fabric);
+      panel_material_names.push_back(a.material);
+      continue;
+    }
+    try {
+      panel_materials.push_back(material_preset(own->second));
+    } catch (const InputError& e) {
+      throw InputError("--panel-material '" + own->first + "=" + own->second + "': " + e.what());
+    }
+    panel_material_names.push_back(own->second);
+  }
   GarmentMeshOptions options;
   options.target_edge_m = a.edge_length_m;
+  for (const auto& [name, text] : per_panel_values(pattern, a.panel_grains, "--panel-grain", "DEGREES")) {
+    size_t used = 0;
+    double degrees = NAN;
+    try {
+      degrees = std::stod(text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != text.size() || !(degrees >= -360 && degrees <= 360))
+      throw InputError("--panel-grain '" + name + "=" + text + "': expected an angle in degrees from -360 to 360");
+    options.grain_angle_rad[name] = degrees * M_PI / 180;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const std::clock_t cpu_start = std::clock();
   const GarmentMesh mesh = mesh_garment(pattern, options);
   const double meshing_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -362,6 +412,7 @@ int run_garment(const GarmentArgs& a) {
 
   const std::vector<Vec2> offsets = flat_layout_offsets(mesh);
   nlohmann::json summary = garment_summary(pattern, mesh, a, meshing_s);
+  for (size_t p = 0; p < pattern.panels.size(); ++p) summary["panels"][p]["material"] = panel_material_names[p];
   // CPU time too: on a busy machine the wall time says more about the other work.
   summary["meshing_cpu_time_s"] = meshing_cpu_s;
   const fs::path dir(a.out);
@@ -377,6 +428,7 @@ int run_garment(const GarmentArgs& a) {
     const PlacedGarment placed = place_garment(pattern, mesh, body, placement);
     SewingOptions sewing;
     sewing.material = fabric;
+    sewing.panel_materials = panel_materials;
     sewing.seam_stiffness_N_m = a.seam_stiffness_N_m;
     sewing.max_time_s = a.sewing_time_s;
     const SewnGarment sewn = sew_garment(placed, body, sewing, [](double t, double gap) {
@@ -439,6 +491,13 @@ RegisterCommand reg{
            ->capture_default_str();
        sub.add_option("--material", a->material, "Fabric preset during sewing (data/materials)")
            ->capture_default_str();
+       sub.add_option("--panel-material", a->panel_materials,
+                      "NAME=PRESET: panel NAME's fabric during sewing, in place of --material (repeatable)")
+           ->allow_extra_args(false);
+       sub.add_option("--panel-grain", a->panel_grains,
+                      "NAME=DEGREES: panel NAME's grain, the warp's angle from the pattern's y axis, "
+                      "counter-clockwise (default 0; repeatable)")
+           ->allow_extra_args(false);
        sub.add_option("--seam-stiffness", a->seam_stiffness_N_m, "Spring pulling each seam vertex pair (N/m)")
            ->capture_default_str();
        sub.add_option("--sewing-time", a->sewing_time_s, "Most simulated seconds of sewing")

@@ -82,6 +82,17 @@ struct Material {
   double coupling_modulus() const;
 };
 
+/// True when two materials have the same density, curves, coupling, bending rigidities and
+/// viscosity (their names and sources aside): they make the same cloth.
+bool same_parameters(const Material& a, const Material& b);
+
+/// A material per triangle of a mesh: triangle t is made of materials[index[t]]; an empty
+/// `index` makes every triangle of materials[0] (a garment's panels of different fabrics).
+struct TriangleMaterials {
+  std::vector<Material> materials;
+  std::vector<int> index;  ///< #F, or empty
+};
+
 /// Parses a material from JSON (format: docs/materials.md). `where` names the file or scene key
 /// in error messages ("WHERE: field weft.strain: ..."). Accepts a preset name as a string, an
 /// inline object, or an object with "preset": NAME or "file": PATH (relative to base_dir) whose

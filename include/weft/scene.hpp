@@ -57,6 +57,11 @@ struct GarmentSpec {
   double clearance_m = 0.02;
   /// Per panel: the body part, the direction it faces and a shift along the part's axis.
   std::map<std::string, PanelPlacementOverride> panels;
+  /// Per panel: its fabric (panels.NAME.material); a panel not named takes the cloth's material.
+  std::map<std::string, Material> panel_materials;
+  /// Per panel: its grain (panels.NAME.grain_deg), degrees counter-clockwise from the
+  /// pattern's y axis to the warp; a panel not named has its warp along y.
+  std::map<std::string, double> panel_grain_deg;
   double seam_stiffness_N_m = 1e4;
   double sewing_time_s = 0.5;
 };
@@ -69,6 +74,9 @@ struct ClothSpec {
   std::shared_ptr<const TriMesh> mesh;
   /// Zero-length springs pulling pairs of vertices together (sewing; set in code).
   std::vector<Seam> seams;
+  /// With `mesh`: a material per triangle in place of `material` (a garment being sewn; set in
+  /// code). Empty materials: `material` everywhere.
+  TriangleMaterials triangle_materials;
   double uv_scale = 1.0;           ///< metres per OBJ texture unit
   Vec3 rotation_deg = Vec3::Zero();  ///< applied X, then Y, then Z
   Vec3 translation = Vec3::Zero();

@@ -37,6 +37,13 @@ GarmentMesh mesh_garment(const Pattern& pattern, const GarmentMeshOptions& optio
   if (!(options.target_edge_m > 0) || !std::isfinite(options.target_edge_m))
     throw InputError(file + ": mesh edge length " + format_length(options.target_edge_m) +
                      " m: expected a positive length");
+  for (const auto& [name, angle] : options.grain_angle_rad) {
+    bool found = false;
+    for (const Panel& panel : pattern.panels) found = found || panel.name == name;
+    if (!found) throw InputError(file + ": grain for panel '" + name + "': the pattern has no such panel");
+    if (!std::isfinite(angle))
+      throw InputError(file + ": grain for panel '" + name + "': expected a finite angle, got " + format_length(angle));
+  }
   GarmentMesh mesh;
   mesh.segment_counts = edge_segment_counts(pattern, options.target_edge_m);
   const std::vector<SampledOutline> outlines = pattern_outlines(pattern, mesh.segment_counts);
@@ -59,6 +66,8 @@ GarmentMesh mesh_garment(const Pattern& pattern, const GarmentMeshOptions& optio
     out.vertices_m = std::move(pm.vertices);
     out.triangles = std::move(pm.triangles);
     out.boundary_vertices = pm.boundary_vertices;
+    if (const auto grain = options.grain_angle_rad.find(panel.name); grain != options.grain_angle_rad.end())
+      out.grain_angle_rad = grain->second;
     for (const EdgeSpan& span : outline.edges)
       out.edge_vertices.push_back(edge_vertex_indices(outline, span));
     mesh.panels.push_back(std::move(out));

@@ -7,6 +7,7 @@
 // Coordinates are each panel's own pattern coordinates (metres, x right, y up, as the pattern
 // file gives them). Placing the panels around a body and sewing them come later.
 #include <array>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,9 @@ namespace weft {
 struct GarmentMeshOptions {
   double target_edge_m = 0.015;  ///< outline segment length and interior edge length aimed at (m)
   double min_angle_deg = 25;     ///< smallest angle the mesher aims at, in (0, 34]
+  /// Grain per panel name (radians, counter-clockwise from the pattern's y axis to the warp);
+  /// panels not named have their warp along y. The pattern files carry no grain line.
+  std::map<std::string, double> grain_angle_rad;
 };
 
 struct GarmentPanelMesh {
@@ -31,8 +35,8 @@ struct GarmentPanelMesh {
   /// edge's start to its end, whichever way the outline runs. Neighbouring edges share their
   /// corner vertex.
   std::vector<std::vector<int>> edge_vertices;
-  /// Angle (radians, counter-clockwise) from the pattern's y axis to the warp (the grain line).
-  /// 0, the warp along y, until patterns carry a grain direction per panel.
+  /// Angle (radians, counter-clockwise) from the pattern's y axis to the warp (the grain line):
+  /// GarmentMeshOptions::grain_angle_rad, 0 (the warp along y) by default.
   double grain_angle_rad = 0;
 };
 
@@ -51,7 +55,8 @@ struct GarmentMesh {
   EdgeSegmentCounts segment_counts;         ///< the counts the outlines were sampled with
 };
 
-/// Meshes every panel of the pattern. Throws InputError for bad options, or when a panel
+/// Meshes every panel of the pattern. Throws InputError for bad options (a grain for a panel
+/// the pattern lacks, or not finite), or when a panel
 /// cannot be meshed (its outline sampled at the target crosses itself, or it needs more
 /// vertices than the mesher allows); the message names the pattern file and the panel:
 /// "FILE: panel 'NAME': meshing at 0.015 m: ...".

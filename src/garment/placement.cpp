@@ -295,7 +295,15 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
 
   // Roll each panel onto its cylinder.
   PlacedGarment out;
-  const std::vector<Vec2> layout = flat_layout_offsets(gm);
+  // The mesh's pattern coordinates are material coordinates (turned by each panel's grain),
+  // laid out side by side as they are.
+  GarmentMesh in_material;
+  for (const GarmentPanelMesh& pm : gm.panels) {
+    GarmentPanelMesh flat;
+    flat.vertices_m = material_coordinates(pm);
+    in_material.panels.push_back(std::move(flat));
+  }
+  const std::vector<Vec2> layout = flat_layout_offsets(in_material);
   out.panel_first_vertex.push_back(0);
   int total = 0;
   for (int p = 0; p < np; ++p) out.panel_first_vertex.push_back(total += static_cast<int>(gm.panels[p].vertices_m.size()));

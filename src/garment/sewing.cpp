@@ -114,6 +114,8 @@ SewnGarment sew_garment(const PlacedGarment& placed, const BindBody& body, const
   scene.damping_ratio = 0.0;
   scene.cloth.mesh = std::make_shared<const TriMesh>(placed.mesh);
   scene.cloth.material = options.material;
+  if (!options.panel_materials.empty())
+    scene.cloth.triangle_materials = {options.panel_materials, placed.panel_of_triangle};
   scene.cloth.self_collision = options.self_collision;
   for (const auto& p : placed.seam_pairs) scene.cloth.seams.push_back({p[0], p[1], options.seam_stiffness_N_m});
   scene.bodies.push_back(body.spec);

@@ -15,6 +15,8 @@ namespace weft {
 
 struct SewingOptions {
   Material material;            ///< the fabric during sewing
+  /// Per panel (Pattern::panels order): its fabric during sewing; empty: `material` for all.
+  std::vector<Material> panel_materials;
   double seam_stiffness_N_m = 1e4;  ///< each seam pair's spring
   double dt_s = 0.005;          ///< backward Euler step
   double interval_s = 0.02;     ///< velocities are zeroed after each interval (quasi-static)

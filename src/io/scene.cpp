@@ -155,12 +155,14 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
         for (const Panel& panel : pattern.panels) found = found || panel.name == name;
         if (!found) panels.fail(name.c_str(), "the pattern " + gs.pattern_file + " has no panel '" + name + "'");
         const Reader o = panels.object(name.c_str());
-        o.allow_only({"part", "angle_deg", "shift"});
+        o.allow_only({"part", "angle_deg", "shift", "material", "grain_deg"});
         PanelPlacementOverride po;
         if (o.has("part")) po.part = parse_body_part(o.string("part"), o.where("part"));
         if (o.has("angle_deg")) po.angle_deg = o.number_in("angle_deg", -360, 360, false);
         if (o.has("shift")) po.shift_m = o.number_in("shift", -2, 2, false);
         gs.panels[name] = po;
+        if (o.has("material")) gs.panel_materials[name] = parse_material(o.raw("material"), o.where("material"), base_dir);
+        if (o.has("grain_deg")) gs.panel_grain_deg[name] = o.number_in("grain_deg", -360, 360, false);
       }
     }
     c.garment = gs;

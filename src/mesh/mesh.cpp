@@ -142,6 +142,7 @@ std::vector<FlatStencil> interior_edge_flat_stencils(const TriMesh& mesh) {
     const int ka = tip_of(t1, c, d), kb = tip_of(t2, c, d);
     FlatStencil s;
     s.vertices = {mesh.triangles[t1][ka], mesh.triangles[t2][kb], c, d};
+    s.triangles = {t1, t2};
     const Vec2 a = mesh.corner(t1, ka), c1 = mesh.corner(t1, corner_of(t1, c)), d1 = mesh.corner(t1, corner_of(t1, d));
     const Vec2 b = mesh.corner(t2, kb), c2 = mesh.corner(t2, corner_of(t2, c)), d2 = mesh.corner(t2, corner_of(t2, d));
     if (c1 == c2 && d1 == d2) {

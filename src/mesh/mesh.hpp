@@ -56,6 +56,7 @@ std::vector<std::array<int, 4>> interior_edge_stencils(const TriMesh& mesh);
 struct FlatStencil {
   std::array<int, 4> vertices;  ///< A, B, C, D
   std::array<Vec2, 4> pattern;  ///< their flat pattern coordinates
+  std::array<int, 2> triangles; ///< the triangles holding A and B (indices into TriMesh::triangles)
 };
 std::vector<FlatStencil> interior_edge_flat_stencils(const TriMesh& mesh);
 

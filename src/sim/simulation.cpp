@@ -20,14 +20,16 @@ namespace {
 // Shares of the set-up time by stage (the integrator and the energy reference take the rest).
 constexpr double kSetupShareMesh = 0.2, kSetupShareModel = 0.6, kSetupShareSystem = 0.1;
 /// The scene's garment: its pattern meshed, placed around the first body in its bind pose and
-/// sewn (garment/sewing.hpp), in the scene's cloth material.
-TriMesh sew_scene_garment(const Scene& scene, const Simulation::SetupProgress& on_setup) {
+/// sewn (garment/sewing.hpp), each panel in its material (the scene's cloth material unless
+/// cloth.mesh.pattern.panels.NAME.material gives one); `materials` receives them per triangle.
+TriMesh sew_scene_garment(const Scene& scene, const Simulation::SetupProgress& on_setup, TriangleMaterials& materials) {
   const GarmentSpec& g = *scene.cloth.garment;
   const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": cloth.mesh.pattern";
   if (on_setup) on_setup("garment: meshing " + g.pattern_file, 0.0);
   const Pattern pattern = load_pattern(g.pattern_file);
   GarmentMeshOptions mesh_options;
   mesh_options.target_edge_m = g.edge_length_m;
+  for (const auto& [name, degrees] : g.panel_grain_deg) mesh_options.grain_angle_rad[name] = degrees * M_PI / 180;
   const GarmentMesh garment = mesh_garment(pattern, mesh_options);
   const BindBody body = load_bind_body(scene.bodies.front(), 1.0);
   PlacementOptions placement;
@@ -36,6 +38,10 @@ TriMesh sew_scene_garment(const Scene& scene, const Simulation::SetupProgress& o
   const PlacedGarment placed = place_garment(pattern, garment, body, placement);
   SewingOptions sewing;
   sewing.material = scene.cloth.material;
+  for (const Panel& panel : pattern.panels) {
+    const auto own = g.panel_materials.find(panel.name);
+    sewing.panel_materials.push_back(own == g.panel_materials.end() ? scene.cloth.material : own->second);
+  }
   sewing.seam_stiffness_N_m = g.seam_stiffness_N_m;
   sewing.max_time_s = g.sewing_time_s;
   if (on_setup) on_setup("garment: sewing", 0.0);
@@ -43,6 +49,7 @@ TriMesh sew_scene_garment(const Scene& scene, const Simulation::SetupProgress& o
   if (sewn.intersections.count() > 0)
     std::fprintf(stderr, "weft: warning: %s: the sewn garment starts with %zu intersecting triangle pairs\n",
                  where.c_str(), sewn.intersections.count());
+  materials = {std::move(sewing.panel_materials), std::move(sewn.panel_of_triangle)};
   return std::move(sewn.mesh);
 }
 
@@ -54,7 +61,13 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
     if (on_setup) on_setup(name, fraction);
   };
   stage("cloth mesh", 0.0);
-  TriMesh mesh = scene.cloth.garment ? sew_scene_garment(scene, on_setup) : build_cloth_mesh(scene.cloth);
+  // One material for the whole cloth, unless a garment's panels or a mesh made in code give
+  // one per triangle.
+  TriangleMaterials materials{{scene.cloth.material}, {}};
+  if (!scene.cloth.garment && !scene.cloth.triangle_materials.materials.empty())
+    materials = scene.cloth.triangle_materials;
+  TriMesh mesh =
+      scene.cloth.garment ? sew_scene_garment(scene, on_setup, materials) : build_cloth_mesh(scene.cloth);
   // Problems found while building the model (a degenerate triangle, a bad pin) name the
   // scene and the mesh they come from.
   const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": cloth" +
@@ -64,7 +77,7 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
     const std::vector<int> pins = resolve_pins(scene.cloth, mesh);
     clamp_groups = resolve_clamps(scene.cloth, mesh, pins);
     stage("model", kSetupShareMesh);
-    model_ = std::make_unique<ClothModel>(build_cloth_model(std::move(mesh), scene.cloth.material, scene.gravity, pins,
+    model_ = std::make_unique<ClothModel>(build_cloth_model(std::move(mesh), materials, scene.gravity, pins,
                                                             parse_bending_model(scene.cloth.bending_model, "cloth.bending_model"),
                                                             scene.cloth.seams));
   } catch (const InputError& e) {
@@ -354,9 +367,10 @@ std::uint64_t Simulation::fingerprint() const {
   w.i64(is.guard);
   w.f64(system_->damping_settings().damping_ratio);
   w.f64(system_->damping_settings().reference_dt);
-  const Material& m = model_->material;
-  for (double d : {m.viscosity_Ns_m, m.surface_density_kg_m2, m.bending_rigidity_weft_Nm, m.bending_rigidity_warp_Nm})
-    w.f64(d);
+  for (const Material& m : model_->materials)
+    for (double d : {m.viscosity_Ns_m, m.surface_density_kg_m2, m.bending_rigidity_weft_Nm, m.bending_rigidity_warp_Nm})
+      w.f64(d);
+  for (int k : model_->triangle_material) w.i64(k);  // empty with one material
   for (double d : {scene_.duration, scene_.frame_interval}) w.f64(d);
   w.raw(scene_.gravity.data(), 3 * sizeof(double));
   w.i64(scene_.cloth.self_collision);
@@ -680,7 +694,7 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
   j["bending_kappa"] = stats_json(r.damping.bending_kappa);
   j["added_viscosity_Ns_m"] = {{"mean_over_raised", r.damping.added_viscosity.mean()},
                                {"max", r.damping.added_viscosity.max()},
-                               {"material_viscosity", sim.model().material.viscosity_Ns_m},
+                               {"material_viscosity", sim.model().materials.front().viscosity_Ns_m},
                                {"raised_fraction", r.damping.element_steps
                                                         ? static_cast<double>(r.damping.raised_element_steps) / r.damping.element_steps
                                                         : 0.0}};

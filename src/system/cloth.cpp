@@ -7,6 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "weft/error.hpp"
 
@@ -27,13 +28,43 @@ BendingModel parse_bending_model(const std::string& name, const std::string& whe
 ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3& gravity,
                              const std::vector<int>& pins, BendingModel bending,
                              const std::vector<Seam>& seams) {
+  return build_cloth_model(std::move(mesh), TriangleMaterials{{material}, {}}, gravity, pins, bending, seams);
+}
+
+ClothModel build_cloth_model(TriMesh mesh, const TriangleMaterials& materials, const Vec3& gravity,
+                             const std::vector<int>& pins, BendingModel bending,
+                             const std::vector<Seam>& seams) {
   ClothModel m;
-  m.material = material;
   m.gravity = gravity;
   const int n = mesh.num_vertices();
-  if (!(material.surface_density_kg_m2 > 0))
-    throw InputError("material surface density must be positive, got " +
-                     std::to_string(material.surface_density_kg_m2));
+  if (materials.materials.empty()) throw InputError("the cloth has no material");
+  if (!materials.index.empty() && materials.index.size() != mesh.triangles.size())
+    throw InputError("the cloth has materials for " + std::to_string(materials.index.size()) + " triangles, the mesh has " +
+                     std::to_string(mesh.triangles.size()));
+  for (const Material& material : materials.materials)
+    if (!(material.surface_density_kg_m2 > 0))
+      throw InputError("material surface density must be positive, got " +
+                       std::to_string(material.surface_density_kg_m2));
+  // The distinct materials the triangles use, in order of first use, and each triangle's
+  // index into them; one material leaves the index empty.
+  std::vector<int> distinct_of(materials.materials.size(), -1);
+  std::vector<int> triangle_material(mesh.triangles.size(), 0);
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const int k = materials.index.empty() ? 0 : materials.index[t];
+    if (k < 0 || static_cast<size_t>(k) >= materials.materials.size())
+      throw InputError("triangle " + std::to_string(t) + " has material " + std::to_string(k) + ", the cloth has " +
+                       std::to_string(materials.materials.size()));
+    int& d = distinct_of[static_cast<size_t>(k)];
+    for (size_t e = 0; e < m.materials.size() && d < 0; ++e)
+      if (same_parameters(materials.materials[static_cast<size_t>(k)], m.materials[e])) d = static_cast<int>(e);
+    if (d < 0) {
+      d = static_cast<int>(m.materials.size());
+      m.materials.push_back(materials.materials[static_cast<size_t>(k)]);
+    }
+    triangle_material[t] = d;
+  }
+  if (m.materials.empty()) m.materials.push_back(materials.materials.front());  // a mesh without triangles
+  if (m.materials.size() > 1) m.triangle_material = std::move(triangle_material);
   m.mass = VecX::Zero(n);
   m.membranes.resize(mesh.triangles.size());
   std::vector<std::pair<int, int>> pairs;
@@ -47,7 +78,8 @@ ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3&
       throw InputError("triangle " + std::to_string(t) + " (vertices " + std::to_string(tri[0]) + ", " +
                        std::to_string(tri[1]) + ", " + std::to_string(tri[2]) +
                        ") is degenerate in the pattern (zero area)");
-    for (int k = 0; k < 3; ++k) m.mass[tri[k]] += material.surface_density_kg_m2 * m.membranes[t].area / 3.0;
+    const double density = m.material_of(t).surface_density_kg_m2;
+    for (int k = 0; k < 3; ++k) m.mass[tri[k]] += density * m.membranes[t].area / 3.0;
     for (int a = 0; a < 3; ++a)
       for (int b = a + 1; b < 3; ++b) pairs.emplace_back(tri[a], tri[b]);
   }
@@ -65,9 +97,14 @@ ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3&
 
   if (bending == BendingModel::kHinge) {
     for (const auto& s : interior_edge_flat_stencils(mesh)) {
+      // A hinge across a seam between two materials takes the mean of their rigidities (the
+      // same value when both sides are of one material).
+      const Material &m1 = m.material_of(static_cast<size_t>(s.triangles[0])),
+                     &m2 = m.material_of(static_cast<size_t>(s.triangles[1]));
+      const double weft = 0.5 * (m1.bending_rigidity_weft_Nm + m2.bending_rigidity_weft_Nm);
+      const double warp = 0.5 * (m1.bending_rigidity_warp_Nm + m2.bending_rigidity_warp_Nm);
       BendingGeometry g;
-      if (!make_bending_geometry(s.pattern[0], s.pattern[1], s.pattern[2], s.pattern[3],
-                                 material.bending_rigidity_weft_Nm, material.bending_rigidity_warp_Nm, g))
+      if (!make_bending_geometry(s.pattern[0], s.pattern[1], s.pattern[2], s.pattern[3], weft, warp, g))
         continue;  // a degenerate hinge carries no bending stiffness
       m.bending.push_back(hinge_stencil(s.vertices, g));
     }
@@ -75,6 +112,10 @@ ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3&
     if (!mesh.corner_pattern.empty())
       throw InputError("the plate bending element needs one pattern place per vertex; a mesh sewn from several "
                        "pieces (a vertex with two texture coordinates) takes the hinge element");
+    if (m.materials.size() > 1)
+      throw InputError("the plate bending element takes one material; a cloth of several materials takes the hinge "
+                       "element");
+    const Material& material = m.materials.front();
     m.bending = plate_bending_stencils(mesh, material.bending_rigidity_weft_Nm, material.bending_rigidity_warp_Nm);
   }
   // Seams: zero-length springs, E = k/2 |x_i - x_j|^2, one linear stencil each.
@@ -125,7 +166,9 @@ ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3&
 
 ClothSystem::ClothSystem(const ClothModel& model, DampingSettings damping)
     : model_(model), damping_(damping) {
-  membrane_viscosity_.assign(model.membranes.size(), Vec3::Constant(model.material.viscosity_Ns_m));
+  membrane_viscosity_.resize(model.membranes.size());
+  for (size_t t = 0; t < membrane_viscosity_.size(); ++t)
+    membrane_viscosity_[t] = Vec3::Constant(model.material_of(t).viscosity_Ns_m);
   // kappa_b = dt^2 S and lambda_b = dt gamma S, so lambda >= 2 zeta sqrt(kappa) means
   // gamma >= 2 zeta / sqrt(S): a constant per stencil (METHOD.md 4).
   const double zeta = damping_.damping_ratio;
@@ -140,9 +183,24 @@ ClothSystem::ClothSystem(const ClothModel& model, DampingSettings damping)
     for (Eigen::Index a = 0; a < k; ++a)
       for (Eigen::Index c = 0; c < k; ++c) bending_slot_damping_[model.bending_slots[e][k * a + c]] += gamma * Q(a, c);
   }
-  const Material& mat = model.material;
-  coupling_ = mat.coupling_modulus();
-  linear_moduli_ = mat.weft.is_linear() && mat.warp.is_linear() && mat.shear.is_linear();
+  linear_moduli_ = true;
+  for (const Material& mat : model.materials) {
+    MaterialConstants c;
+    c.material = &mat;
+    c.mu = mat.weft.modulus();
+    c.mv = mat.warp.modulus();
+    c.ms = mat.shear.modulus();
+    c.C = mat.coupling_modulus();
+    c.tu = std::max(c.mu, 0.0);
+    c.tv = std::max(c.mv, 0.0);
+    c.ts = std::max(c.ms, 0.0);
+    const double cmax = std::sqrt(c.tu * c.tv);
+    c.tc = std::clamp(c.C, -cmax, cmax);
+    c.viscosity = mat.viscosity_Ns_m;
+    material_constants_.push_back(c);
+    linear_moduli_ = linear_moduli_ && mat.weft.is_linear() && mat.warp.is_linear() && mat.shear.is_linear();
+  }
+  mixed_ = model.materials.size() > 1;
   // Packed triangles; the first triangle (in order) to touch a block slot assigns it.
   std::vector<char> written(model.pattern.num_blocks(), 0);
   triangles_.resize(model.membranes.size());
@@ -150,6 +208,7 @@ ClothSystem::ClothSystem(const ClothModel& model, DampingSettings damping)
     PackedTriangle& p = triangles_[t];
     const auto& g = model.membranes[t];
     p.vertex = model.mesh.triangles[t];
+    p.material = static_cast<int>(model.material_index(t));
     p.slot = model.membrane_slots[t];
     for (int k = 0; k < 3; ++k) {
       p.ru[k] = g.ru[k];
@@ -195,19 +254,22 @@ std::vector<double> ClothSystem::membrane_kappa_max(const VecX& x, double dt) co
   std::vector<double> out(model_.membranes.size());
   for (size_t t = 0; t < out.size(); ++t) {
     const auto& g = model_.membranes[t];
-    const Vec3 E = membrane_tangent_moduli(model_.material, membrane_strain(g, x, model_.mesh.triangles[t]));
+    const Vec3 E = membrane_tangent_moduli(model_.material_of(t), membrane_strain(g, x, model_.mesh.triangles[t]));
     out[t] = membrane_kappa(g.area, E, model_.membrane_mass_sums[t], dt).maxCoeff();
   }
   return out;
 }
 
 void ClothSystem::prepare_linear_damping(double dt) {
+  if (linear_viscosity_ready_ && dt == linear_stats_dt_) return;
   const double zeta = damping_.damping_ratio;
-  const double eta0 = model_.material.viscosity_Ns_m;
-  const Vec3 E = membrane_tangent_moduli(model_.material, Vec3::Zero());
+  // Linear curves: each material's moduli are its tangents at every strain.
+  std::vector<Vec3> moduli;
+  for (const Material& m : model_.materials) moduli.push_back(membrane_tangent_moduli(m, Vec3::Zero()));
   if (!linear_viscosity_ready_) {
     for (size_t t = 0; t < model_.membranes.size(); ++t) {
-      Vec3 eta = Vec3::Constant(eta0);
+      const Vec3& E = moduli[model_.material_index(t)];
+      Vec3 eta = Vec3::Constant(model_.material_of(t).viscosity_Ns_m);
       if (zeta > 0)
         eta = eta.cwiseMax(membrane_required_viscosity(model_.membranes[t].area, E, model_.membrane_mass_sums[t], zeta));
       membrane_viscosity_[t] = eta;
@@ -223,7 +285,8 @@ void ClothSystem::prepare_linear_damping(double dt) {
     const double area = model_.membranes[t].area;
     const Vec3& S = model_.membrane_mass_sums[t];
     const Vec3& eta = membrane_viscosity_[t];
-    const Vec3 kappa = membrane_kappa(area, E, S, dt);
+    const double eta0 = model_.material_of(t).viscosity_Ns_m;
+    const Vec3 kappa = membrane_kappa(area, moduli[model_.material_index(t)], S, dt);
     int mode;
     linear_kappa_step_.add(kappa.maxCoeff(&mode));
     linear_lambda_step_.add(membrane_lambda(area, eta, S, dt)[mode]);
@@ -241,7 +304,6 @@ void ClothSystem::begin_step(const VecX& x, const VecX&, double step_dt) {
   // current strain; raise the viscosity of each mode to reach the target damping ratio.
   const double dt = damping_.reference_dt > 0 ? damping_.reference_dt : step_dt;
   const double zeta = damping_.damping_ratio;
-  const double eta0 = model_.material.viscosity_Ns_m;
   if (linear_moduli_) {
     // Linear curves: the moduli, hence the viscosity and the factors, do not depend on the
     // strain; the step's statistics are the same every step of the same dt.
@@ -255,7 +317,9 @@ void ClothSystem::begin_step(const VecX& x, const VecX&, double step_dt) {
     for (size_t t = 0; t < model_.membranes.size(); ++t) {
       const auto& g = model_.membranes[t];
       const Vec3& S = model_.membrane_mass_sums[t];
-      const Vec3 E = membrane_tangent_moduli(model_.material, membrane_strain(g, x, model_.mesh.triangles[t]));
+      const Material& material = model_.material_of(t);
+      const double eta0 = material.viscosity_Ns_m;
+      const Vec3 E = membrane_tangent_moduli(material, membrane_strain(g, x, model_.mesh.triangles[t]));
       Vec3 eta = Vec3::Constant(eta0);
       if (zeta > 0) eta = eta.cwiseMax(membrane_required_viscosity(g.area, E, S, zeta));
       membrane_viscosity_[t] = eta;
@@ -291,9 +355,8 @@ void ClothSystem::restore(const DynamicState& d) {
 VecX ClothSystem::added_viscosity_per_vertex() const {
   const int n = model_.num_vertices();
   VecX sum = VecX::Zero(n), weight = VecX::Zero(n);
-  const double eta0 = model_.material.viscosity_Ns_m;
   for (size_t t = 0; t < model_.membranes.size(); ++t) {
-    const double added = (membrane_viscosity_[t] - Vec3::Constant(eta0)).maxCoeff();
+    const double added = (membrane_viscosity_[t] - Vec3::Constant(model_.material_of(t).viscosity_Ns_m)).maxCoeff();
     for (int k : model_.mesh.triangles[t]) {
       sum[k] += model_.membranes[t].area * added;
       weight[k] += model_.membranes[t].area;
@@ -346,7 +409,8 @@ void ClothSystem::add_gravity_and_membranes(
       xe[k] = node(x, tri[k]);
       ve[k] = node(v, tri[k]);
     }
-    evaluate_membrane(model_.membranes[t], model_.material, membrane_viscosity_[t], xe, ve, jacobians, true, mr, expand);
+    evaluate_membrane(model_.membranes[t], model_.material_of(t), membrane_viscosity_[t], xe, ve, jacobians, true, mr,
+                      expand);
     elastic_energy += mr.energy;
     viscous_power += mr.viscous_power;
     for (int k = 0; k < 3; ++k) node(force, tri[k]) += mr.force.segment<3>(3 * k);
@@ -457,21 +521,26 @@ ClothSystem::MembraneArrays ClothSystem::membrane_arrays(const VecX& x, const Ve
           model_.bending_slot_q.data(), bending_slot_damping_.data(), membrane_viscosity_.data()};
 }
 
-template <bool kLinear>
+template <bool kLinear, bool kMixed>
 void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, size_t begin,
                                      size_t end, StepAssembly& out) const {
   // evaluate_membrane and MembraneJacobian::block / stiffness_times, fused and written for
   // the step, triangles [begin, end): the step matrix blocks come from four matrices per
   // triangle (Muu, Muv, Mvu, Mvv, below; write_triangle_blocks) built from the moduli
   // T = A (ck t + cd eta) and the outer products of U and V.
-  const Material& mat = model_.material;
-  const double C = coupling_;
+  // One material: its constants read once, before the loop; several: per triangle.
+  const MaterialConstants* constants = material_constants_.data();
+  const Material& mat0 = *constants[0].material;
+  const double C0 = constants[0].C, mu0 = constants[0].mu, mv0 = constants[0].mv, ms0 = constants[0].ms;
   const double ck = out.ck, cd = out.cd;
-  const double mu = mat.weft.modulus(), mv = mat.warp.modulus(), ms = mat.shear.modulus();
   const auto [X, Vel, W, F, KW, blocks, q, qd, viscosity] = membrane_arrays(x, v, w, out);
   double energy = 0, power = 0;
   for (size_t t = begin; t < end; ++t) {
     const PackedTriangle& tr = triangles_[t];
+    const MaterialConstants* k = kMixed ? &constants[tr.material] : nullptr;
+    const Material& mat = kMixed ? *k->material : mat0;
+    const double C = kMixed ? k->C : C0, mu = kMixed ? k->mu : mu0, mv = kMixed ? k->mv : mv0,
+                 ms = kMixed ? k->ms : ms0;
     const double A = tr.area;
     const double* ru = tr.ru;
     const double* rv = tr.rv;
@@ -625,8 +694,9 @@ struct TriangleBatch {
     }
   }
   /// U = sum_k r_u,k y_k and V = sum_k r_v,k y_k of a vertex field y (positions give the
-  /// deformation gradient, velocities its rate).
-  void gradient(const double* y, D4* U, D4* V) const {
+  /// deformation gradient, velocities its rate). Always inlined: an out-of-line copy would be
+  /// compiled for the baseline instruction set, not for the kernel's clone.
+  __attribute__((always_inline)) void gradient(const double* y, D4* U, D4* V) const {
     for (int c = 0; c < 3; ++c) {
       const D4 y0 = gather(y, 0, c), y1 = gather(y, 1, c), y2 = gather(y, 2, c);
       U[c] = ru[0] * y0 + ru[1] * y1 + ru[2] * y2;
@@ -634,7 +704,7 @@ struct TriangleBatch {
     }
   }
   /// Component c of the batch's k-th vertices in a vertex field y.
-  D4 gather(const double* y, int k, int c) const {
+  __attribute__((always_inline)) D4 gather(const double* y, int k, int c) const {
     return D4{y[o[k][0] + c], y[o[k][1] + c], y[o[k][2] + c], y[o[k][3] + c]};
   }
   /// The viscosities of the four triangles, mode m (weft, warp, shear).
@@ -644,22 +714,33 @@ struct TriangleBatch {
 };
 }  // namespace
 
+template <bool kMixed>
 WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t end,
-                                             StepAssembly& out) const {
+                                                             StepAssembly& out) const {
   // assemble_membranes<true> with the element arithmetic of four triangles at a time, lane l
   // of every D4 belonging to triangle t + l: the same expressions, so the same values. The
   // results go through a small per-batch table (the four matrices then transposed to one
   // row of entries per triangle) to the scalar scatter (forces, K w) and the block writer,
   // which take the triangles in order (the first writer of each block slot is unchanged).
   // The batch's U and V are kept in out.element_data for step_viscous_power.
-  const Material& mat = model_.material;
-  const double C = coupling_;
+  // Linear curves: the tangent moduli are the moduli (clamped), the same for every triangle
+  // of a material; with several materials each lane takes its triangle's.
+  // One material: scalars, set once; several: four lanes, set per batch.
+  using Moduli = std::conditional_t<kMixed, D4, double>;
+  const MaterialConstants* constants = material_constants_.data();
+  Moduli mu{}, mv{}, ms{}, C{}, tu{}, tv{}, ts{}, tc{};
+  if constexpr (!kMixed) {
+    const MaterialConstants& c = constants[0];
+    mu = c.mu;
+    mv = c.mv;
+    ms = c.ms;
+    C = c.C;
+    tu = c.tu;
+    tv = c.tv;
+    ts = c.ts;
+    tc = c.tc;
+  }
   const double ck = out.ck, cd = out.cd;
-  const double mu = mat.weft.modulus(), mv = mat.warp.modulus(), ms = mat.shear.modulus();
-  // Linear curves: the tangent moduli are the moduli, the same for every triangle.
-  const double tu = std::max(mu, 0.0), tv = std::max(mv, 0.0), ts = std::max(ms, 0.0);
-  const double cmax = std::sqrt(tu * tv);
-  const double tc = std::clamp(C, -cmax, cmax);
   const auto [X, Vel, W, F, KW, blocks, q, qd, viscosity] = membrane_arrays(x, v, w, out);
   D4 energy = splat(0), power = splat(0);
   // Per batch: force and K w per vertex and component (9 + 9) and the four matrices' 9
@@ -669,6 +750,21 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, cons
   for (size_t t0 = 0; t0 < end; t0 += 4) {
     const PackedTriangle* tr[4] = {&triangles_[t0], &triangles_[t0 + 1], &triangles_[t0 + 2], &triangles_[t0 + 3]};
     const TriangleBatch batch(tr);
+    if constexpr (kMixed) {
+      const MaterialConstants* c[4] = {&constants[tr[0]->material], &constants[tr[1]->material],
+                                       &constants[tr[2]->material], &constants[tr[3]->material]};
+      const auto lanes = [&c](double MaterialConstants::*field) {
+        return D4{c[0]->*field, c[1]->*field, c[2]->*field, c[3]->*field};
+      };
+      mu = lanes(&MaterialConstants::mu);
+      mv = lanes(&MaterialConstants::mv);
+      ms = lanes(&MaterialConstants::ms);
+      C = lanes(&MaterialConstants::C);
+      tu = lanes(&MaterialConstants::tu);
+      tv = lanes(&MaterialConstants::tv);
+      ts = lanes(&MaterialConstants::ts);
+      tc = lanes(&MaterialConstants::tc);
+    }
     const D4& A = batch.A;
     const D4* ru = batch.ru;
     const D4* rv = batch.rv;
@@ -851,14 +947,26 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_step_kernel(const VecX& x, const VecX
   if (linear_moduli_ && jacobians) {
     const size_t batched = count - count % 4;
     out.element_data.resize(6 * batched);
-    assemble_membranes_batched(x, v, w, batched, out);
-    assemble_membranes<true>(x, v, w, jacobians, batched, count, out);
+    if (mixed_)
+      assemble_membranes_batched<true>(x, v, w, batched, out);
+    else
+      assemble_membranes_batched<false>(x, v, w, batched, out);
+    if (mixed_)
+      assemble_membranes<true, true>(x, v, w, jacobians, batched, count, out);
+    else
+      assemble_membranes<true, false>(x, v, w, jacobians, batched, count, out);
   } else if (linear_moduli_) {
     out.element_data.clear();
-    assemble_membranes<true>(x, v, w, jacobians, 0, count, out);
+    if (mixed_)
+      assemble_membranes<true, true>(x, v, w, jacobians, 0, count, out);
+    else
+      assemble_membranes<true, false>(x, v, w, jacobians, 0, count, out);
   } else {
     out.element_data.clear();
-    assemble_membranes<false>(x, v, w, jacobians, 0, count, out);
+    if (mixed_)
+      assemble_membranes<false, true>(x, v, w, jacobians, 0, count, out);
+    else
+      assemble_membranes<false, false>(x, v, w, jacobians, 0, count, out);
   }
   out.elastic_energy += bending_energy;
   out.viscous_power += bending_power;

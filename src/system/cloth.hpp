@@ -17,7 +17,11 @@ namespace weft {
 
 struct ClothModel {
   TriMesh mesh;              ///< rest pattern and initial positions
-  Material material;
+  /// The cloth's distinct materials, at least one: triangle t is made of
+  /// materials[triangle_material[t]]. triangle_material is empty when there is one material
+  /// (the usual cloth), so that the step's kernels take their one-material paths.
+  std::vector<Material> materials;
+  std::vector<int> triangle_material;  ///< #F indices into materials, or empty
   Vec3 gravity{0, -9.81, 0};  ///< m/s^2
   VecX mass;                 ///< lumped mass per vertex (kg)
   VecX inverse_mass;         ///< 0 on pinned vertices
@@ -36,12 +40,21 @@ struct ClothModel {
   std::vector<int> solver_order;
 
   int num_vertices() const { return mesh.num_vertices(); }
+  /// The material of triangle t, and its index into materials.
+  size_t material_index(size_t t) const {
+    return triangle_material.empty() ? 0 : static_cast<size_t>(triangle_material[t]);
+  }
+  const Material& material_of(size_t t) const { return materials[material_index(t)]; }
   /// Initial positions as a 3n vector.
   VecX initial_positions() const;
 };
 
 /// Builds the model; `pins` are vertex indices. Throws InputError for a degenerate triangle
 /// (naming its index and vertices), a bad pin index, or a non-positive density.
+/// With a material per triangle (TriangleMaterials), each triangle's membrane and lumped
+/// mass take its own material; a hinge between triangles of two materials takes the mean of
+/// their bending rigidities (weft and warp each); the plate element takes one material only.
+/// Materials with the same parameters (same_parameters) are merged.
 /// Bending discretisation: the hinge element of METHOD.md 5 (default; one stencil per
 /// interior edge) or the plate element (a quadratic fit per edge; exact energy for every
 /// quadratic bend on any mesh; docs/fabric-validation.md compares them).
@@ -50,6 +63,9 @@ BendingModel parse_bending_model(const std::string& name, const std::string& whe
 
 /// `seams` (mesh/mesh.hpp) become linear stencils beside the bending ones.
 ClothModel build_cloth_model(TriMesh mesh, const Material& material, const Vec3& gravity,
+                             const std::vector<int>& pins, BendingModel bending = BendingModel::kHinge,
+                             const std::vector<Seam>& seams = {});
+ClothModel build_cloth_model(TriMesh mesh, const TriangleMaterials& materials, const Vec3& gravity,
                              const std::vector<int>& pins, BendingModel bending = BendingModel::kHinge,
                              const std::vector<Seam>& seams = {});
 
@@ -142,8 +158,18 @@ class ClothSystem : public System {
     /// this triangle is the first to touch; written with its blocks, while their cache
     /// lines are at hand.
     int bending_only_begin = 0, bending_only_end = 0;
+    int material = 0;  ///< index into ClothModel::materials
     double ru[3], rv[3];
     double area;
+  };
+  /// Per material: the moduli of linear curves (weft, warp, shear: their modulus, for the
+  /// one-material and linear paths), the weft-warp coupling C, the tangents as the step's
+  /// stiffness uses them (clamped at 0, C within +-sqrt(t_u t_v)) and the viscosity.
+  struct MaterialConstants {
+    const Material* material;
+    double mu, mv, ms, C;
+    double tu, tv, ts, tc;
+    double viscosity;
   };
   /// The membranes' part of assemble_step: energies, forces, K w and the step matrix blocks
   /// (with the bending diagonal on each slot's first write); kLinear: all curves linear.
@@ -157,11 +183,13 @@ class ClothSystem : public System {
     const Vec3* viscosity;
   };
   MembraneArrays membrane_arrays(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) const;
-  template <bool kLinear>
+  /// kMixed: the triangles are of several materials (each reads its own constants).
+  template <bool kLinear, bool kMixed>
   void assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, size_t begin, size_t end,
                           StepAssembly& out) const;
   /// The same for triangles [0, end) (a multiple of 4), linear curves, with Jacobians: the
-  /// element arithmetic of four triangles at a time in four-wide vectors.
+  /// element arithmetic of four triangles at a time in four-wide vectors; kMixed as above.
+  template <bool kMixed>
   void assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t end, StepAssembly& out) const;
   /// Adaptive viscosity and the per-step statistics of a material whose curves are all
   /// linear: the tangent moduli do not depend on the strain, so neither do they.
@@ -177,8 +205,9 @@ class ClothSystem : public System {
   /// The step matrix's constant_version after the last assembly, and its ck and cd.
   long constants_version_ = 0;
   double constants_ck_ = 0, constants_cd_ = 0;
-  double coupling_ = 0;                  ///< the material's weft-warp coupling modulus
-  bool linear_moduli_ = false;           ///< weft, warp and shear curves all linear
+  std::vector<MaterialConstants> material_constants_;  ///< one per ClothModel::materials
+  bool mixed_ = false;                   ///< several materials
+  bool linear_moduli_ = false;           ///< weft, warp and shear curves of every material all linear
   bool linear_viscosity_ready_ = false;  ///< membrane_viscosity_ holds the adaptive values
   double linear_stats_dt_ = -1;          ///< the dt of the membrane statistics below
   LogStatistics linear_kappa_step_, linear_lambda_step_, linear_added_step_;

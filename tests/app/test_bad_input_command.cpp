@@ -131,3 +131,12 @@ TEST_F(BadInputCommand, ColliderDescriptions) {
   expect_refused("clamp_key", scene(std::string(kGrid) + R"(, "clamps": [{"vertices": [1], "speed": 2}])"),
                  "key cloth.clamps[0].speed: unknown key");
 }
+
+TEST_F(BadInputCommand, AGarmentPanelOfAnUnknownMaterial) {
+  const std::string shirt = std::string(WEFT_SOURCE_DIR) + "/data/patterns/garmentcode/shirt_mean_specification.json";
+  expect_refused("panel_material",
+                 scene(R"("mesh": {"pattern": {"file": ")" + shirt +
+                           R"(", "panels": {"left_sleeve_f": {"material": "velvet"}}}})",
+                       R"("colliders": [{"type": "body", "bind_pose_hold": 0.5}], )"),
+                 "key cloth.mesh.pattern.panels.left_sleeve_f.material: unknown material preset \"velvet\"");
+}

@@ -122,6 +122,39 @@ TEST_F(GarmentCommand, AnEdgeLengthOutOfRangeExitsTwo) {
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
+TEST_F(GarmentCommand, PanelsTakeTheirOwnMaterialAndGrain) {
+  const auto pattern = write("two.json", R"({"properties": {"units_in_meter": 1},
+    "pattern": {"panels": {
+      "a": {"vertices": [[0, 0], [0.2, 0], [0.2, 0.2]], "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 0]}]},
+      "b": {"vertices": [[0, 0], [0.2, 0], [0.2, 0.2]], "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 0]}]}}}})");
+  const auto out = folder_ / "out";
+  const auto r = weft("garment --no-sew " + quoted(pattern) + " --out " + quoted(out) +
+                      " --panel-material a=denim --panel-grain b=90 --panel-grain a=-30");
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(summary["panels"][0]["material"], "denim");
+  EXPECT_EQ(summary["panels"][1]["material"], "cotton");
+  EXPECT_NEAR(summary["panels"][0]["grain_angle_deg"].get<double>(), -30, 1e-12);
+  EXPECT_NEAR(summary["panels"][1]["grain_angle_deg"].get<double>(), 90, 1e-12);
+
+  // A panel the pattern lacks, an unknown preset, a malformed or out-of-range grain: exit 2,
+  // the option and value named, nothing written.
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"--panel-material c=denim", "--panel-material 'c=denim': the pattern " + pattern.string() + " has no panel 'c'"},
+      {"--panel-material a=velvet", "--panel-material 'a=velvet': unknown material preset \"velvet\""},
+      {"--panel-material denim", "--panel-material 'denim': expected NAME=PRESET"},
+      {"--panel-material a=denim --panel-material a=silk", "--panel-material 'a=silk': panel 'a' is given twice"},
+      {"--panel-grain a=east", "--panel-grain 'a=east': expected an angle in degrees from -360 to 360"},
+      {"--panel-grain a=400", "--panel-grain 'a=400': expected an angle in degrees from -360 to 360"}};
+  for (const auto& [option, message] : bad) {
+    const auto bad_out = folder_ / "bad_out";
+    const auto b = weft("garment --no-sew " + quoted(pattern) + " --out " + quoted(bad_out) + " " + option);
+    EXPECT_EQ(b.exit_code, 2) << option;
+    EXPECT_NE(b.error_output.find(message), std::string::npos) << option << ": " << b.error_output;
+    EXPECT_FALSE(std::filesystem::exists(bad_out)) << option;
+  }
+}
+
 TEST_F(GarmentCommand, AMissingPatternFileExitsTwo) {
   const auto out = folder_ / "out";
   const auto r = weft("garment --no-sew " + quoted(folder_ / "none.json") + " --out " + quoted(out));

@@ -135,7 +135,7 @@ TEST(AdaptiveDamping, EveryElementReachesTheTargetRatio) {
     sim.system().begin_step(x, v, dt);
     const auto& model = sim.model();
     const auto& viscosity = sim.system().membrane_viscosity();
-    const double eta0 = model.material.viscosity_Ns_m;
+    const double eta0 = model.materials.front().viscosity_Ns_m;
     for (size_t t = 0; t < model.membranes.size(); ++t) {
       const auto& g = model.membranes[t];
       std::array<Vec3, 3> xe, ve;
@@ -144,9 +144,9 @@ TEST(AdaptiveDamping, EveryElementReachesTheTargetRatio) {
         ve[k].setZero();
       }
       weft::MembraneResult r;
-      weft::evaluate_membrane(g, model.material, viscosity[t], xe, ve, false, true, r);
+      weft::evaluate_membrane(g, model.materials.front(), viscosity[t], xe, ve, false, true, r);
       const Vec3& S = model.membrane_mass_sums[t];
-      const Vec3 kappa = weft::membrane_kappa(g.area, weft::membrane_tangent_moduli(model.material, r.strain), S, dt);
+      const Vec3 kappa = weft::membrane_kappa(g.area, weft::membrane_tangent_moduli(model.materials.front(), r.strain), S, dt);
       const Vec3 lambda = weft::membrane_lambda(g.area, viscosity[t], S, dt);
       for (int k = 0; k < 3; ++k) {
         EXPECT_GE(lambda[k], (1 - 1e-12) * 2 * zeta * std::sqrt(std::max(kappa[k], 0.0)))

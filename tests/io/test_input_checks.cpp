@@ -211,3 +211,42 @@ TEST(SceneReader, AGarmentNeedsABodyInItsBindPoseAndNamesOnlyItsOwnPanels) {
             }),
             "s.json: key cloth.mesh.pattern.file: pattern file './none.json' does not exist");
 }
+
+TEST(SceneReader, GarmentPanelsTakeAMaterialAndAGrain) {
+  const std::string shirt = std::string(WEFT_SOURCE_DIR) + "/data/patterns/garmentcode/shirt_mean_specification.json";
+  const std::string body = R"("colliders": [{"type": "body", "bind_pose_hold": 0.5}], )";
+  const auto cloth = [&](const std::string& panel) {
+    return R"("mesh": {"pattern": {"file": ")" + shirt + R"(", "panels": {"left_sleeve_f": )" + panel + "}}}";
+  };
+  const Scene s = parse_scene_text(
+      scene(cloth(R"({"material": "denim", "grain_deg": 45, "shift": 0.01})") +
+                R"(, "material": {"preset": "silk"})",
+            body),
+      "s.json", ".");
+  ASSERT_TRUE(s.cloth.garment);
+  ASSERT_EQ(s.cloth.garment->panel_materials.count("left_sleeve_f"), 1u);
+  EXPECT_TRUE(same_parameters(s.cloth.garment->panel_materials.at("left_sleeve_f"), material_preset("denim")));
+  EXPECT_EQ(s.cloth.garment->panel_materials.size(), 1u);
+  EXPECT_EQ(s.cloth.garment->panel_grain_deg.at("left_sleeve_f"), 45);
+  EXPECT_TRUE(same_parameters(s.cloth.material, material_preset("silk")));
+  // An inline material is parsed like cloth.material.
+  const Scene inline_material =
+      parse_scene_text(scene(cloth(R"({"material": {"preset": "wool", "surface_density": 0.4}})"), body), "s.json", ".");
+  EXPECT_EQ(inline_material.cloth.garment->panel_materials.at("left_sleeve_f").surface_density_kg_m2, 0.4);
+
+  // Bad ones name the key and the value.
+  EXPECT_EQ(error_of([&] { parse_scene_text(scene(cloth(R"({"material": "velvet"})"), body), "s.json", "."); })
+                .rfind("s.json: key cloth.mesh.pattern.panels.left_sleeve_f.material: unknown material preset \"velvet\"", 0),
+            0u);
+  EXPECT_EQ(error_of([&] {
+              parse_scene_text(scene(cloth(R"({"material": {"surface_density": 1e6}})"), body), "s.json", ".");
+            }),
+            "s.json: key cloth.mesh.pattern.panels.left_sleeve_f.material: field surface_density: value 1000000 kg/m2 is "
+            "out of range (0, 100] kg/m2");
+  EXPECT_NE(error_of([&] { parse_scene_text(scene(cloth(R"({"grain_deg": 1000})"), body), "s.json", "."); })
+                .find("s.json: key cloth.mesh.pattern.panels.left_sleeve_f.grain_deg"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { parse_scene_text(scene(cloth(R"({"grain": 10})"), body), "s.json", "."); })
+                .find("s.json: key cloth.mesh.pattern.panels.left_sleeve_f"),
+            std::string::npos);
+}

@@ -101,7 +101,7 @@ TEST_F(SceneKeys, UvScaleIsMetresPerTextureUnitOfTheRestPattern) {
     for (int i = 0; i < 4; ++i) EXPECT_LT((m.mesh.pattern[i] - scale * uv[i]).norm(), 1e-15) << "scale " << scale;
     // The rest area, hence the mass, follows the pattern; the cloth is unstrained only when
     // the pattern is the shape (0.4 m per unit).
-    EXPECT_NEAR(m.mass.sum(), scale * scale * m.material.surface_density_kg_m2, 1e-12) << "scale " << scale;
+    EXPECT_NEAR(m.mass.sum(), scale * scale * m.materials.front().surface_density_kg_m2, 1e-12) << "scale " << scale;
     (scale == 0.4 ? unstrained : strained) = std::max(scale == 0.4 ? unstrained : strained, sim.energies().elastic);
   }
   // Not zero: the OBJ reader keeps single-precision coordinates.

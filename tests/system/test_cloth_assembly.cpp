@@ -142,7 +142,7 @@ TEST(ClothAssembly, DampingStatisticsOfLinearCurvesEqualPerElementValues) {
   // the statistics gathered over steps must be those of the per-element values, every step.
   const ClothModel model =
       build_cloth_model(make_grid(0.2, 0.15, 7, 6), anisotropic_material(), Vec3(0, -9.81, 0), {0, 6});
-  const double zeta = 0.3, eta0 = model.material.viscosity_Ns_m;
+  const double zeta = 0.3, eta0 = model.materials.front().viscosity_Ns_m;
   ClothSystem system(model, DampingSettings{zeta});
   LogStatistics kappa, lambda, added;
   long raised = 0;
@@ -154,7 +154,7 @@ TEST(ClothAssembly, DampingStatisticsOfLinearCurvesEqualPerElementValues) {
     for (size_t t = 0; t < model.membranes.size(); ++t) {
       const auto& g = model.membranes[t];
       const Vec3& S = model.membrane_mass_sums[t];
-      const Vec3 E = membrane_tangent_moduli(model.material, Vec3::Zero());
+      const Vec3 E = membrane_tangent_moduli(model.materials.front(), Vec3::Zero());
       const Vec3 eta = Vec3::Constant(eta0).cwiseMax(membrane_required_viscosity(g.area, E, S, zeta));
       EXPECT_EQ(system.membrane_viscosity()[t], eta);
       int mode;
