@@ -266,7 +266,7 @@ std::vector<std::string> write_walk_experiment(const WalkExperiment& ex, const s
   write_files_atomically(files);
 
   std::ostringstream b;
-  b << "set multiplot layout 3,1 title " << gnuplot_quote("Walk: " + ex.scene.file) << "\n"
+  b << "set termoption noenhanced\nset multiplot layout 3,1 title " << gnuplot_quote("Walk: " + ex.scene.file) << "\n"
     << "set datafile separator ','\nset grid\nset key outside right\nset xlabel 'time (s)'\n"
     << "set xrange [0:" << number(ex.scene.duration) << "]\n";
   const char* titles[3] = {"kinetic energy relative to the body (J)", "hem ahead of the body centre (m)",
