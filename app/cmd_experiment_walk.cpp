@@ -49,6 +49,7 @@ const RegisterCommand register_walk{CommandSpec{
     [](CLI::App& sub) {
       auto a = std::make_shared<WalkArgs>();
       add_common_options(sub, a->scene, a->out, a->quiet);
+      sub.get_option("--scene")->description("Scene file (default: the source tree's scenes/walk.json)");
       sub.add_option("--duration", a->options.duration, "Simulated time (s; default: the scene's)");
       sub.add_option("--edge-length", a->options.edge_length, "The garment's mesh size (m; default: the scene's)");
       sub.add_option("--configs", a->configs,
