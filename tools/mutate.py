@@ -125,7 +125,7 @@ MUTATIONS = [
       "g/m2 converted with a wrong factor", "Material*"),
     # Solvers
     M("single-precision-restart", "solvers", "src/linalg/pcg.cpp",
-      "if (breakdown || !(rnorm < 0.5 * run_start)) {", "if (breakdown) {",
+      "if (run.breakdown || !(rnorm < 0.5 * run_start)) {", "if (run.breakdown) {",
       "single-precision SSOR never falls back to double when a restart stalls", "Ssor*"),
     M("single-precision-run-target", "solvers", "src/linalg/pcg.cpp",
       "const double run_target = std::max(target, kRunReduction * run_start);", "const double run_target = target;",

@@ -1,8 +1,12 @@
 #include "linalg/pcg.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+
+#include "linalg/cg.hpp"
 
 namespace weft {
 
@@ -27,20 +31,192 @@ inline double reduce(long size, Term term) {
   return (s0 + s1) + (s2 + s3);
 }
 
-// Symmetric block SOR preconditioning with Eisenstat's trick. With A = L + D + L^T and
-// B = D/w, CG runs on the transformed system
+// A Krylov space of the explicit product y = A p on the free nodes and a preconditioner
+// z = M^-1 r: inverse diagonal blocks, or one multigrid V-cycle (whose product uses the
+// compact lower copy of A it keeps). Vectors are node-ordered, zero on fixed nodes.
+class ProductSpace {
+ public:
+  ProductSpace(const BlockMatrix& A, bool multigrid, double target, VecX& x, PcgWorkspace& ws)
+      : A_(A), multigrid_(multigrid), target_(target), x_(x), ws_(ws), size_(x.size()) {}
+
+  /// r = b - A x and z = M^-1 r; returns r . z (rnorm() is |r|).
+  double start() {
+    multiply(x_, ws_.q);
+    ws_.r = ws_.b - ws_.q;
+    filter(ws_.fixed_nodes, ws_.r);
+    ws_.z.resize(size_);
+    ws_.p.setZero(size_);
+    rnorm_ = ws_.r.norm();
+    return precondition();
+  }
+  double rnorm() const { return rnorm_; }
+
+  double curvature(double beta) {
+    double* pw = ws_.p.data();
+    const double* zp = ws_.z.data();
+    for (long k = 0; k < size_; ++k) pw[k] = zp[k] + beta * pw[k];
+    multiply(ws_.p, ws_.q);
+    const double* pp = ws_.p.data();
+    const double* qp = ws_.q.data();
+    return reduce(size_, [&](long k) { return pp[k] * qp[k]; });
+  }
+
+  /// Stops when |r| reaches the target.
+  bool advance(double a, double& rz) {
+    double* xp = x_.data();
+    double* rp = ws_.r.data();
+    const double* pp = ws_.p.data();
+    const double* qp = ws_.q.data();
+    const double rr = reduce(size_, [&](long k) {
+      xp[k] += a * pp[k];
+      rp[k] -= a * qp[k];
+      return rp[k] * rp[k];
+    });
+    rnorm_ = std::sqrt(rr);
+    if (rnorm_ <= target_) return true;
+    rz = precondition();
+    return false;
+  }
+
+ private:
+  void multiply(const VecX& v, VecX& y) {
+    if (multigrid_) {
+      ws_.multigrid.multiply_free(v, y);
+    } else {
+      A_.multiply(v, y);
+      filter(ws_.fixed_nodes, y);
+    }
+  }
+  // z = M^-1 r; returns r . z.
+  double precondition() {
+    if (multigrid_) {
+      ws_.multigrid.apply(ws_.r, ws_.z);  // zero on fixed nodes
+      return ws_.z.dot(ws_.r);
+    }
+    const Mat3* inv = ws_.inverse_diagonal.data();
+    double rz = 0;
+    for (long i = 0; i < size_ / 3; ++i) {
+      const Vec3 zi = inv[i] * ws_.r.segment<3>(3 * i);
+      ws_.z.segment<3>(3 * i) = zi;
+      rz += zi.dot(ws_.r.segment<3>(3 * i));
+    }
+    return rz;
+  }
+
+  const BlockMatrix& A_;
+  const bool multigrid_;
+  const double target_;
+  VecX& x_;
+  PcgWorkspace& ws_;
+  const long size_;
+  double rnorm_ = 0;
+};
+
+// Symmetric block SOR preconditioning with Eisenstat's trick, as a Krylov space. With
+// A = L + D + L^T and B = D/w, CG runs on the transformed system
 //   A^ = (B + L)^-1 A (B + L^T)^-1,  x^ = (B + L^T) x,  b^ = (B + L)^-1 b,
 // which is symmetric positive definite, preconditioned by B (together the SSOR-preconditioned
 // CG on A). Since A = (B + L) + (B + L^T) + (D - 2B), a product is
 //   A^ p = t + (B + L)^-1 (p + (1 - 2/w) D t),  t = (B + L^T)^-1 p,
 // two triangular solves (linalg/ssor.hpp); B t = p - L^T t makes the right-hand side of the
-// second (w - 1) p + (2 - w) L^T t, written by the first. x itself is updated with the t's.
-// The transformed residual r^ = (B + L)^-1 r is not the true one, so the true residual is
-// computed (one product) whenever |r^| scaled by the last known |r| / |r^| reaches the
-// target, and CG stops only when the true |r| does. The ratio starts from the one found at
-// the previous solve's last check (the solves of a simulation resemble each other; the
-// initial residual's ratio is often far from the ratio near convergence), else the initial
-// residual's. Vectors are in the operator's layout (12 doubles per group of four nodes).
+// second (w - 1) p + (2 - w) L^T t, written by the first. x itself is updated with the t's,
+// one step late: the next upper solve applies the pending update as t streams by (flush()
+// applies it at once). Vectors are in the operator's layout (3 kLanes numbers per group).
+//
+// The transformed residual r^ = (B + L)^-1 r is not the true one: the space predicts |r| as
+// |r^| times a scale (the last known |r| / |r^|) and, when the prediction reaches the target,
+//  - in double precision, computes the true residual (one product), stops if it is below the
+//    target and otherwise carries on with the scale it found;
+//  - in single precision, stops: x is then a correction whose true residual the caller
+//    checks in double precision (solve_ssor_single).
+template <class T>
+class SsorSpace {
+ public:
+  using Vector = typename SsorOperatorT<T>::Vector;
+  SsorSpace(const SsorOperatorT<T>& S, double omega, double target, T* x, Vector& r, Vector& z,
+            Vector& p, Vector& q, Vector& t, Vector& w)
+      : S_(S), omega_(omega), cp_(omega - 1.0), cu_(2.0 - omega), target_(target), x_(x), r_(r),
+        z_(z), p_(p), q_(q), t_(t), w_(w) {}
+
+  /// Starts from the true residual in w (operator layout) of norm rnorm: r^ = (B + L)^-1 r,
+  /// z^ = B r^, p = 0. The scale is `ratio` when positive, else rnorm / |r^|. Returns r^ . z^.
+  double start(double rnorm, double ratio) {
+    S_.solve_lower(w_.data(), r_.data());
+    scale_ = ratio > 0 ? ratio : rnorm / std::max<double>(r_.norm(), 1e-300);
+    p_.setZero();
+    S_.diagonal_times(1.0 / omega_, r_.data(), z_.data());
+    checked_at_ = -1;
+    rnorm_ = rnorm;
+    rnorm_current_ = true;
+    if constexpr (std::is_same_v<T, double>) {
+      const double* rp = r_.data();
+      const double* zp = z_.data();
+      return reduce(r_.size(), [&](long k) { return rp[k] * zp[k]; });
+    } else {
+      return r_.template cast<double>().dot(z_.template cast<double>());
+    }
+  }
+
+  double curvature(double beta) {
+    S_.step_and_solve_upper(z_.data(), beta, p_.data(), t_.data(), w_.data(), cp_, cu_, x_,
+                            pending_);
+    pending_ = 0.0;
+    return S_.solve_lower_dot(w_.data(), q_.data(), p_.data(), t_.data());  // p . (q + t)
+  }
+
+  bool advance(double a, double& rz) {
+    const double rr = S_.update(a, t_.data(), q_.data(), r_.data(), 1.0 / omega_, z_.data(), rz);
+    pending_ = a;
+    rnorm_current_ = false;
+    const double rh_norm = std::sqrt(rr);
+    if (rh_norm * scale_ > target_) return false;
+    checked_at_ = rh_norm;
+    if constexpr (std::is_same_v<T, double>) {
+      flush();
+      rnorm_ = true_residual();
+      rnorm_current_ = true;
+      scale_ = rnorm_ / std::max(rh_norm, 1e-300);
+      return rnorm_ <= target_;
+    } else {
+      return true;
+    }
+  }
+
+  /// Applies the pending update of x.
+  void flush() {
+    if (pending_ != 0.0) S_.axpy(pending_, t_.data(), x_);
+    pending_ = 0.0;
+  }
+
+  /// Double precision: |b - A x| from a product into q (b in the operator's layout).
+  void set_rhs(const T* b) { b_ = b; }
+  double true_residual() {
+    S_.multiply(x_, q_.data());
+    const T* bp = b_;
+    const T* qp = q_.data();
+    return std::sqrt(reduce(r_.size(), [&](long k) { return (bp[k] - qp[k]) * (bp[k] - qp[k]); }));
+  }
+  /// Double precision: the true |r| at the last check, and whether x has not moved since.
+  double rnorm() const { return rnorm_; }
+  bool rnorm_current() const { return rnorm_current_; }
+  /// |r^| at the last check (-1: none since start) and the scale |r| / |r^| then used.
+  double checked_at() const { return checked_at_; }
+  double scale() const { return scale_; }
+
+ private:
+  const SsorOperatorT<T>& S_;
+  const double omega_, cp_, cu_, target_;
+  T* x_;
+  Vector &r_, &z_, &p_, &q_, &t_, &w_;
+  const T* b_ = nullptr;
+  double scale_ = 1.0, pending_ = 0.0, rnorm_ = 0.0, checked_at_ = -1;
+  bool rnorm_current_ = true;
+};
+
+// SSOR-preconditioned CG in double precision (SsorSpace<double>). The scale of the predicted
+// residual starts from the one found at the previous solve's last check (the solves of a
+// simulation resemble each other; the initial residual's ratio is often far from the ratio
+// near convergence), else the initial residual's.
 PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const PcgSettings& settings,
                      double bnorm, VecX& x, PcgWorkspace& ws) {
   const double target = settings.relative_tolerance * bnorm;
@@ -49,85 +225,41 @@ PcgResult solve_ssor(const BlockMatrix& A, const std::vector<char>& fixed, const
   SsorOperator& S = ws.ssor;
   S.assign(A, fixed, omega, settings.node_order, settings.ssor_whole_blocks);
   const long size = S.vector_size();
-  VecX& x4 = ws.x4;
-  VecX& b4 = ws.b4;
-  S.pad(x, x4);
-  S.pad(ws.b, b4);
+  S.pad(x, ws.x4);
+  S.pad(ws.b, ws.b4);
   for (VecX* v : {&ws.r, &ws.z, &ws.p, &ws.q, &ws.t, &ws.w}) v->resize(size);
-  double* xp = x4.data();
-  const double* bp = b4.data();
-  double* rp = ws.r.data();
-  double* pp = ws.p.data();
-  double* qp = ws.q.data();
-  double* tp = ws.t.data();
-  double* wp = ws.w.data();
-  double* zp = ws.z.data();
-  // |b - A x| from a product into q.
-  auto true_residual = [&]() {
-    S.multiply(xp, qp);
-    return std::sqrt(reduce(size, [&](long k) { return (bp[k] - qp[k]) * (bp[k] - qp[k]); }));
-  };
+  SsorSpace<double> space(S, omega, target, ws.x4.data(), ws.r, ws.z, ws.p, ws.q, ws.t, ws.w);
+  space.set_rhs(ws.b4.data());
 
-  PcgResult result;
-  double rnorm = true_residual();
-  int it = 0;
-  bool rnorm_current = true;  // rnorm is the residual of the current x
+  double rnorm = space.true_residual();
+  int iterations = 0;
   if (rnorm > target) {
-    for (long k = 0; k < size; ++k) wp[k] = bp[k] - qp[k];
-    S.solve_lower(wp, rp);  // r^
-    double scale = ws.ssor_residual_ratio > 0 ? ws.ssor_residual_ratio
-                                              : rnorm / std::max(ws.r.norm(), 1e-300);
-    ws.p.setZero();
-    S.diagonal_times(1.0 / omega, rp, zp);  // z^ = B r^
-    double rz = reduce(size, [&](long k) { return rp[k] * zp[k]; });
-    double beta = 0.0;
-    const double cp = omega - 1.0, cu = 2.0 - omega;
-    // x lags behind by pending t: the next upper solve applies it as t streams by, or axpy
-    // before a residual check and at the end.
-    double pending = 0.0;
-    while (it < settings.max_iterations) {
-      S.step_and_solve_upper(zp, beta, pp, tp, wp, cp, cu, xp, pending);  // p = z^ + beta p first
-      pending = 0.0;
-      const double pq = S.solve_lower_dot(wp, qp, pp, tp);  // p . (q + t), the curvature along p
-      if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown
-      double rz_new;
-      const double a = rz / pq;
-      const double rr = S.update(a, tp, qp, rp, 1.0 / omega, zp, rz_new);
-      pending = a;
-      ++it;
-      rnorm_current = false;
-      const double rh_norm = std::sqrt(rr);
-      if (rh_norm * scale <= target) {
-        S.axpy(pending, tp, xp);
-        pending = 0.0;
-        rnorm = true_residual();
-        rnorm_current = true;
-        scale = rnorm / std::max(rh_norm, 1e-300);
-        ws.ssor_residual_ratio = scale;
-        if (rnorm <= target) break;
-      }
-      beta = rz_new / rz;
-      rz = rz_new;
-    }
-    if (pending != 0.0) S.axpy(pending, tp, xp);
+    ws.w = ws.b4 - ws.q;  // the true residual, from the product in q
+    const double rz = space.start(rnorm, ws.ssor_residual_ratio);
+    iterations = conjugate_gradient(space, rz, settings.max_iterations).iterations;
+    space.flush();
+    if (space.checked_at() >= 0) ws.ssor_residual_ratio = space.scale();
+    // Stopped by the iteration cap or a breakdown: the residual of the x reached.
+    rnorm = space.rnorm_current() ? space.rnorm() : space.true_residual();
   }
-  if (!rnorm_current) rnorm = true_residual();  // stopped by the iteration cap or a breakdown
-  S.unpad(x4, x);
-  result.iterations = it;
+  S.unpad(ws.x4, x);
+  PcgResult result;
+  result.iterations = iterations;
   result.relative_residual = rnorm / bnorm;
   result.converged = rnorm <= target;
   return result;
 }
 
-// solve_ssor's iterations in single precision (SsorOperatorT<float>): x, b and the true
-// residual r = b - A x stay in double precision in node order (products with A itself). Each
-// run of iterations starts from the true residual and accumulates its correction dx in single
-// precision; when the predicted residual reaches the target, x += dx and the true residual is
-// checked. Above the target CG restarts from it (the single-precision recursion has drifted
-// from the true residual by then, so continuing would not converge); if the restart did not
-// at least halve the true residual since the previous check, or the curvature breaks down,
-// the solve finishes in double precision (solve_ssor) from the x reached, with the
-// iterations left under the cap.
+// SSOR-preconditioned CG with the iterations in single precision (SsorSpace<float>): a
+// restarting wrapper around runs of conjugate_gradient. x, b and the true residual
+// r = b - A x stay in double precision in node order (products with A itself). Each run
+// starts from the true residual and accumulates its correction dx in single precision; when
+// the predicted residual reaches the run's target, x += dx and the true residual is checked.
+// Above the target CG restarts from it (the single-precision recursion has drifted from the
+// true residual by then, so continuing would not converge); if the restart did not at least
+// halve the true residual since the previous check, or the curvature broke down, the solve
+// finishes in double precision (solve_ssor) from the x reached, with the iterations left
+// under the cap.
 PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed, const PcgSettings& settings,
                             double bnorm, VecX& x, PcgWorkspace& ws) {
   const double target = settings.relative_tolerance * bnorm;
@@ -137,13 +269,6 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
   S.assign(A, fixed, omega, settings.node_order, settings.ssor_whole_blocks);
   const long size = S.vector_size();
   for (Eigen::VectorXf* v : {&ws.fr, &ws.fz, &ws.fp, &ws.fq, &ws.ft, &ws.fw, &ws.fdx}) v->resize(size);
-  float* rp = ws.fr.data();
-  float* zp = ws.fz.data();
-  float* pp = ws.fp.data();
-  float* qp = ws.fq.data();
-  float* tp = ws.ft.data();
-  float* wp = ws.fw.data();
-  float* dxp = ws.fdx.data();
   auto true_residual = [&]() {
     A.multiply(x, ws.residual);
     ws.residual = ws.b - ws.residual;
@@ -153,54 +278,27 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
   PcgResult result;
   double rnorm = true_residual();
   int it = 0;
-  const double cp = omega - 1.0, cu = 2.0 - omega;
   constexpr double kRunReduction = 1e-6;
   while (rnorm > target && it < settings.max_iterations) {
-    // A run of iterations from the true residual: r^ = (B + L)^-1 r, dx = 0.
-    S.pad(ws.residual, ws.fw);
-    S.solve_lower(wp, rp);
-    const double scale = ws.ssor_residual_ratio > 0 ? ws.ssor_residual_ratio
-                                                    : rnorm / std::max<double>(ws.fr.norm(), 1e-300);
-    ws.fp.setZero();
-    ws.fdx.setZero();
-    S.diagonal_times(1.0 / omega, rp, zp);
-    double rz = ws.fr.cast<double>().dot(ws.fz.cast<double>());
-    double beta = 0.0, pending = 0.0;
-    double checked_at = -1;  // |r^| where the predicted residual reached the run's target
-    bool breakdown = false;
-    const double run_start = rnorm;
     // A run aims at most kRunReduction below its start: beyond, the single-precision recursion
     // keeps shrinking while the true residual it stands for no longer does.
+    const double run_start = rnorm;
     const double run_target = std::max(target, kRunReduction * run_start);
-    while (it < settings.max_iterations) {
-      S.step_and_solve_upper(zp, beta, pp, tp, wp, cp, cu, dxp, pending);
-      pending = 0.0;
-      const double pq = S.solve_lower_dot(wp, qp, pp, tp);
-      if (!(pq > 0.0)) {
-        breakdown = true;
-        break;
-      }
-      double rz_new;
-      const double a = rz / pq;
-      const double rr = S.update(a, tp, qp, rp, 1.0 / omega, zp, rz_new);
-      pending = a;
-      ++it;
-      const double rh_norm = std::sqrt(rr);
-      if (rh_norm * scale <= run_target) {
-        checked_at = rh_norm;
-        break;
-      }
-      beta = rz_new / rz;
-      rz = rz_new;
-    }
+    SsorSpace<float> space(S, omega, run_target, ws.fdx.data(), ws.fr, ws.fz, ws.fp, ws.fq, ws.ft,
+                           ws.fw);
+    S.pad(ws.residual, ws.fw);
+    ws.fdx.setZero();
+    const double rz = space.start(rnorm, ws.ssor_residual_ratio);
+    const CgRun run = conjugate_gradient(space, rz, settings.max_iterations - it);
+    it += run.iterations;
     // What the run reached (at its check, the iteration cap or a breakdown) goes into x.
-    if (pending != 0.0) S.axpy(pending, tp, dxp);
+    space.flush();
     S.unpad(ws.fdx, ws.correction);
     x += ws.correction;
     rnorm = true_residual();
-    if (checked_at >= 0) ws.ssor_residual_ratio = rnorm / std::max(checked_at, 1e-300);
+    if (space.checked_at() >= 0) ws.ssor_residual_ratio = rnorm / std::max(space.checked_at(), 1e-300);
     if (rnorm <= target || it >= settings.max_iterations) break;
-    if (breakdown || !(rnorm < 0.5 * run_start)) {
+    if (run.breakdown || !(rnorm < 0.5 * run_start)) {
       ++ws.ssor_single_fallbacks;
       PcgSettings rest_settings = settings;  // the iterations left under the cap
       rest_settings.max_iterations = settings.max_iterations - it;
@@ -262,66 +360,12 @@ PcgResult solve_pcg(const BlockMatrix& A, const VecX& b, const std::vector<char>
                                             : solve_ssor(A, fixed, settings, bnorm, x, ws);
     return result;
   }
-  // y = A x on the free nodes; with multigrid from the half of A in its compact lower copy.
-  auto multiply = [&](const VecX& v, VecX& y) {
-    if (multigrid) {
-      ws.multigrid.multiply_free(v, y);
-    } else {
-      A.multiply(v, y);
-      filter(ws.fixed_nodes, y);
-    }
-  };
-  multiply(x, ws.q);
-  ws.r = ws.b - ws.q;
-  filter(ws.fixed_nodes, ws.r);
-  ws.z.resize(3 * n);
-  const Mat3* inv = ws.inverse_diagonal.data();
-  // z = P^-1 r on free nodes; returns r . z.
-  auto precondition = [&](const VecX& r, VecX& z) {
-    if (multigrid) {
-      ws.multigrid.apply(r, z);  // zero on fixed nodes
-      return z.dot(r);
-    }
-    double rz = 0;
-    for (int i = 0; i < n; ++i) {
-      const Vec3 zi = inv[i] * r.segment<3>(3 * i);
-      z.segment<3>(3 * i) = zi;
-      rz += zi.dot(r.segment<3>(3 * i));
-    }
-    return rz;
-  };
-  double rz = precondition(ws.r, ws.z);
-  ws.p = ws.z;
-  double rnorm = ws.r.norm();
   const double target = settings.relative_tolerance * bnorm;
+  ProductSpace space(A, multigrid, target, x, ws);
+  const double rz = space.start();
   int it = 0;
-  const long size = 3L * n;
-  while (rnorm > target && it < settings.max_iterations) {
-    multiply(ws.p, ws.q);
-    const double* pq_p = ws.p.data();
-    const double* pq_q = ws.q.data();
-    const double pq = reduce(size, [&](long k) { return pq_p[k] * pq_q[k]; });
-    if (!(pq > 0.0)) break;  // loss of positive definiteness or breakdown
-    const double a = rz / pq;
-    double* xp = x.data();
-    double* rp = ws.r.data();
-    const double* pp = ws.p.data();
-    const double* qp = ws.q.data();
-    const double rr = reduce(size, [&](long k) {
-      xp[k] += a * pp[k];
-      rp[k] -= a * qp[k];
-      return rp[k] * rp[k];
-    });
-    rnorm = std::sqrt(rr);
-    ++it;
-    if (rnorm <= target) break;
-    const double rz_new = precondition(ws.r, ws.z);
-    const double beta = rz_new / rz;
-    double* pw = ws.p.data();
-    const double* zp = ws.z.data();
-    for (long k = 0; k < size; ++k) pw[k] = zp[k] + beta * pw[k];
-    rz = rz_new;
-  }
+  if (space.rnorm() > target) it = conjugate_gradient(space, rz, settings.max_iterations).iterations;
+  const double rnorm = space.rnorm();
   result.iterations = it;
   result.relative_residual = rnorm / bnorm;
   result.converged = rnorm <= target;
