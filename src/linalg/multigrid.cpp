@@ -162,44 +162,50 @@ void AggregationMultigrid::build(const BlockPattern& pattern, const std::vector<
   // constructed but uncomputed LLT's info member uninitialised, and copying it reads it.)
 }
 
-void AggregationMultigrid::build_coarse(int l, bool with_values) {
-  Level& f = *levels_[l];
-  const int n = f.n;
-  const auto& rs = f.pattern->row_start();
-  const auto& col = f.pattern->column();
-  const auto& fixed = f.fixed;
+namespace {
 
-  // Coupling weights: with values, the Frobenius norm of strong off-diagonal blocks
-  // (|A_ij| >= theta sqrt(max_k |A_ik| max_k |A_jk|)), else 1 for every coupling.
-  // Free nodes only; 0 marks no (or a weak) coupling.
-  std::vector<double> weight(f.pattern->num_blocks(), 0.0);
-  {
-    const bool values = with_values && f.A != nullptr;
-    std::vector<double> row_max(n, 0.0);
-    if (values)
-      for (int i = 0; i < n; ++i)
-        for (int s = rs[i]; s < rs[i + 1]; ++s)
-          if (col[s] != i && !fixed[col[s]])
-            row_max[i] = std::max(row_max[i], f.A->block[s].norm());
-    const double theta = settings_.strength_threshold;
-    for (int i = 0; i < n; ++i) {
-      if (fixed[i]) continue;
-      for (int s = rs[i]; s < rs[i + 1]; ++s) {
-        const int j = col[s];
-        if (j == i || fixed[j]) continue;
-        if (!values) {
-          weight[s] = 1.0;
-          continue;
-        }
-        const double a = f.A->block[s].norm();
-        if (a > 0 && a >= theta * std::sqrt(row_max[i] * row_max[j])) weight[s] = a;
+// Coupling weights of the free nodes, per block slot of `pattern`: with a matrix, the
+// Frobenius norm of the strong off-diagonal blocks (|A_ij| >= theta sqrt(max_k |A_ik|
+// max_k |A_jk|)), else 1 for every coupling. 0 marks no (or a weak) coupling.
+std::vector<double> coupling_weights(const BlockPattern& pattern, const std::vector<char>& fixed,
+                                     const BlockMatrix* A, double theta) {
+  const int n = pattern.num_nodes();
+  const auto& rs = pattern.row_start();
+  const auto& col = pattern.column();
+  std::vector<double> weight(pattern.num_blocks(), 0.0);
+  std::vector<double> row_max(n, 0.0);
+  if (A != nullptr)
+    for (int i = 0; i < n; ++i)
+      for (int s = rs[i]; s < rs[i + 1]; ++s)
+        if (col[s] != i && !fixed[col[s]]) row_max[i] = std::max(row_max[i], A->block[s].norm());
+  for (int i = 0; i < n; ++i) {
+    if (fixed[i]) continue;
+    for (int s = rs[i]; s < rs[i + 1]; ++s) {
+      const int j = col[s];
+      if (j == i || fixed[j]) continue;
+      if (A == nullptr) {
+        weight[s] = 1.0;
+        continue;
       }
+      const double a = A->block[s].norm();
+      if (a > 0 && a >= theta * std::sqrt(row_max[i] * row_max[j])) weight[s] = a;
     }
   }
+  return weight;
+}
 
-  // Aggregation. Phase 1: a free node whose free neighbours are all unassigned becomes the
-  // root of an aggregate with them.
-  std::vector<int> agg(n, -1);
+// Aggregates of the free nodes along the weighted couplings; agg[i] = -1 on fixed nodes.
+// Returns the number of aggregates. Three passes:
+//  1. a free node whose free neighbours are all unassigned becomes the root of an aggregate
+//     with them;
+//  2. leftovers join the first pass's aggregate they are most strongly coupled to;
+//  3. nodes with no aggregated neighbour start aggregates of their own.
+int aggregate(const BlockPattern& pattern, const std::vector<char>& fixed,
+              const std::vector<double>& weight, std::vector<int>& agg) {
+  const int n = pattern.num_nodes();
+  const auto& rs = pattern.row_start();
+  const auto& col = pattern.column();
+  agg.assign(n, -1);
   int nc = 0;
   for (int i = 0; i < n; ++i) {
     if (fixed[i] || agg[i] >= 0) continue;
@@ -213,14 +219,13 @@ void AggregationMultigrid::build_coarse(int l, bool with_values) {
       if (weight[s] > 0) agg[col[s]] = nc;
     ++nc;
   }
-  // Phase 2: leftovers join the phase-1 aggregate they are most strongly coupled to.
-  const std::vector<int> agg1 = agg;
+  const std::vector<int> roots = agg;
   std::vector<std::pair<int, double>> sums;  // (aggregate, coupling weight)
   for (int i = 0; i < n; ++i) {
-    if (fixed[i] || agg1[i] >= 0) continue;
+    if (fixed[i] || roots[i] >= 0) continue;
     sums.clear();
     for (int s = rs[i]; s < rs[i + 1]; ++s) {
-      const int a = agg1[col[s]];
+      const int a = roots[col[s]];
       if (a < 0 || weight[s] == 0) continue;
       auto it = std::find_if(sums.begin(), sums.end(), [&](auto& c) { return c.first == a; });
       if (it == sums.end()) sums.emplace_back(a, weight[s]); else it->second += weight[s];
@@ -231,7 +236,6 @@ void AggregationMultigrid::build_coarse(int l, bool with_values) {
       if (w > best_sum) best = a, best_sum = w;
     agg[i] = best;
   }
-  // Phase 3: nodes with no aggregated neighbour start aggregates of their own.
   for (int i = 0; i < n; ++i) {
     if (fixed[i] || agg[i] >= 0) continue;
     agg[i] = nc;
@@ -239,67 +243,58 @@ void AggregationMultigrid::build_coarse(int l, bool with_values) {
       if (weight[s] > 0 && agg[col[s]] < 0) agg[col[s]] = nc;
     ++nc;
   }
-  int free_nodes = 0;
-  for (char c : fixed) free_nodes += c ? 0 : 1;
-  if (nc == 0 || nc >= free_nodes) return;
+  return nc;
+}
 
-  // Smoothed prolongator P = (I - omega D_L^-1 L) P_tent with L the weighted graph Laplacian
-  // of the free nodes' couplings: P_iJ = (1 - omega) [agg(i) = J] + omega sum_{j in J} w_ij / sum_j w_ij.
-  const double omega = settings_.prolongator_damping;
-  f.p_start.assign(n + 1, 0);
-  f.p_col.clear();
-  f.p_w.clear();
-  std::vector<std::pair<int, double>> row;
-  for (int i = 0; i < n; ++i) {
-    row.clear();
-    if (!fixed[i]) {
-      double deg = 0;
-      for (int s = rs[i]; s < rs[i + 1]; ++s) deg += weight[s];
-      if (deg == 0 || omega == 0.0) {
-        row.emplace_back(agg[i], 1.0);
-      } else {
-        row.emplace_back(agg[i], 1.0 - omega);
-        for (int s = rs[i]; s < rs[i + 1]; ++s)
-          if (weight[s] > 0) row.emplace_back(agg[col[s]], omega * weight[s] / deg);
-        std::sort(row.begin(), row.end());
-        size_t m = 0;
-        for (size_t k = 1; k < row.size(); ++k) {
-          if (row[k].first == row[m].first) row[m].second += row[k].second;
-          else row[++m] = row[k];
-        }
-        row.resize(m + 1);
-        // Drop exact zeros (omega = 1 and no neighbour in the own aggregate).
-        row.erase(std::remove_if(row.begin(), row.end(), [](auto& e) { return e.second == 0.0; }),
-                  row.end());
-        // Drop small weights (they widen the coarse stencil for little benefit), then
-        // normalize so that the row sums to one exactly (translations are kept).
-        const double drop = settings_.prolongator_drop;
-        row.erase(std::remove_if(row.begin(), row.end(),
-                                 [&](auto& e) { return e.first != agg[i] && e.second < drop; }),
-                  row.end());
-        double sum = 0;
-        for (auto& e : row) sum += e.second;
-        for (auto& e : row) e.second /= sum;
-      }
-    }
-    for (auto [J, w] : row) {
-      f.p_col.push_back(J);
-      f.p_w.push_back(w);
-    }
-    f.p_start[i + 1] = static_cast<int>(f.p_col.size());
+// One row of the smoothed prolongator, P_iJ = (1 - omega) [agg(i) = J] + omega sum_{j in J}
+// w_ij / sum_j w_ij, for the free node i: merged by aggregate, exact zeros (omega = 1 and no
+// neighbour in the own aggregate) and weights below `drop` other than the own aggregate's
+// dropped (they widen the coarse stencil for little benefit), then normalised so that the
+// row sums to one exactly (translations are kept).
+void prolongator_row(const BlockPattern& pattern, const std::vector<double>& weight,
+                     const std::vector<int>& agg, int i, double omega, double drop,
+                     std::vector<std::pair<int, double>>& row) {
+  const auto& rs = pattern.row_start();
+  const auto& col = pattern.column();
+  row.clear();
+  double deg = 0;
+  for (int s = rs[i]; s < rs[i + 1]; ++s) deg += weight[s];
+  if (deg == 0 || omega == 0.0) {
+    row.emplace_back(agg[i], 1.0);
+    return;
   }
+  row.emplace_back(agg[i], 1.0 - omega);
+  for (int s = rs[i]; s < rs[i + 1]; ++s)
+    if (weight[s] > 0) row.emplace_back(agg[col[s]], omega * weight[s] / deg);
+  std::sort(row.begin(), row.end());
+  size_t m = 0;
+  for (size_t k = 1; k < row.size(); ++k) {
+    if (row[k].first == row[m].first) row[m].second += row[k].second;
+    else row[++m] = row[k];
+  }
+  row.resize(m + 1);
+  row.erase(std::remove_if(row.begin(), row.end(), [](auto& e) { return e.second == 0.0; }), row.end());
+  row.erase(std::remove_if(row.begin(), row.end(), [&](auto& e) { return e.first != agg[i] && e.second < drop; }),
+            row.end());
+  double sum = 0;
+  for (auto& e : row) sum += e.second;
+  for (auto& e : row) e.second /= sum;
+}
 
-  // Columns of P (for building the coarse pattern).
-  std::vector<int> pt_start(nc + 1, 0), pt_row(f.p_col.size());
-  for (int J : f.p_col) ++pt_start[J + 1];
+// The coarse pattern's couplings (I, J), I < J, for nc aggregates: coupled when some
+// P_iI A_ij P_jJ is structurally nonzero. P by rows of the fine level (p_start, p_col).
+std::vector<std::pair<int, int>> coarse_couplings(const BlockPattern& pattern, const std::vector<int>& p_start,
+                                                  const std::vector<int>& p_col, int nc) {
+  const int n = pattern.num_nodes();
+  const auto& rs = pattern.row_start();
+  const auto& col = pattern.column();
+  // The columns of P.
+  std::vector<int> pt_start(nc + 1, 0), pt_row(p_col.size());
+  for (int J : p_col) ++pt_start[J + 1];
   for (int J = 0; J < nc; ++J) pt_start[J + 1] += pt_start[J];
-  {
-    std::vector<int> fill(pt_start.begin(), pt_start.end() - 1);
-    for (int i = 0; i < n; ++i)
-      for (int k = f.p_start[i]; k < f.p_start[i + 1]; ++k) pt_row[fill[f.p_col[k]]++] = i;
-  }
-
-  // Coarse pattern: (I, J) coupled when some P_iI A_ij P_jJ is structurally nonzero.
+  std::vector<int> fill(pt_start.begin(), pt_start.end() - 1);
+  for (int i = 0; i < n; ++i)
+    for (int k = p_start[i]; k < p_start[i + 1]; ++k) pt_row[fill[p_col[k]]++] = i;
   std::vector<std::pair<int, int>> pairs;
   std::vector<int> mark(nc, -1);
   for (int I = 0; I < nc; ++I) {
@@ -307,8 +302,8 @@ void AggregationMultigrid::build_coarse(int l, bool with_values) {
       const int i = pt_row[q];
       for (int s = rs[i]; s < rs[i + 1]; ++s) {
         const int j = col[s];
-        for (int k = f.p_start[j]; k < f.p_start[j + 1]; ++k) {
-          const int J = f.p_col[k];
+        for (int k = p_start[j]; k < p_start[j + 1]; ++k) {
+          const int J = p_col[k];
           if (J > I && mark[J] != I) {
             mark[J] = I;
             pairs.emplace_back(I, J);
@@ -317,9 +312,43 @@ void AggregationMultigrid::build_coarse(int l, bool with_values) {
       }
     }
   }
+  return pairs;
+}
+
+}  // namespace
+
+void AggregationMultigrid::build_coarse(int l, bool with_values) {
+  Level& f = *levels_[l];
+  const int n = f.n;
+  const auto& fixed = f.fixed;
+  const std::vector<double> weight = coupling_weights(
+      *f.pattern, fixed, with_values ? f.A : nullptr, settings_.strength_threshold);
+  std::vector<int> agg;
+  const int nc = aggregate(*f.pattern, fixed, weight, agg);
+  int free_nodes = 0;
+  for (char c : fixed) free_nodes += c ? 0 : 1;
+  if (nc == 0 || nc >= free_nodes) return;
+
+  // Smoothed prolongator P = (I - omega D_L^-1 L) P_tent with L the weighted graph Laplacian
+  // of the free nodes' couplings, by rows (fixed nodes' rows are empty).
+  f.p_start.assign(n + 1, 0);
+  f.p_col.clear();
+  f.p_w.clear();
+  std::vector<std::pair<int, double>> row;
+  for (int i = 0; i < n; ++i) {
+    row.clear();
+    if (!fixed[i])
+      prolongator_row(*f.pattern, weight, agg, i, settings_.prolongator_damping, settings_.prolongator_drop, row);
+    for (auto [J, w] : row) {
+      f.p_col.push_back(J);
+      f.p_w.push_back(w);
+    }
+    f.p_start[i + 1] = static_cast<int>(f.p_col.size());
+  }
+
   auto c = std::make_unique<Level>();
   c->n = nc;
-  c->own_pattern = std::make_unique<BlockPattern>(nc, pairs);
+  c->own_pattern = std::make_unique<BlockPattern>(nc, coarse_couplings(*f.pattern, f.p_start, f.p_col, nc));
   c->pattern = c->own_pattern.get();
   c->A = &c->own_A;
   c->own_A.reset(*c->pattern);
@@ -330,11 +359,17 @@ void AggregationMultigrid::build_coarse(int l, bool with_values) {
       const int J = cp.column()[s];
       if (J < I) c->lower_mirror.emplace_back(s, cp.slot(J, I));
     }
+  gather_galerkin_terms(f, cp);
+  levels_.push_back(std::move(c));
+}
 
-  // Galerkin contributions, generated by fine slot and sorted by coarse slot.
+// The Galerkin product's terms, generated by fine slot and sorted by coarse slot.
+void AggregationMultigrid::gather_galerkin_terms(Level& f, const BlockPattern& cp) {
+  const auto& rs = f.pattern->row_start();
+  const auto& col = f.pattern->column();
   std::vector<int> by_slot;
   std::vector<std::pair<int, double>> entries;  // (fine slot, weight), in generation order
-  for (int i = 0; i < n; ++i) {
+  for (int i = 0; i < f.n; ++i) {
     for (int s = rs[i]; s < rs[i + 1]; ++s) {
       const int j = col[s];
       for (int a = f.p_start[i]; a < f.p_start[i + 1]; ++a) {
@@ -353,15 +388,12 @@ void AggregationMultigrid::build_coarse(int l, bool with_values) {
   for (int c = 0; c < cp.num_blocks(); ++c) f.g_start[c + 1] += f.g_start[c];
   f.g_fine.resize(entries.size());
   f.g_w.resize(entries.size());
-  {
-    std::vector<int> fill(f.g_start.begin(), f.g_start.end() - 1);
-    for (size_t k = 0; k < entries.size(); ++k) {
-      const int q = fill[by_slot[k]]++;
-      f.g_fine[q] = entries[k].first;
-      f.g_w[q] = entries[k].second;
-    }
+  std::vector<int> fill(f.g_start.begin(), f.g_start.end() - 1);
+  for (size_t k = 0; k < entries.size(); ++k) {
+    const int q = fill[by_slot[k]]++;
+    f.g_fine[q] = entries[k].first;
+    f.g_w[q] = entries[k].second;
   }
-  levels_.push_back(std::move(c));
 }
 
 void AggregationMultigrid::galerkin(int l) {

@@ -93,7 +93,10 @@ class AggregationMultigrid {
   struct Level;
   void build(const BlockPattern& pattern, const std::vector<char>& fixed,
              const MultigridSettings& settings, const BlockMatrix* A);
+  /// Adds the level below `level`: coupling weights, aggregates, the smoothed prolongator,
+  /// the coarse pattern and the Galerkin product's terms.
   void build_coarse(int level, bool with_values);
+  static void gather_galerkin_terms(Level& fine, const BlockPattern& coarse);
   void galerkin(int level);
   static void set_inverse_diagonal(Level& level);
   void vcycle(int level);
