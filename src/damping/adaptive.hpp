@@ -32,7 +32,8 @@ Vec3 membrane_required_viscosity(double area, const Vec3& tangent_moduli, const 
 
 
 /// Running statistics of positive values (min, max, mean and a median from a fine
-/// logarithmic histogram: 200 bins per decade, so the median is within 1.2%).
+/// histogram of the values' exponent and leading mantissa bits: 128 bins per octave, each
+/// at most 0.8% of its value wide).
 class LogStatistics {
  public:
   void add(double value);
@@ -41,7 +42,7 @@ class LogStatistics {
   double min() const { return count_ ? min_ : 0.0; }
   double max() const { return count_ ? max_ : 0.0; }
   double mean() const { return count_ ? sum_ / count_ : 0.0; }
-  /// Median to within half a bin: bins are 1/128 of an octave wide (0.8% relative).
+  /// Median to within half a bin (0.4% relative).
   double median() const;
 
   /// The exact contents (checkpoints): the non-empty bins as (bin, count) and the running

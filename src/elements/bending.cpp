@@ -39,19 +39,6 @@ bool make_bending_geometry(const Vec2& a, const Vec2& b, const Vec2& c, const Ve
   return true;
 }
 
-void evaluate_bending(const BendingGeometry& g, double damping, const std::array<Vec3, 4>& x,
-                      const std::array<Vec3, 4>& v, BendingResult& out) {
-  Vec3 R = Vec3::Zero(), Rd = Vec3::Zero();
-  for (int i = 0; i < 4; ++i) {
-    R += g.alpha[i] * x[i];
-    Rd += g.alpha[i] * v[i];
-  }
-  out.energy = 0.5 * g.stiffness * R.squaredNorm();
-  const Vec3 f = -(g.stiffness * R + damping * Rd);
-  for (int i = 0; i < 4; ++i) out.force.segment<3>(3 * i) = g.alpha[i] * f;
-  out.viscous_power = -damping * Rd.squaredNorm();
-}
-
 }  // namespace weft
 
 namespace weft {

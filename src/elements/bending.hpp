@@ -24,16 +24,6 @@ struct BendingGeometry {
 bool make_bending_geometry(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d,
                            double rigidity_weft_Nm, double rigidity_warp_Nm, BendingGeometry& g);
 
-struct BendingResult {
-  double energy = 0;
-  Eigen::Matrix<double, 12, 1> force;
-  double viscous_power = 0;
-};
-
-/// Forces of the element with bending viscosity `damping` (N s/m, acts on dR/dt).
-void evaluate_bending(const BendingGeometry& g, double damping, const std::array<Vec3, 4>& x,
-                      const std::array<Vec3, 4>& v, BendingResult& out);
-
 }  // namespace weft
 
 namespace weft {

@@ -187,13 +187,13 @@ ClothSystem::ClothSystem(const ClothModel& model, DampingSettings damping)
   for (const Material& mat : model.materials) {
     MaterialConstants c;
     c.material = &mat;
-    c.mu = mat.weft.modulus();
-    c.mv = mat.warp.modulus();
-    c.ms = mat.shear.modulus();
+    c.weft_modulus = mat.weft.modulus();
+    c.warp_modulus = mat.warp.modulus();
+    c.shear_modulus = mat.shear.modulus();
     c.C = mat.coupling_modulus();
-    c.tu = std::max(c.mu, 0.0);
-    c.tv = std::max(c.mv, 0.0);
-    c.ts = std::max(c.ms, 0.0);
+    c.tu = std::max(c.weft_modulus, 0.0);
+    c.tv = std::max(c.warp_modulus, 0.0);
+    c.ts = std::max(c.shear_modulus, 0.0);
     const double cmax = std::sqrt(c.tu * c.tv);
     c.tc = std::clamp(c.C, -cmax, cmax);
     c.viscosity = mat.viscosity_Ns_m;
@@ -531,7 +531,7 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
   // One material: its constants read once, before the loop; several: per triangle.
   const MaterialConstants* constants = material_constants_.data();
   const Material& mat0 = *constants[0].material;
-  const double C0 = constants[0].C, mu0 = constants[0].mu, mv0 = constants[0].mv, ms0 = constants[0].ms;
+  const MaterialConstants& c0 = constants[0];
   const double ck = out.ck, cd = out.cd;
   const auto [X, Vel, W, F, KW, blocks, q, qd, viscosity] = membrane_arrays(x, v, w, out);
   double energy = 0, power = 0;
@@ -539,8 +539,9 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
     const PackedTriangle& tr = triangles_[t];
     const MaterialConstants* k = kMixed ? &constants[tr.material] : nullptr;
     const Material& mat = kMixed ? *k->material : mat0;
-    const double C = kMixed ? k->C : C0, mu = kMixed ? k->mu : mu0, mv = kMixed ? k->mv : mv0,
-                 ms = kMixed ? k->ms : ms0;
+    const MaterialConstants& mc = kMixed ? *k : c0;
+    const double C = mc.C, weft_modulus = mc.weft_modulus, warp_modulus = mc.warp_modulus,
+                 shear_modulus = mc.shear_modulus;
     const double A = tr.area;
     const double* ru = tr.ru;
     const double* rv = tr.rv;
@@ -550,11 +551,12 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
     const double euu = 0.5 * (U[0] * U[0] + U[1] * U[1] + U[2] * U[2] - 1);
     const double evv = 0.5 * (V[0] * V[0] + V[1] * V[1] + V[2] * V[2] - 1);
     const double euv = U[0] * V[0] + U[1] * V[1] + U[2] * V[2];
-    const double suu = curve_stress<kLinear>(mat.weft, mu, euu) + C * evv;
-    const double svv = curve_stress<kLinear>(mat.warp, mv, evv) + C * euu;
-    const double suv = curve_stress<kLinear>(mat.shear, ms, euv);
-    energy += A * (curve_energy<kLinear>(mat.weft, mu, euu) + curve_energy<kLinear>(mat.warp, mv, evv) +
-                   curve_energy<kLinear>(mat.shear, ms, euv) + C * euu * evv);
+    const double suu = curve_stress<kLinear>(mat.weft, weft_modulus, euu) + C * evv;
+    const double svv = curve_stress<kLinear>(mat.warp, warp_modulus, evv) + C * euu;
+    const double suv = curve_stress<kLinear>(mat.shear, shear_modulus, euv);
+    energy += A * (curve_energy<kLinear>(mat.weft, weft_modulus, euu) +
+                   curve_energy<kLinear>(mat.warp, warp_modulus, evv) +
+                   curve_energy<kLinear>(mat.shear, shear_modulus, euv) + C * euu * evv);
     // Strain rates and viscous stresses (METHOD.md 5: s_visc = eta * strain rate).
     const double eu = viscosity[t][0], ev = viscosity[t][1], es = viscosity[t][2];
     const double r0 = U[0] * Ud[0] + U[1] * Ud[1] + U[2] * Ud[2];
@@ -574,9 +576,9 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
     if (!jacobians) continue;
 
     // Tangent moduli clamped and the stress matrix projected (semi-definite stiffness).
-    const double tu = std::max(curve_tangent<kLinear>(mat.weft, mu, euu), 0.0);
-    const double tv = std::max(curve_tangent<kLinear>(mat.warp, mv, evv), 0.0);
-    const double ts = std::max(curve_tangent<kLinear>(mat.shear, ms, euv), 0.0);
+    const double tu = std::max(curve_tangent<kLinear>(mat.weft, weft_modulus, euu), 0.0);
+    const double tv = std::max(curve_tangent<kLinear>(mat.warp, warp_modulus, evv), 0.0);
+    const double ts = std::max(curve_tangent<kLinear>(mat.shear, shear_modulus, euv), 0.0);
     const double cmax = std::sqrt(tu * tv);
     const double tc = std::clamp(C, -cmax, cmax);
     double s00 = suu, s11 = svv, s01 = suv;
@@ -728,12 +730,12 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, cons
   // One material: scalars, set once; several: four lanes, set per batch.
   using Moduli = std::conditional_t<kMixed, D4, double>;
   const MaterialConstants* constants = material_constants_.data();
-  Moduli mu{}, mv{}, ms{}, C{}, tu{}, tv{}, ts{}, tc{};
+  Moduli weft_modulus{}, warp_modulus{}, shear_modulus{}, C{}, tu{}, tv{}, ts{}, tc{};
   if constexpr (!kMixed) {
     const MaterialConstants& c = constants[0];
-    mu = c.mu;
-    mv = c.mv;
-    ms = c.ms;
+    weft_modulus = c.weft_modulus;
+    warp_modulus = c.warp_modulus;
+    shear_modulus = c.shear_modulus;
     C = c.C;
     tu = c.tu;
     tv = c.tv;
@@ -756,9 +758,9 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, cons
       const auto lanes = [&c](double MaterialConstants::*field) {
         return D4{c[0]->*field, c[1]->*field, c[2]->*field, c[3]->*field};
       };
-      mu = lanes(&MaterialConstants::mu);
-      mv = lanes(&MaterialConstants::mv);
-      ms = lanes(&MaterialConstants::ms);
+      weft_modulus = lanes(&MaterialConstants::weft_modulus);
+      warp_modulus = lanes(&MaterialConstants::warp_modulus);
+      shear_modulus = lanes(&MaterialConstants::shear_modulus);
       C = lanes(&MaterialConstants::C);
       tu = lanes(&MaterialConstants::tu);
       tv = lanes(&MaterialConstants::tv);
@@ -783,8 +785,10 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, cons
       frame[3 + c] = V[c];
     }
     const D4 euu = 0.5 * (dot3(U, U) - 1.0), evv = 0.5 * (dot3(V, V) - 1.0), euv = dot3(U, V);
-    const D4 suu = mu * euu + C * evv, svv = mv * evv + C * euu, suv = ms * euv;
-    energy += A * (0.5 * mu * euu * euu + 0.5 * mv * evv * evv + 0.5 * ms * euv * euv + C * euu * evv);
+    const D4 suu = weft_modulus * euu + C * evv, svv = warp_modulus * evv + C * euu,
+             suv = shear_modulus * euv;
+    energy += A * (0.5 * weft_modulus * euu * euu + 0.5 * warp_modulus * evv * evv +
+                   0.5 * shear_modulus * euv * euv + C * euu * evv);
     const D4 r0 = dot3(U, Ud), r1 = dot3(V, Vd), r2 = dot3(U, Vd) + dot3(V, Ud);
     const D4 sv0 = eu * r0, sv1 = ev * r1, sv2 = es * r2;
     power -= A * (sv0 * r0 + sv1 * r1 + sv2 * r2);

@@ -167,7 +167,7 @@ class ClothSystem : public System {
   /// stiffness uses them (clamped at 0, C within +-sqrt(t_u t_v)) and the viscosity.
   struct MaterialConstants {
     const Material* material;
-    double mu, mv, ms, C;
+    double weft_modulus, warp_modulus, shear_modulus, C;  ///< C: the weft-warp coupling modulus
     double tu, tv, ts, tc;
     double viscosity;
   };
