@@ -17,31 +17,13 @@ bool make_membrane_geometry(const Vec2& pa, const Vec2& pb, const Vec2& pc, Memb
   return true;
 }
 
-Mat3 MembraneJacobian::block(int p, double ck, double cd) const {
-  const auto& w = stiffness[p];
-  const auto& e = damping[p];
-  const double a = area * (ck * w[0] + cd * e[0]), b = area * (ck * w[1] + cd * e[1]);
-  const double c = area * (ck * w[2] + cd * e[2]), d = area * (ck * w[3] + cd * e[3]);
-  // a UU^T + b VV^T + c UV^T + d VU^T = (a U + d V) U^T + (b V + c U) V^T
-  const Vec3 p_u = a * U + d * V, p_v = b * V + c * U;
-  Mat3 out = p_u * U.transpose() + p_v * V.transpose();
-  out.diagonal().array() += area * ck * w[4];
-  return out;
-}
-
 void MembraneJacobian::stiffness_times(const MembraneGeometry& g, const std::array<Vec3, 3>& w,
                                        std::array<Vec3, 3>& out) const {
-  // dU = sum_j r_u,j w_j and dV = sum_j r_v,j w_j move the strains by
-  // (U.dU, V.dV, U.dV + V.dU); the force changes through the stresses (tangent moduli)
-  // and through U and V themselves (stress matrix).
-  const Vec3 dU = g.ru[0] * w[0] + g.ru[1] * w[1] + g.ru[2] * w[2];
-  const Vec3 dV = g.rv[0] * w[0] + g.rv[1] * w[1] + g.rv[2] * w[2];
-  const double a = U.dot(dU), b = V.dot(dV), c = U.dot(dV) + V.dot(dU);
-  const double du = tu * a + tc * b, dv = tv * b + tc * a, ds = ts * c;
-  const Vec3 gu = s00 * dU + s01 * dV, gv = s11 * dV + s01 * dU;
-  for (int i = 0; i < 3; ++i)
-    out[i] = -area * ((g.ru[i] * du + g.rv[i] * ds) * U + (g.rv[i] * dv + g.ru[i] * ds) * V + g.ru[i] * gu +
-                      g.rv[i] * gv);
+  const double ru[3] = {g.ru[0], g.ru[1], g.ru[2]}, rv[3] = {g.rv[0], g.rv[1], g.rv[2]};
+  double dU[3], dV[3];
+  membrane::gradient(ru, rv, [&](int k, int c) { return w[k][c]; }, dU, dV);
+  membrane::scatter_stiffness_times(moduli, area, ru, rv, U.data(), V.data(), dU, dV,
+                                    [&](int i, int c, double value) { out[i][c] = -value; });
 }
 
 void project_indefinite_2x2(double& a, double& b, double& c) {
@@ -78,74 +60,49 @@ Vec3 membrane_tangent_moduli(const Material& m, const Vec3& e) {
 void evaluate_membrane(const MembraneGeometry& g, const Material& m, const Vec3& viscosity,
                        const std::array<Vec3, 3>& x, const std::array<Vec3, 3>& v,
                        bool jacobians, bool definite, MembraneResult& out, bool expand) {
-  const Vec3 U = g.ru[0] * x[0] + g.ru[1] * x[1] + g.ru[2] * x[2];
-  const Vec3 V = g.rv[0] * x[0] + g.rv[1] * x[1] + g.rv[2] * x[2];
-  const Vec3 Ud = g.ru[0] * v[0] + g.ru[1] * v[1] + g.ru[2] * v[2];
-  const Vec3 Vd = g.rv[0] * v[0] + g.rv[1] * v[1] + g.rv[2] * v[2];
-  const double euu = 0.5 * (U.dot(U) - 1), evv = 0.5 * (V.dot(V) - 1), euv = U.dot(V);
-  out.strain = Vec3(euu, evv, euv);
-  const double C = m.coupling_modulus();
-  const double suu = m.weft.stress(euu) + C * evv;
-  const double svv = m.warp.stress(evv) + C * euu;
-  const double suv = m.shear.stress(euv);
-  out.energy = g.area * (m.weft.energy(euu) + m.warp.energy(evv) + m.shear.energy(euv) + C * euu * evv);
-
-  // Strain rates and viscous stresses (METHOD.md 5: s_visc = eta * strain rate).
-  const Vec3 rate(U.dot(Ud), V.dot(Vd), U.dot(Vd) + V.dot(Ud));
-  const Vec3 sv = viscosity.cwiseProduct(rate);
-  out.viscous_power = -g.area * sv.dot(rate);
-
-  // g_i = (r_u,i U, r_v,i V, r_u,i V + r_v,i U): gradients of the three strains.
-  const double fu = suu + sv[0], fv = svv + sv[1], fs = suv + sv[2];
-  for (int i = 0; i < 3; ++i)
-    out.force.segment<3>(3 * i) = -g.area * ((fu * g.ru[i] + fs * g.rv[i]) * U + (fv * g.rv[i] + fs * g.ru[i]) * V);
+  using namespace membrane;
+  const double ru[3] = {g.ru[0], g.ru[1], g.ru[2]}, rv[3] = {g.rv[0], g.rv[1], g.rv[2]};
+  double U[3], V[3], Ud[3], Vd[3];
+  gradient(ru, rv, [&](int k, int c) { return x[k][c]; }, U, V);
+  gradient(ru, rv, [&](int k, int c) { return v[k][c]; }, Ud, Vd);
+  const MaterialCurves curves(m);
+  const Modes<double> eta{viscosity[0], viscosity[1], viscosity[2]};
+  Forces<double> f;
+  forces(curves, g.area, eta, U, V, Ud, Vd, f);
+  out.strain = Vec3(f.strain.uu, f.strain.vv, f.strain.uv);
+  out.energy = f.energy;
+  out.viscous_power = f.viscous_power;
+  scatter_force(f, ru, rv, U, V, [&](int i, int c, double value) { out.force[3 * i + c] = -value; });
   if (!jacobians) return;
 
-  // Material tangent d s / d e: diagonal (weft, warp, shear) plus the weft-warp coupling C;
-  // geometric stress matrix S = [[s_uu, s_uv], [s_uv, s_vv]].
-  double tu = m.weft.tangent(euu), tv = m.warp.tangent(evv), ts = m.shear.tangent(euv), tc = C;
-  double s00 = suu, s11 = svv, s01 = suv;
+  Stiffness<double> k;
   if (definite) {
-    // Keep the Hessian positive semi-definite: clamp the tangent and project S onto its
-    // positive part (compressed membranes otherwise make the step matrix indefinite).
-    tu = std::max(tu, 0.0);
-    tv = std::max(tv, 0.0);
-    ts = std::max(ts, 0.0);
-    const double cmax = std::sqrt(tu * tv);
-    tc = std::clamp(tc, -cmax, cmax);
-    project_positive_2x2(s00, s11, s01);
+    k = definite_stiffness(curves, f);
+  } else {  // the exact Jacobian of the elastic force
+    curves.tangents(f.strain, k.tangent, k.coupling);
+    k.s00 = f.stress.uu;
+    k.s11 = f.stress.vv;
+    k.s01 = f.stress.uv;
   }
-  // With g as above, sum_ab T_ab g_i,a g_j,b^T expands into the four outer products
-  // UU^T, VV^T, UV^T and VU^T with scalar weights; the same holds for the viscosity.
-  const double eu = viscosity[0], ev = viscosity[1], es = viscosity[2];
   MembraneJacobian& J = out.jacobian;
-  J.U = U;
-  J.V = V;
+  J.U = Vec3(U[0], U[1], U[2]);
+  J.V = Vec3(V[0], V[1], V[2]);
   J.area = g.area;
-  J.tu = tu;
-  J.tv = tv;
-  J.ts = ts;
-  J.tc = tc;
-  J.s00 = s00;
-  J.s11 = s11;
-  J.s01 = s01;
-  for (int p = 0; p < 6; ++p) {
-    const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
-    const double uu = g.ru[i] * g.ru[j], vv = g.rv[i] * g.rv[j];
-    const double uv = g.ru[i] * g.rv[j], vu = g.rv[i] * g.ru[j];
-    J.stiffness[p] = {tu * uu + ts * vv, tv * vv + ts * uu, tc * uv + ts * vu, tc * vu + ts * uv,
-                      s00 * uu + s11 * vv + s01 * (uv + vu)};
-    J.damping[p] = {eu * uu + es * vv, ev * vv + es * uu, es * vu, es * uv};
-  }
+  J.moduli = k;
   if (!expand) return;
-  for (int p = 0; p < 6; ++p) {
-    const int i = kMembranePairs[p][0], j = kMembranePairs[p][1];
-    const Mat3 K = J.block(p, 1.0, 0.0), D = J.block(p, 0.0, 1.0);
-    out.stiffness.block<3, 3>(3 * i, 3 * j) = -K;
-    out.damping.block<3, 3>(3 * i, 3 * j) = -D;
-    out.stiffness.block<3, 3>(3 * j, 3 * i) = -K.transpose();
-    out.damping.block<3, 3>(3 * j, 3 * i) = -D.transpose();
-  }
+  // Block (i, j) of -K and of -D from the four matrices of step_matrices.
+  double mk[4][9], md[4][9];
+  step_matrices(k, eta, g.area, 1.0, 0.0, U, V, mk);
+  step_matrices(k, eta, g.area, 0.0, 1.0, U, V, md);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const double w[4] = {ru[i] * ru[j], ru[i] * rv[j], rv[i] * ru[j], rv[i] * rv[j]};
+      for (int e = 0; e < 9; ++e) {
+        const int r = e % 3, c = e / 3;
+        out.stiffness(3 * i + r, 3 * j + c) = -(w[0] * mk[0][e] + w[1] * mk[1][e] + w[2] * mk[2][e] + w[3] * mk[3][e]);
+        out.damping(3 * i + r, 3 * j + c) = -(w[0] * md[0][e] + w[1] * md[1][e] + w[2] * md[2][e] + w[3] * md[3][e]);
+      }
+    }
 }
 
 }  // namespace weft

@@ -6,6 +6,7 @@
 // A (W_uu(e_uu) + W_vv(e_vv) + W_uv(e_uv) + C e_uu e_vv).
 #include <array>
 
+#include "elements/membrane_kernel.hpp"
 #include "weft/material.hpp"
 #include "weft/types.hpp"
 
@@ -23,21 +24,14 @@ bool make_membrane_geometry(const Vec2& pa, const Vec2& pb, const Vec2& pc, Memb
 /// Vertex pairs (i, j), i <= j, of a triangle's Jacobian blocks.
 constexpr int kMembranePairs[6][2] = {{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}};
 
-/// A triangle's Jacobians in factored form. For pair p = (i, j):
-///   d f_i / d x_j = -A (k0 UU^T + k1 VV^T + k2 UV^T + k3 VU^T + k4 I),
-///   d f_i / d v_j = -A (e0 UU^T + e1 VV^T + e2 UV^T + e3 VU^T),
-/// with k = stiffness[p], e = damping[p]; block (j, i) is the transpose of block (i, j).
+/// A triangle's Jacobians in factored form: the deformation gradient's columns U, V, the
+/// rest area and the moduli the stiffness was formed from (membrane::Stiffness: material
+/// tangents, the weft-warp coupling and the stress matrix, after the projection that keeps
+/// the stiffness semi-definite when asked for).
 struct MembraneJacobian {
   Vec3 U, V;
   double area = 0;
-  std::array<std::array<double, 5>, 6> stiffness;
-  std::array<std::array<double, 4>, 6> damping;
-  /// The moduli the stiffness was formed from: material tangents (weft, warp, shear, the
-  /// weft-warp coupling) and the stress matrix [[s_uu, s_uv], [s_uv, s_vv]], after the
-  /// projection that keeps the stiffness semi-definite.
-  double tu = 0, tv = 0, ts = 0, tc = 0, s00 = 0, s11 = 0, s01 = 0;
-  /// -(ck d f_i/d x_j + cd d f_i/d v_j): block (i, j) of the step matrix contribution.
-  Mat3 block(int p, double ck, double cd) const;
+  membrane::Stiffness<double> moduli{};
   /// (K w)_i = sum_j (d f_i / d x_j) w_j for the triangle with geometry `g`, as the
   /// directional derivative of the force along w (no 3x3 blocks formed).
   void stiffness_times(const MembraneGeometry& g, const std::array<Vec3, 3>& w,
@@ -61,15 +55,6 @@ struct MembraneResult {
 void evaluate_membrane(const MembraneGeometry& g, const Material& m, const Vec3& viscosity,
                        const std::array<Vec3, 3>& x, const std::array<Vec3, 3>& v,
                        bool jacobians, bool definite, MembraneResult& out, bool expand = true);
-
-/// project_positive_2x2 for a matrix that is not positive semi-definite.
-void project_indefinite_2x2(double& a, double& b, double& c);
-
-/// Replaces the symmetric 2x2 matrix [[a, c], [c, b]] by its positive semi-definite part.
-inline void project_positive_2x2(double& a, double& b, double& c) {
-  if (a >= 0 && b >= 0 && a * b >= c * c) return;
-  project_indefinite_2x2(a, b, c);
-}
 
 /// Tangent stiffness per mode (N/m) at the given strains: (weft, warp, shear).
 Vec3 membrane_tangent_moduli(const Material& m, const Vec3& strain);

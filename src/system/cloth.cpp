@@ -187,15 +187,7 @@ ClothSystem::ClothSystem(const ClothModel& model, DampingSettings damping)
   for (const Material& mat : model.materials) {
     MaterialConstants c;
     c.material = &mat;
-    c.weft_modulus = mat.weft.modulus();
-    c.warp_modulus = mat.warp.modulus();
-    c.shear_modulus = mat.shear.modulus();
-    c.C = mat.coupling_modulus();
-    c.tu = std::max(c.weft_modulus, 0.0);
-    c.tv = std::max(c.warp_modulus, 0.0);
-    c.ts = std::max(c.shear_modulus, 0.0);
-    const double cmax = std::sqrt(c.tu * c.tv);
-    c.tc = std::clamp(c.C, -cmax, cmax);
+    c.linear = membrane::LinearCurves<double>::of(mat);
     c.viscosity = mat.viscosity_Ns_m;
     material_constants_.push_back(c);
     linear_moduli_ = linear_moduli_ && mat.weft.is_linear() && mat.warp.is_linear() && mat.shear.is_linear();
@@ -241,12 +233,10 @@ ClothSystem::ClothSystem(const ClothModel& model, DampingSettings damping)
 
 namespace {
 Vec3 membrane_strain(const MembraneGeometry& g, const VecX& x, const std::array<int, 3>& tri) {
-  Vec3 U = Vec3::Zero(), V = Vec3::Zero();
-  for (int k = 0; k < 3; ++k) {
-    U += g.ru[k] * node(x, tri[k]);
-    V += g.rv[k] * node(x, tri[k]);
-  }
-  return Vec3(0.5 * (U.dot(U) - 1), 0.5 * (V.dot(V) - 1), U.dot(V));
+  double U[3], V[3];
+  membrane::gradient(g.ru.data(), g.rv.data(), [&](int k, int c) { return x[3 * tri[k] + c]; }, U, V);
+  const membrane::Modes<double> e = membrane::green_strain(U, V);
+  return Vec3(e.uu, e.vv, e.uv);
 }
 }  // namespace
 
@@ -419,38 +409,6 @@ void ClothSystem::add_gravity_and_membranes(
 }
 
 namespace {
-// The deformation gradient's columns U = sum_k r_u,k x_k, V = sum_k r_v,k x_k and their
-// rates (the same sums of the velocities) for a triangle whose vertices start at offsets o.
-inline void deformation_gradient(const double* ru, const double* rv, const int* o, const double* X,
-                                 const double* Vel, double* U, double* V, double* Ud, double* Vd) {
-  for (int c = 0; c < 3; ++c) {
-    U[c] = ru[0] * X[o[0] + c] + ru[1] * X[o[1] + c] + ru[2] * X[o[2] + c];
-    V[c] = rv[0] * X[o[0] + c] + rv[1] * X[o[1] + c] + rv[2] * X[o[2] + c];
-    Ud[c] = ru[0] * Vel[o[0] + c] + ru[1] * Vel[o[1] + c] + ru[2] * Vel[o[2] + c];
-    Vd[c] = rv[0] * Vel[o[0] + c] + rv[1] * Vel[o[1] + c] + rv[2] * Vel[o[2] + c];
-  }
-}
-
-// A stress curve's stress, tangent and energy; a linear curve's in line (the same values as
-// StressCurve's own functions).
-template <bool kLinear>
-inline double curve_stress(const StressCurve& c, double modulus, double e) {
-  if constexpr (kLinear) return modulus * e;
-  else return c.stress(e);
-}
-template <bool kLinear>
-inline double curve_tangent(const StressCurve& c, double modulus, double e) {
-  if constexpr (kLinear) return modulus;
-  else return c.tangent(e);
-}
-template <bool kLinear>
-inline double curve_energy(const StressCurve& c, double modulus, double e) {
-  if constexpr (kLinear) return 0.5 * modulus * e * e;
-  else return c.energy(e);
-}
-}  // namespace
-
-namespace {
 // A triangle's four matrices Muu, Muv, Mvu, Mvv (below), each as column-major entries 0-3
 // (lo), 4-7 (hi) and 8; Muv and Mvu share entry 8.
 struct TriangleMatrices {
@@ -521,131 +479,75 @@ ClothSystem::MembraneArrays ClothSystem::membrane_arrays(const VecX& x, const Ve
           model_.bending_slot_q.data(), bending_slot_damping_.data(), membrane_viscosity_.data()};
 }
 
+// The four matrices of membrane::step_matrices as write_triangle_blocks takes them.
+inline TriangleMatrices triangle_matrices(const double m[4][9]) {
+  TriangleMatrices M;
+  M.uu_lo = Eigen::Array4d(m[0][0], m[0][1], m[0][2], m[0][3]);
+  M.uu_hi = Eigen::Array4d(m[0][4], m[0][5], m[0][6], m[0][7]);
+  M.uv_lo = Eigen::Array4d(m[1][0], m[1][1], m[1][2], m[1][3]);
+  M.uv_hi = Eigen::Array4d(m[1][4], m[1][5], m[1][6], m[1][7]);
+  M.vu_lo = Eigen::Array4d(m[2][0], m[2][1], m[2][2], m[2][3]);
+  M.vu_hi = Eigen::Array4d(m[2][4], m[2][5], m[2][6], m[2][7]);
+  M.vv_lo = Eigen::Array4d(m[3][0], m[3][1], m[3][2], m[3][3]);
+  M.vv_hi = Eigen::Array4d(m[3][4], m[3][5], m[3][6], m[3][7]);
+  M.uu_8 = m[0][8];
+  M.x_8 = m[1][8];  // Muv and Mvu share their last entry
+  M.vv_8 = m[3][8];
+  return M;
+}
+
 template <bool kLinear, bool kMixed>
 void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, size_t begin,
                                      size_t end, StepAssembly& out) const {
-  // evaluate_membrane and MembraneJacobian::block / stiffness_times, fused and written for
-  // the step, triangles [begin, end): the step matrix blocks come from four matrices per
-  // triangle (Muu, Muv, Mvu, Mvv, below; write_triangle_blocks) built from the moduli
-  // T = A (ck t + cd eta) and the outer products of U and V.
-  // One material: its constants read once, before the loop; several: per triangle.
+  // The membrane kernel (elements/membrane_kernel.hpp) one triangle at a time, triangles
+  // [begin, end): forces, energy, viscous power, K w and the step matrix blocks (from the
+  // four matrices of membrane::step_matrices; write_triangle_blocks). One material: its
+  // constants read once, before the loop; several: per triangle.
+  using namespace membrane;
   const MaterialConstants* constants = material_constants_.data();
-  const Material& mat0 = *constants[0].material;
-  const MaterialConstants& c0 = constants[0];
   const double ck = out.ck, cd = out.cd;
-  const auto [X, Vel, W, F, KW, blocks, q, qd, viscosity] = membrane_arrays(x, v, w, out);
+  const MembraneArrays arrays = membrane_arrays(x, v, w, out);
+  const double *X = arrays.X, *Vel = arrays.Vel, *W = arrays.W, *q = arrays.q, *qd = arrays.qd;
+  double *F = arrays.F, *KW = arrays.KW;
+  Mat3* blocks = arrays.blocks;
+  const Vec3* viscosity = arrays.viscosity;
   double energy = 0, power = 0;
   for (size_t t = begin; t < end; ++t) {
     const PackedTriangle& tr = triangles_[t];
-    const MaterialConstants* k = kMixed ? &constants[tr.material] : nullptr;
-    const Material& mat = kMixed ? *k->material : mat0;
-    const MaterialConstants& mc = kMixed ? *k : c0;
-    const double C = mc.C, weft_modulus = mc.weft_modulus, warp_modulus = mc.warp_modulus,
-                 shear_modulus = mc.shear_modulus;
+    const MaterialConstants& mc = constants[kMixed ? tr.material : 0];
     const double A = tr.area;
     const double* ru = tr.ru;
     const double* rv = tr.rv;
     const int o[3] = {3 * tr.vertex[0], 3 * tr.vertex[1], 3 * tr.vertex[2]};
     double U[3], V[3], Ud[3], Vd[3];
-    deformation_gradient(ru, rv, o, X, Vel, U, V, Ud, Vd);
-    const double euu = 0.5 * (U[0] * U[0] + U[1] * U[1] + U[2] * U[2] - 1);
-    const double evv = 0.5 * (V[0] * V[0] + V[1] * V[1] + V[2] * V[2] - 1);
-    const double euv = U[0] * V[0] + U[1] * V[1] + U[2] * V[2];
-    const double suu = curve_stress<kLinear>(mat.weft, weft_modulus, euu) + C * evv;
-    const double svv = curve_stress<kLinear>(mat.warp, warp_modulus, evv) + C * euu;
-    const double suv = curve_stress<kLinear>(mat.shear, shear_modulus, euv);
-    energy += A * (curve_energy<kLinear>(mat.weft, weft_modulus, euu) +
-                   curve_energy<kLinear>(mat.warp, warp_modulus, evv) +
-                   curve_energy<kLinear>(mat.shear, shear_modulus, euv) + C * euu * evv);
-    // Strain rates and viscous stresses (METHOD.md 5: s_visc = eta * strain rate).
-    const double eu = viscosity[t][0], ev = viscosity[t][1], es = viscosity[t][2];
-    const double r0 = U[0] * Ud[0] + U[1] * Ud[1] + U[2] * Ud[2];
-    const double r1 = V[0] * Vd[0] + V[1] * Vd[1] + V[2] * Vd[2];
-    const double r2 = U[0] * Vd[0] + U[1] * Vd[1] + U[2] * Vd[2] + V[0] * Ud[0] + V[1] * Ud[1] + V[2] * Ud[2];
-    const double sv0 = eu * r0, sv1 = ev * r1, sv2 = es * r2;
-    power -= A * (sv0 * r0 + sv1 * r1 + sv2 * r2);
-    // f_i = -A (r_u,i (fu U + fs V) + r_v,i (fs U + fv V)).
-    const double fu = A * (suu + sv0), fv = A * (svv + sv1), fs = A * (suv + sv2);
-    double force_u[3], force_v[3];
-    for (int c = 0; c < 3; ++c) {
-      force_u[c] = fu * U[c] + fs * V[c];
-      force_v[c] = fs * U[c] + fv * V[c];
-    }
-    for (int i = 0; i < 3; ++i)
-      for (int c = 0; c < 3; ++c) F[o[i] + c] -= ru[i] * force_u[c] + rv[i] * force_v[c];
-    if (!jacobians) continue;
-
-    // Tangent moduli clamped and the stress matrix projected (semi-definite stiffness).
-    const double tu = std::max(curve_tangent<kLinear>(mat.weft, weft_modulus, euu), 0.0);
-    const double tv = std::max(curve_tangent<kLinear>(mat.warp, warp_modulus, evv), 0.0);
-    const double ts = std::max(curve_tangent<kLinear>(mat.shear, shear_modulus, euv), 0.0);
-    const double cmax = std::sqrt(tu * tv);
-    const double tc = std::clamp(C, -cmax, cmax);
-    double s00 = suu, s11 = svv, s01 = suv;
-    project_positive_2x2(s00, s11, s01);
-
-    // K w: the force's derivative along w (MembraneJacobian::stiffness_times).
-    double dU[3], dV[3];
-    for (int c = 0; c < 3; ++c) {
-      dU[c] = ru[0] * W[o[0] + c] + ru[1] * W[o[1] + c] + ru[2] * W[o[2] + c];
-      dV[c] = rv[0] * W[o[0] + c] + rv[1] * W[o[1] + c] + rv[2] * W[o[2] + c];
-    }
-    const double da = U[0] * dU[0] + U[1] * dU[1] + U[2] * dU[2];
-    const double db = V[0] * dV[0] + V[1] * dV[1] + V[2] * dV[2];
-    const double dc = U[0] * dV[0] + U[1] * dV[1] + U[2] * dV[2] + V[0] * dU[0] + V[1] * dU[1] + V[2] * dU[2];
-    const double du = tu * da + tc * db, dv = tv * db + tc * da, ds = ts * dc;
-    // (K w)_i = -A (r_u,i (du U + ds V + gu) + r_v,i (ds U + dv V + gv)) with the stress
-    // matrix terms gu = s00 dU + s01 dV and gv = s11 dV + s01 dU.
-    double kw_u[3], kw_v[3];
-    for (int c = 0; c < 3; ++c) {
-      kw_u[c] = A * (du * U[c] + ds * V[c] + s00 * dU[c] + s01 * dV[c]);
-      kw_v[c] = A * (ds * U[c] + dv * V[c] + s11 * dV[c] + s01 * dU[c]);
-    }
-    for (int i = 0; i < 3; ++i)
-      for (int c = 0; c < 3; ++c) KW[o[i] + c] -= ru[i] * kw_u[c] + rv[i] * kw_v[c];
-
-    // Step matrix blocks -(ck K + cd D) of the 6 vertex pairs, (j, i) the transpose of (i, j).
-    const double Tu = A * (ck * tu + cd * eu), Tv = A * (ck * tv + cd * ev), Ts = A * (ck * ts + cd * es);
-    const double Tc = A * ck * tc, S00 = A * ck * s00, S11 = A * ck * s11, S01 = A * ck * s01;
-    // Block (i, j) is bilinear in (r_u,i, r_v,i) and (r_u,j, r_v,j):
-    //   r_u,i r_u,j Muu + r_u,i r_v,j Muv + r_v,i r_u,j Mvu + r_v,i r_v,j Mvv
-    // with four matrices per triangle built from the outer products UU^T, VV^T, UV^T, VU^T:
-    //   Muu = Tu UU^T + Ts VV^T + S00 I,   Mvv = Ts UU^T + Tv VV^T + S11 I,
-    //   Muv = Tc UV^T + Ts VU^T + S01 I,   Mvu = Ts UV^T + Tc VU^T + S01 I.
-    // A column-major block is entries 0-3, 4-7 and 8, the diagonal 0, 4 and 8.
-    using A4 = Eigen::Array4d;
-    const A4 first_entry(1.0, 0.0, 0.0, 0.0);
-    const A4 u_row_lo(U[0], U[1], U[2], U[0]), u_row_hi(U[1], U[2], U[0], U[1]);
-    const A4 v_row_lo(V[0], V[1], V[2], V[0]), v_row_hi(V[1], V[2], V[0], V[1]);
-    const A4 u_col_lo(U[0], U[0], U[0], U[1]), u_col_hi(U[1], U[1], U[2], U[2]);
-    const A4 v_col_lo(V[0], V[0], V[0], V[1]), v_col_hi(V[1], V[1], V[2], V[2]);
-    const A4 uu_lo = u_row_lo * u_col_lo, uu_hi = u_row_hi * u_col_hi;
-    const A4 vv_lo = v_row_lo * v_col_lo, vv_hi = v_row_hi * v_col_hi;
-    const A4 uv_lo = u_row_lo * v_col_lo, uv_hi = u_row_hi * v_col_hi;
-    const A4 vu_lo = v_row_lo * u_col_lo, vu_hi = v_row_hi * u_col_hi;
-    const double uu_8 = U[2] * U[2], vv_8 = V[2] * V[2], uv_8 = U[2] * V[2];
-    TriangleMatrices M;
-    M.uu_lo = Tu * uu_lo + Ts * vv_lo + S00 * first_entry;
-    M.uu_hi = Tu * uu_hi + Ts * vv_hi + S00 * first_entry;
-    M.vv_lo = Ts * uu_lo + Tv * vv_lo + S11 * first_entry;
-    M.vv_hi = Ts * uu_hi + Tv * vv_hi + S11 * first_entry;
-    M.uv_lo = Tc * uv_lo + Ts * vu_lo + S01 * first_entry;
-    M.uv_hi = Tc * uv_hi + Ts * vu_hi + S01 * first_entry;
-    M.vu_lo = Ts * uv_lo + Tc * vu_lo + S01 * first_entry;
-    M.vu_hi = Ts * uv_hi + Tc * vu_hi + S01 * first_entry;
-    M.uu_8 = Tu * uu_8 + Ts * vv_8 + S00;
-    M.vv_8 = Ts * uu_8 + Tv * vv_8 + S11;
-    M.x_8 = (Tc + Ts) * uv_8 + S01;  // Muv and Mvu share their last entry
-    write_triangle_blocks(tr, ru, rv, M, blocks, bending_only_slots_.data(), q, qd, ck, cd);
+    gradient(ru, rv, [&](int k, int c) { return X[o[k] + c]; }, U, V);
+    gradient(ru, rv, [&](int k, int c) { return Vel[o[k] + c]; }, Ud, Vd);
+    const Modes<double> eta{viscosity[t][0], viscosity[t][1], viscosity[t][2]};
+    const auto assemble = [&](const auto& curves) __attribute__((always_inline)) {
+      Forces<double> f;
+      forces(curves, A, eta, U, V, Ud, Vd, f);
+      energy += f.energy;
+      power += f.viscous_power;
+      scatter_force(f, ru, rv, U, V, [&](int i, int c, double value) { F[o[i] + c] -= value; });
+      if (!jacobians) return;
+      const Stiffness<double> k = definite_stiffness(curves, f);
+      double dU[3], dV[3];
+      gradient(ru, rv, [&](int i, int c) { return W[o[i] + c]; }, dU, dV);
+      scatter_stiffness_times(k, A, ru, rv, U, V, dU, dV, [&](int i, int c, double value) { KW[o[i] + c] -= value; });
+      double m[4][9];
+      step_matrices(k, eta, A, ck, cd, U, V, m);
+      write_triangle_blocks(tr, ru, rv, triangle_matrices(m), blocks, bending_only_slots_.data(), q, qd, ck, cd);
+    };
+    if constexpr (kLinear) assemble(mc.linear);
+    else assemble(MaterialCurves(*mc.material));
   }
   out.elastic_energy += energy;
   out.viscous_power += power;
 }
 
 namespace {
-// Four doubles, one per triangle of a batch (GCC/Clang vector extension; arithmetic with a
-// scalar operand applies it to every lane).
-typedef double D4 __attribute__((vector_size(32)));
+// Four doubles, one per triangle of a batch (membrane_kernel.hpp's Double4).
+using D4 = Double4;
 
 inline D4 splat(double a) { return D4{a, a, a, a}; }
 // Node j's three values of a vertex field y in lanes 0-2 of a D4. Lane 3 is the next
@@ -657,30 +559,6 @@ inline D4 node_values(const double* y, int j) {
   std::memcpy(&v, y + 3 * j, sizeof v);
   return v;
 }
-inline D4 dot3(const D4* a, const D4* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-
-// project_indefinite_2x2 of four lanes' [[a, c], [c, b]] (the same expressions, so the same
-// values), applied to the lanes where `keep` is false.
-template <class Mask>
-inline void project_indefinite_lanes(D4& a, D4& b, D4& c, Mask keep) {
-  const D4 zero = splat(0);
-  const D4 h = 0.5 * (a - b), mean = 0.5 * (a + b), q = h * h + c * c;
-  const D4 r = {std::sqrt(q[0]), std::sqrt(q[1]), std::sqrt(q[2]), std::sqrt(q[3])};
-  const D4 l1 = mean + r;
-  const Mask degenerate = (l1 <= 0) | ~(r > 0);
-  const Mask h_positive = h >= 0;
-  const D4 large = h_positive ? h + r : r - h;
-  const D4 small = c * c / large;
-  const D4 scale = l1 / (2 * r);
-  const D4 positive_l1 = l1 < 0 ? zero : l1;  // std::max(l1, 0.0)
-  const D4 pa = degenerate ? positive_l1 : scale * (h_positive ? large : small);
-  const D4 pb = degenerate ? positive_l1 : scale * (h_positive ? small : large);
-  const D4 pc = degenerate ? zero : scale * c;
-  a = keep ? a : pa;
-  b = keep ? b : pb;
-  c = keep ? c : pc;
-}
-
 // A batch of four triangles: lane l of each D4 is triangle tr[l]'s area and shape-function
 // gradients r_u, r_v; o[k][l] the offset of its vertex k.
 struct TriangleBatch {
@@ -699,19 +577,16 @@ struct TriangleBatch {
   /// deformation gradient, velocities its rate). Always inlined: an out-of-line copy would be
   /// compiled for the baseline instruction set, not for the kernel's clone.
   __attribute__((always_inline)) void gradient(const double* y, D4* U, D4* V) const {
-    for (int c = 0; c < 3; ++c) {
-      const D4 y0 = gather(y, 0, c), y1 = gather(y, 1, c), y2 = gather(y, 2, c);
-      U[c] = ru[0] * y0 + ru[1] * y1 + ru[2] * y2;
-      V[c] = rv[0] * y0 + rv[1] * y1 + rv[2] * y2;
-    }
+    membrane::gradient(ru, rv, [&](int k, int c) __attribute__((always_inline)) { return gather(y, k, c); }, U, V);
   }
   /// Component c of the batch's k-th vertices in a vertex field y.
   __attribute__((always_inline)) D4 gather(const double* y, int k, int c) const {
     return D4{y[o[k][0] + c], y[o[k][1] + c], y[o[k][2] + c], y[o[k][3] + c]};
   }
-  /// The viscosities of the four triangles, mode m (weft, warp, shear).
-  static D4 viscosity(const Vec3* eta, size_t t0, int m) {
-    return D4{eta[t0][m], eta[t0 + 1][m], eta[t0 + 2][m], eta[t0 + 3][m]};
+  /// The viscosities of the four triangles per mode (weft, warp, shear).
+  static membrane::Modes<D4> viscosity(const Vec3* eta, size_t t0) {
+    const auto mode = [&](int m) { return D4{eta[t0][m], eta[t0 + 1][m], eta[t0 + 2][m], eta[t0 + 3][m]}; };
+    return {mode(0), mode(1), mode(2)};
   }
 };
 }  // namespace
@@ -719,60 +594,49 @@ struct TriangleBatch {
 template <bool kMixed>
 WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t end,
                                                              StepAssembly& out) const {
-  // assemble_membranes<true> with the element arithmetic of four triangles at a time, lane l
+  // assemble_membranes<true> with the membrane kernel run on four triangles at a time, lane l
   // of every D4 belonging to triangle t + l: the same expressions, so the same values. The
   // results go through a small per-batch table (the four matrices then transposed to one
   // row of entries per triangle) to the scalar scatter (forces, K w) and the block writer,
   // which take the triangles in order (the first writer of each block slot is unchanged).
   // The batch's U and V are kept in out.element_data for step_viscous_power.
   // Linear curves: the tangent moduli are the moduli (clamped), the same for every triangle
-  // of a material; with several materials each lane takes its triangle's.
-  // One material: scalars, set once; several: four lanes, set per batch.
+  // of a material. One material: scalars, set once; several: four lanes, set per batch.
+  using namespace membrane;
   using Moduli = std::conditional_t<kMixed, D4, double>;
   const MaterialConstants* constants = material_constants_.data();
-  Moduli weft_modulus{}, warp_modulus{}, shear_modulus{}, C{}, tu{}, tv{}, ts{}, tc{};
-  if constexpr (!kMixed) {
-    const MaterialConstants& c = constants[0];
-    weft_modulus = c.weft_modulus;
-    warp_modulus = c.warp_modulus;
-    shear_modulus = c.shear_modulus;
-    C = c.C;
-    tu = c.tu;
-    tv = c.tv;
-    ts = c.ts;
-    tc = c.tc;
-  }
+  LinearCurves<Moduli> curves{};
+  if constexpr (!kMixed) curves = constants[0].linear;
   const double ck = out.ck, cd = out.cd;
-  const auto [X, Vel, W, F, KW, blocks, q, qd, viscosity] = membrane_arrays(x, v, w, out);
+  const MembraneArrays arrays = membrane_arrays(x, v, w, out);
+  const double *X = arrays.X, *Vel = arrays.Vel, *W = arrays.W, *q = arrays.q, *qd = arrays.qd;
+  double *F = arrays.F, *KW = arrays.KW;
+  Mat3* blocks = arrays.blocks;
+  const Vec3* viscosity = arrays.viscosity;
   D4 energy = splat(0), power = splat(0);
   // Per batch: force and K w per vertex and component (9 + 9) and the four matrices' 9
   // entries each (Muu, Muv, Mvu, Mvv), lane by lane (a row per quantity, a lane per triangle).
   enum { kForce = 0, kStiffness = 9, kMatrices = 18, kRows = 54 };
   alignas(32) double table[kRows][4];
+  const auto row = [&table](int k) __attribute__((always_inline)) -> D4& { return *reinterpret_cast<D4*>(table[k]); };
   for (size_t t0 = 0; t0 < end; t0 += 4) {
     const PackedTriangle* tr[4] = {&triangles_[t0], &triangles_[t0 + 1], &triangles_[t0 + 2], &triangles_[t0 + 3]};
     const TriangleBatch batch(tr);
     if constexpr (kMixed) {
-      const MaterialConstants* c[4] = {&constants[tr[0]->material], &constants[tr[1]->material],
-                                       &constants[tr[2]->material], &constants[tr[3]->material]};
-      const auto lanes = [&c](double MaterialConstants::*field) {
+      const LinearCurves<double>* c[4] = {&constants[tr[0]->material].linear, &constants[tr[1]->material].linear,
+                                          &constants[tr[2]->material].linear, &constants[tr[3]->material].linear};
+      const auto lanes = [&c](double LinearCurves<double>::*field) {
         return D4{c[0]->*field, c[1]->*field, c[2]->*field, c[3]->*field};
       };
-      weft_modulus = lanes(&MaterialConstants::weft_modulus);
-      warp_modulus = lanes(&MaterialConstants::warp_modulus);
-      shear_modulus = lanes(&MaterialConstants::shear_modulus);
-      C = lanes(&MaterialConstants::C);
-      tu = lanes(&MaterialConstants::tu);
-      tv = lanes(&MaterialConstants::tv);
-      ts = lanes(&MaterialConstants::ts);
-      tc = lanes(&MaterialConstants::tc);
+      using L = LinearCurves<double>;
+      curves = {lanes(&L::weft),       lanes(&L::warp),       lanes(&L::shear),      lanes(&L::coupling),
+                lanes(&L::tangent_uu), lanes(&L::tangent_vv), lanes(&L::tangent_uv), lanes(&L::tangent_coupling)};
     }
     const D4& A = batch.A;
     const D4* ru = batch.ru;
     const D4* rv = batch.rv;
     const auto& o = batch.o;
-    const D4 eu = TriangleBatch::viscosity(viscosity, t0, 0), ev = TriangleBatch::viscosity(viscosity, t0, 1),
-             es = TriangleBatch::viscosity(viscosity, t0, 2);
+    const Modes<D4> eta = TriangleBatch::viscosity(viscosity, t0);
     // Deformation gradient, its rate and its change along w.
     D4 U[3], V[3], Ud[3], Vd[3], dU[3], dV[3];
     batch.gradient(X, U, V);
@@ -784,50 +648,21 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, cons
       frame[c] = U[c];
       frame[3 + c] = V[c];
     }
-    const D4 euu = 0.5 * (dot3(U, U) - 1.0), evv = 0.5 * (dot3(V, V) - 1.0), euv = dot3(U, V);
-    const D4 suu = weft_modulus * euu + C * evv, svv = warp_modulus * evv + C * euu,
-             suv = shear_modulus * euv;
-    energy += A * (0.5 * weft_modulus * euu * euu + 0.5 * warp_modulus * evv * evv +
-                   0.5 * shear_modulus * euv * euv + C * euu * evv);
-    const D4 r0 = dot3(U, Ud), r1 = dot3(V, Vd), r2 = dot3(U, Vd) + dot3(V, Ud);
-    const D4 sv0 = eu * r0, sv1 = ev * r1, sv2 = es * r2;
-    power -= A * (sv0 * r0 + sv1 * r1 + sv2 * r2);
-    const D4 fu = A * (suu + sv0), fv = A * (svv + sv1), fs = A * (suv + sv2);
-    // The stress matrix projected to its positive semi-definite part in the lanes where it
-    // is not already.
-    D4 s00 = suu, s11 = svv, s01 = suv;
-    const auto psd = (s00 >= 0) & (s11 >= 0) & (s00 * s11 >= s01 * s01);
-    if (!(psd[0] & psd[1] & psd[2] & psd[3])) project_indefinite_lanes(s00, s11, s01, psd);
-    const D4 da = dot3(U, dU), db = dot3(V, dV), dc = dot3(U, dV) + dot3(V, dU);
-    const D4 du = tu * da + tc * db, dv = tv * db + tc * da, ds = ts * dc;
-    for (int c = 0; c < 3; ++c) {
-      const D4 force_u = fu * U[c] + fs * V[c], force_v = fs * U[c] + fv * V[c];
-      const D4 kw_u = A * (du * U[c] + ds * V[c] + s00 * dU[c] + s01 * dV[c]);
-      const D4 kw_v = A * (ds * U[c] + dv * V[c] + s11 * dV[c] + s01 * dU[c]);
-      for (int i = 0; i < 3; ++i) {
-        *reinterpret_cast<D4*>(table[kForce + 3 * i + c]) = ru[i] * force_u + rv[i] * force_v;
-        *reinterpret_cast<D4*>(table[kStiffness + 3 * i + c]) = ru[i] * kw_u + rv[i] * kw_v;
-      }
-    }
-    // The four matrices of write_triangle_blocks, entry (r, c) at 3 c + r.
-    const D4 Tu = A * (ck * tu + cd * eu), Tv = A * (ck * tv + cd * ev), Ts = A * (ck * ts + cd * es);
-    const D4 Tc = A * (ck * tc), S00 = A * ck * s00, S11 = A * ck * s11, S01 = A * ck * s01;
-    for (int c = 0; c < 3; ++c)
-      for (int r = 0; r < 3; ++r) {
-        const D4 uu = U[r] * U[c], vv = V[r] * V[c], uv = U[r] * V[c], vu = V[r] * U[c];
-        D4 muu = Tu * uu + Ts * vv, mvv = Ts * uu + Tv * vv, muv = Tc * uv + Ts * vu, mvu = Ts * uv + Tc * vu;
-        if (r == c) {
-          muu += S00;
-          mvv += S11;
-          muv += S01;
-          mvu += S01;
-        }
-        const int e = 3 * c + r;
-        *reinterpret_cast<D4*>(table[kMatrices + e]) = muu;
-        *reinterpret_cast<D4*>(table[kMatrices + 9 + e]) = muv;
-        *reinterpret_cast<D4*>(table[kMatrices + 18 + e]) = mvu;
-        *reinterpret_cast<D4*>(table[kMatrices + 27 + e]) = mvv;
-      }
+    Forces<D4> f;
+    forces(curves, A, eta, U, V, Ud, Vd, f);
+    energy += f.energy;
+    power += f.viscous_power;
+    const Stiffness<D4> k = definite_stiffness(curves, f);
+    scatter_force(f, ru, rv, U, V, [&](int i, int c, D4 value) __attribute__((always_inline)) {
+      row(kForce + 3 * i + c) = value;
+    });
+    scatter_stiffness_times(k, A, ru, rv, U, V, dU, dV, [&](int i, int c, D4 value) __attribute__((always_inline)) {
+      row(kStiffness + 3 * i + c) = value;
+    });
+    D4 m[4][9];
+    step_matrices(k, eta, A, ck, cd, U, V, m);
+    for (int mm = 0; mm < 4; ++mm)
+      for (int e = 0; e < 9; ++e) row(kMatrices + 9 * mm + e) = m[mm][e];
     // The four matrices' first eight entries by triangle (4x4 transposes of the table's rows):
     // lane l's Muu, Muv, Mvu, Mvv entries 0-3 and 4-7 in TriangleMatrices' order.
     alignas(32) double lanes[4][8][4];
@@ -1004,24 +839,19 @@ WEFT_HOT_KERNEL double ClothSystem::viscous_power_with(const VecX& x, const VecX
       batch.gradient(X, U, V);
     }
     batch.gradient(Vel, Ud, Vd);
-    const D4 r0 = dot3(U, Ud), r1 = dot3(V, Vd), r2 = dot3(U, Vd) + dot3(V, Ud);
-    const Vec3* eta = membrane_viscosity_.data();
-    power4 -= batch.A * (TriangleBatch::viscosity(eta, t0, 0) * r0 * r0 + TriangleBatch::viscosity(eta, t0, 1) * r1 * r1 +
-                         TriangleBatch::viscosity(eta, t0, 2) * r2 * r2);
+    power4 += membrane::viscous_power(batch.A, TriangleBatch::viscosity(membrane_viscosity_.data(), t0),
+                                      membrane::strain_rate(U, V, Ud, Vd));
   }
   double power = (power4[0] + power4[1]) + (power4[2] + power4[3]);
   for (size_t t = batched; t < count; ++t) {
     const PackedTriangle& tr = triangles_[t];
-    const double* ru = tr.ru;
-    const double* rv = tr.rv;
     const int o[3] = {3 * tr.vertex[0], 3 * tr.vertex[1], 3 * tr.vertex[2]};
     double U[3], V[3], Ud[3], Vd[3];
-    deformation_gradient(ru, rv, o, X, Vel, U, V, Ud, Vd);
-    const double r0 = U[0] * Ud[0] + U[1] * Ud[1] + U[2] * Ud[2];
-    const double r1 = V[0] * Vd[0] + V[1] * Vd[1] + V[2] * Vd[2];
-    const double r2 = U[0] * Vd[0] + U[1] * Vd[1] + U[2] * Vd[2] + V[0] * Ud[0] + V[1] * Ud[1] + V[2] * Ud[2];
+    membrane::gradient(tr.ru, tr.rv, [&](int k, int c) { return X[o[k] + c]; }, U, V);
+    membrane::gradient(tr.ru, tr.rv, [&](int k, int c) { return Vel[o[k] + c]; }, Ud, Vd);
     const Vec3& eta = membrane_viscosity_[t];
-    power -= tr.area * (eta[0] * r0 * r0 + eta[1] * r1 * r1 + eta[2] * r2 * r2);
+    power += membrane::viscous_power(tr.area, membrane::Modes<double>{eta[0], eta[1], eta[2]},
+                                     membrane::strain_rate(U, V, Ud, Vd));
   }
   if (model_.bending.empty()) return power;
   const auto& rs = model_.pattern.row_start();

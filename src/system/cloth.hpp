@@ -8,6 +8,7 @@
 #include "damping/adaptive.hpp"
 #include "elements/bending.hpp"
 #include "elements/membrane.hpp"
+#include "elements/membrane_kernel.hpp"
 #include "elements/plate_bending.hpp"
 #include "mesh/mesh.hpp"
 #include "system/system.hpp"
@@ -162,13 +163,11 @@ class ClothSystem : public System {
     double ru[3], rv[3];
     double area;
   };
-  /// Per material: the moduli of linear curves (weft, warp, shear: their modulus, for the
-  /// one-material and linear paths), the weft-warp coupling C, the tangents as the step's
-  /// stiffness uses them (clamped at 0, C within +-sqrt(t_u t_v)) and the viscosity.
+  /// Per material: its curves' moduli and the tangents the step's stiffness uses, for the
+  /// linear paths (membrane::LinearCurves), and its viscosity.
   struct MaterialConstants {
     const Material* material;
-    double weft_modulus, warp_modulus, shear_modulus, C;  ///< C: the weft-warp coupling modulus
-    double tu, tv, ts, tc;
+    membrane::LinearCurves<double> linear;
     double viscosity;
   };
   /// The membranes' part of assemble_step: energies, forces, K w and the step matrix blocks
