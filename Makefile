@@ -2,7 +2,7 @@
 BUILD ?= build
 JOBS ?= $(shell nproc)
 PACKAGES := cmake ninja-build g++ libeigen3-dev nlohmann-json3-dev libcli11-dev \
-            libgtest-dev libbenchmark-dev libpng-dev gnuplot-nox ffmpeg \
+            libgtest-dev libbenchmark-dev libpng-dev libtbb-dev gnuplot-nox ffmpeg \
             clang libclang-rt-14-dev libcpp-httplib-dev pkg-config chromium \
             python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest
 

@@ -5,6 +5,7 @@
 
 #include "command.hpp"
 #include "weft/error.hpp"
+#include "weft/threads.hpp"
 
 namespace weft::app {
 std::vector<CommandSpec>& command_registry() {
@@ -24,6 +25,12 @@ int main(int argc, char** argv) {
       "found intersections, 130 interrupted (Ctrl-C; `weft run` keeps a checkpoint to resume from)."};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("weft ") + WEFT_VERSION);
+  int threads = 0;
+  app.add_option("--threads", threads,
+                 "Threads for the parallel parts of a step (0: every core, the default); the results are "
+                 "the same bits at every count. May also follow the subcommand")
+      ->check(CLI::Range(0, 4096));
+  app.fallthrough();  // `weft run --threads 1 ...` as well as `weft --threads 1 run ...`
 
   auto specs = command_registry();
   std::stable_sort(specs.begin(), specs.end(),
@@ -54,6 +61,7 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : kExitBadInput;
   }
   try {
+    weft::set_thread_count(threads);
     return action ? action() : kExitOk;
   } catch (const weft::InputError& e) {
     std::cerr << "weft: error: " << e.what() << "\n";

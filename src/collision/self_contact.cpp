@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "collision/geometry.hpp"
+#include "sim/threads.hpp"
 
 namespace weft {
 
@@ -104,29 +105,48 @@ void SelfContacts::for_each_candidate(const VecX& xa, const VecX& xb, double mar
     eb[e].add(vb[edges_[e][1]].lo);
     eb[e].add(vb[edges_[e][1]].hi);
   }
+  // The pairs of owner triangles whose boxes overlap, in the tree's order.
+  triangle_pairs_.clear();
   tree_.for_each_self_pair([&](int g, int h) {
     const auto& tg = triangles_[g];
     const auto& th = triangles_[h];
     if (only_changed && !(changed_[tg[0]] || changed_[tg[1]] || changed_[tg[2]] || changed_[th[0]] ||
                           changed_[th[1]] || changed_[th[2]]))
       return;  // the same trajectories as at the last detection
-    for (int pass = 0; pass < 2; ++pass) {
-      const int a = pass ? h : g, b = pass ? g : h;
-      for (int v : owned_vertices_[a])
-        if (!holds(triangles_[b], v) && vb[v].overlaps(tree_.triangle_box(b))) vertex_face(v, b);
-    }
-    for (int e : owned_edges_[g]) {
-      const auto& p = edges_[e];
-      const Box& be = eb[e];
-      if (!be.overlaps(tree_.triangle_box(h))) continue;
-      for (int e2 : owned_edges_[h]) {
-        const auto& q = edges_[e2];
-        const int p0 = group_[p[0]], p1 = group_[p[1]], q0 = group_[q[0]], q1 = group_[q[1]];
-        if (p0 == q0 || p0 == q1 || p1 == q0 || p1 == q1) continue;
-        if (be.overlaps(eb[e2])) edge_edge(e, e2);
+    triangle_pairs_.push_back({g, h});
+  });
+  // Their primitives' pairs, tested in chunks of triangle pairs on every thread; each chunk
+  // keeps what it finds, and the chunks are joined in order: pairs_ holds the same pairs in
+  // the same order whatever the number of threads.
+  const size_t count = triangle_pairs_.size();
+  const size_t chunks = (count + kCandidateChunk - 1) / kCandidateChunk;
+  if (chunk_pairs_.size() < chunks) chunk_pairs_.resize(chunks);
+  parallel_chunks(chunks, [&](size_t k) {
+    std::vector<Stencil>& out = chunk_pairs_[k];
+    out.clear();
+    Stencil s;
+    for (size_t c = k * kCandidateChunk, end = std::min(count, c + kCandidateChunk); c < end; ++c) {
+      const int g = triangle_pairs_[c][0], h = triangle_pairs_[c][1];
+      for (int pass = 0; pass < 2; ++pass) {
+        const int a = pass ? h : g, b = pass ? g : h;
+        for (int v : owned_vertices_[a])
+          if (!holds(triangles_[b], v) && vb[v].overlaps(tree_.triangle_box(b)) && vertex_face(v, b, s))
+            out.push_back(s);
+      }
+      for (int e : owned_edges_[g]) {
+        const auto& p = edges_[e];
+        const Box& be = eb[e];
+        if (!be.overlaps(tree_.triangle_box(h))) continue;
+        for (int e2 : owned_edges_[h]) {
+          const auto& q = edges_[e2];
+          const int p0 = group_[p[0]], p1 = group_[p[1]], q0 = group_[q[0]], q1 = group_[q[1]];
+          if (p0 == q0 || p0 == q1 || p1 == q0 || p1 == q1) continue;
+          if (be.overlaps(eb[e2]) && edge_edge(e, e2, s)) out.push_back(s);
+        }
       }
     }
   });
+  for (size_t k = 0; k < chunks; ++k) pairs_.insert(pairs_.end(), chunk_pairs_[k].begin(), chunk_pairs_[k].end());
 }
 
 void SelfContacts::find_proximities(const VecX& x0) {
@@ -135,11 +155,11 @@ void SelfContacts::find_proximities(const VecX& x0) {
   tree_.refit(x0.data(), 0.5 * h);
   for_each_candidate(
       x0, x0, 0.5 * h, false,
-      [&](int v, int f) {
+      [&](int v, int f, Stencil& s) {
         const auto& t = triangles_[f];
         const PointTriangleClosest c = closest_point_triangle(node(x0, v), node(x0, t[0]), node(x0, t[1]), node(x0, t[2]));
-        if (c.distance >= h) return;
-        Stencil s;
+        if (c.distance >= h) return false;
+        s = Stencil{};
         s.node = {v, t[0], t[1], t[2]};
         s.weight = {1, -c.weights[0], -c.weights[1], -c.weights[2]};
         s.vertex_face = true;
@@ -149,17 +169,17 @@ void SelfContacts::find_proximities(const VecX& x0) {
           s.normal = (node(x0, v) - c.point) / c.distance;
         } else {
           const Vec3 face = (node(x0, t[1]) - node(x0, t[0])).cross(node(x0, t[2]) - node(x0, t[0]));
-          if (!degenerate_normal(face, relative_velocity(s), s.normal)) return;
+          if (!degenerate_normal(face, relative_velocity(s), s.normal)) return false;
         }
-        pairs_.push_back(s);
+        return true;
       },
-      [&](int e, int e2) {
+      [&](int e, int e2, Stencil& s) {
         const auto& p = edges_[e];
         const auto& q = edges_[e2];
         const SegmentSegmentClosest c =
             closest_points_segments(node(x0, p[0]), node(x0, p[1]), node(x0, q[0]), node(x0, q[1]));
-        if (c.distance >= h) return;
-        Stencil s;
+        if (c.distance >= h) return false;
+        s = Stencil{};
         s.node = {p[0], p[1], q[0], q[1]};
         s.weight = {1 - c.s, c.s, -(1 - c.t), -c.t};
         s.gap = c.distance;
@@ -168,9 +188,9 @@ void SelfContacts::find_proximities(const VecX& x0) {
           s.normal = (c.point_p - c.point_q) / c.distance;
         } else {
           const Vec3 common = (node(x0, p[1]) - node(x0, p[0])).cross(node(x0, q[1]) - node(x0, q[0]));
-          if (!degenerate_normal(common, relative_velocity(s), s.normal)) return;
+          if (!degenerate_normal(common, relative_velocity(s), s.normal)) return false;
         }
-        pairs_.push_back(s);
+        return true;
       });
 }
 
@@ -256,11 +276,11 @@ size_t SelfContacts::find_collisions(const VecX& x0, double dt, bool skip_zones)
   };
   for_each_candidate(
       x0, x1, 0.5 * delta, true,
-      [&](int v, int f) {
+      [&](int v, int f, Stencil& s) {
         const auto& t = triangles_[f];
-        Stencil s;
+        s = Stencil{};
         s.node = {v, t[0], t[1], t[2]};
-        if (same_zone(s.node)) return;
+        if (same_zone(s.node)) return false;
         const auto hit = hit_time(
             [&](double d) {
               return vertex_face_ccd(node(x0, v), node(x1, v), node(x0, t[0]), node(x1, t[0]), node(x0, t[1]),
@@ -269,20 +289,20 @@ size_t SelfContacts::find_collisions(const VecX& x0, double dt, bool skip_zones)
             [&] {
               return closest_point_triangle(node(x0, v), node(x0, t[0]), node(x0, t[1]), node(x0, t[2])).distance;
             });
-        if (!hit) return;
+        if (!hit) return false;
         const double th = hit->first;
         const Vec3 a = at(t[0], th), b = at(t[1], th), c = at(t[2], th), p = at(v, th);
         const PointTriangleClosest cl = closest_point_triangle(p, a, b, c);
         s.weight = {1, -cl.weights[0], -cl.weights[1], -cl.weights[2]};
         s.distance = hit->second;
-        if (finish(s, p - cl.point, cl.distance, (b - a).cross(c - a))) pairs_.push_back(s);
+        return finish(s, p - cl.point, cl.distance, (b - a).cross(c - a));
       },
-      [&](int e, int e2) {
+      [&](int e, int e2, Stencil& s) {
         const auto& p = edges_[e];
         const auto& q = edges_[e2];
-        Stencil s;
+        s = Stencil{};
         s.node = {p[0], p[1], q[0], q[1]};
-        if (same_zone(s.node)) return;
+        if (same_zone(s.node)) return false;
         const auto hit = hit_time(
             [&](double d) {
               return edge_edge_ccd(node(x0, p[0]), node(x1, p[0]), node(x0, p[1]), node(x1, p[1]), node(x0, q[0]),
@@ -291,13 +311,13 @@ size_t SelfContacts::find_collisions(const VecX& x0, double dt, bool skip_zones)
             [&] {
               return closest_points_segments(node(x0, p[0]), node(x0, p[1]), node(x0, q[0]), node(x0, q[1])).distance;
             });
-        if (!hit) return;
+        if (!hit) return false;
         const double th = hit->first;
         const Vec3 p0 = at(p[0], th), p1 = at(p[1], th), q0 = at(q[0], th), q1 = at(q[1], th);
         const SegmentSegmentClosest cl = closest_points_segments(p0, p1, q0, q1);
         s.weight = {1 - cl.s, cl.s, -(1 - cl.t), -cl.t};
         s.distance = hit->second;
-        if (finish(s, cl.point_p - cl.point_q, cl.distance, (p1 - p0).cross(q1 - q0))) pairs_.push_back(s);
+        return finish(s, cl.point_p - cl.point_q, cl.distance, (p1 - p0).cross(q1 - q0));
       });
   std::fill(changed_.begin(), changed_.end(), 0);
   return pairs_.size();

@@ -101,9 +101,12 @@ class SelfContacts : public ContactHandler {
   };
 
  private:
-  /// Calls vertex_face(v, f) and edge_edge(e, e2) for the pairs of primitives sharing no node
-  /// whose boxes (holding them at xa and xb, grown by `margin`) overlap, the tree refitted the
-  /// same way; `only_changed`: only pairs with a node whose u changed since the last detection.
+  /// Calls vertex_face(v, f, s) and edge_edge(e, e2, s) for the pairs of primitives sharing no
+  /// node whose boxes (holding them at xa and xb, grown by `margin`) overlap, the tree
+  /// refitted the same way, and appends to pairs_ the stencils s of the calls that return
+  /// true, in the tree's order; `only_changed`: only pairs with a node whose u changed since
+  /// the last detection. The calls run on several threads (sim/threads.hpp) and must only
+  /// read shared state.
   template <class VertexFace, class EdgeEdge>
   void for_each_candidate(const VecX& xa, const VecX& xb, double margin, bool only_changed, VertexFace&& vertex_face,
                           EdgeEdge&& edge_edge);
@@ -120,6 +123,11 @@ class SelfContacts : public ContactHandler {
   void merge(int a, int b);
   /// Gives every zone that grew its rigid motion (or stops it: `stop`, a pinned node).
   void rigidify_zones(const VecX& x0, double dt, bool stop);
+
+  /// Triangle pairs per chunk of for_each_candidate's parallel loop.
+  static constexpr size_t kCandidateChunk = 64;
+  std::vector<std::array<int, 2>> triangle_pairs_;  ///< for_each_candidate's owner pairs
+  std::vector<std::vector<Stencil>> chunk_pairs_;    ///< and what each chunk found
 
   std::vector<std::array<int, 3>> triangles_;
   std::vector<std::array<int, 2>> edges_;
