@@ -50,7 +50,7 @@ TEST(JerseyMaterial, FileIsThePresetAndItsCurvesPassThroughItsTable) {
   for (int i = 0; i <= 600; ++i) {
     const double e = 0.001 * i;
     EXPECT_NEAR(m.shear.stress(e), 0.5 * m.weft.stress(e), 1e-12 * (1 + m.weft.stress(e))) << e;
-    EXPECT_DOUBLE_EQ(m.shear.stress(-e), -m.shear.stress(e)) << e;
+    EXPECT_NEAR(m.shear.stress(-e), -m.shear.stress(e), 1e-12 * (1 + m.shear.stress(e))) << e;
     EXPECT_DOUBLE_EQ(m.warp.stress(e), m.weft.stress(e)) << e;
   }
   // The paper's figure 7: about 90 N/m at 40% strain.
