@@ -71,10 +71,12 @@ TEST(NewtonStep, SolvesTheStepsNonlinearEquationsWhereTheLinearisedStepDoesNot) 
   }
 }
 
-TEST(NewtonStep, MidpointKeepsTheSpinningSpringsEnergyThatTheLinearisedStepInflates) {
-  // The undamped linearised Implicit Midpoint step more than doubles the energy of the stiff
-  // spinning spring within 200 steps (tests/integrate/test_guarded_midpoint.cpp); solved to
-  // convergence, the midpoint rule keeps it bounded near its start.
+TEST(NewtonStep, MidpointKeepsTheSpinningSpringsEnergyBoundedWhereTheLinearisedStepInflatesIt) {
+  // The undamped linearised Implicit Midpoint step raises the stiff spinning spring's energy by
+  // more than half within 200 steps (tests/integrate/test_guarded_midpoint.cpp). Solved to
+  // convergence, the midpoint rule excites the spring's stiff stretching mode at the first steps
+  // but puts no energy in after that: over ten times as many steps the energy stays in a band
+  // below that rise, and above a tenth under the start (nothing dissipates it either).
   const double k = 1e6, dt = 0.02;
   SpringSystem sys(VecX::Constant(1, 1.0), {Spring{0, -1, k, 1.0, 0.0}});
   State s = spinning_spring_state(k, 5.0);
@@ -82,13 +84,14 @@ TEST(NewtonStep, MidpointKeepsTheSpinningSpringsEnergyThatTheLinearisedStepInfla
   StepStatistics st;
   const double e0 = mechanical_energy(sys, s);
   double lowest = e0, highest = e0;
-  for (int n = 0; n < 200; ++n) {
+  for (int n = 0; n < 2000; ++n) {
     in.step(s, dt, st);
     const double e = mechanical_energy(sys, s);
     lowest = std::min(lowest, e);
     highest = std::max(highest, e);
   }
-  EXPECT_LT(highest, 1.1 * e0);
+  EXPECT_EQ(st.newton_unconverged, 0);
+  EXPECT_LT(highest, 1.5 * e0);
   EXPECT_GT(lowest, 0.9 * e0);
 }
 
