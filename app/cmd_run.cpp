@@ -630,7 +630,8 @@ weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write fram
     sub.add_option("--newton", a->newton,
                    "Newton iterations a semi-implicit step may add to its linearised solve, re-linearising the "
                    "forces where the step ends up (0: one linearisation per step; default: the scene's "
-                   "integrator.newton_iterations, else 0)");
+                   "integrator.newton_iterations, else 0)")
+        ->type_name("INT");
     sub.add_option("--format", a->format_list,
                    "What to write, comma-separated, any of obj, ply (frames), glb, pc2, usda (animations); "
                    "default: the scene's output.formats, else obj (docs/exports.md)");
