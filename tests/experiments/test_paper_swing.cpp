@@ -1,6 +1,7 @@
 // The paper's own swing test (scenes/paper-swing.json) reduced to an 11 x 11 grid and 1 s:
 // `weft experiment energy` closes its energy balance there, reports as energy created what
-// its energy columns imply; and on the flat-started reading of the curve, Newton iterations
+// its energy columns imply, and splits Implicit Midpoint's created energy among the triangles
+// without remainder; and on the flat-started reading of the curve, Newton iterations
 // carry backward Euler at 20 ms through the attached-edge swing.
 #include <gtest/gtest.h>
 
@@ -107,6 +108,21 @@ TEST_F(PaperSwing, EnergyBalanceClosesAndEnergyCreatedIsWhatTheColumnsImply) {
     EXPECT_GE(created["total_J"].get<double>(), 0.0);
   }
   ASSERT_GT(released, 0.0);
+  // The split of Implicit Midpoint's steps among the triangles (src/experiments/energy_injection.hpp):
+  // at alpha = 1/2 without contacts the membranes' terms add up to the energy each step created
+  // (the linear bending elements' terms vanish, up to the linear solve's tolerance), and every
+  // triangle of the 11 x 11 grid has its row.
+  const auto steps = read_numbers(out / "injection" / "injection_steps.csv");
+  ASSERT_FALSE(steps.empty());
+  double largest_step = 0;
+  for (const auto& s : steps) largest_step = std::max(largest_step, std::abs(s.at("created_J")));
+  ASSERT_GT(largest_step, 0.0);
+  for (const auto& s : steps)
+    EXPECT_NEAR(s.at("membranes_J"), s.at("created_J"), 1e-4 * largest_step) << s.at("time");
+  EXPECT_EQ(read_numbers(out / "injection" / "injection_triangles.csv").size(), 200u);
+  const auto& injection = results["energy_injection"];
+  EXPECT_EQ(injection["label"], "implicit-midpoint-damped");
+  EXPECT_EQ(injection["triangles"].get<int>(), 200);
   // The balance closes on the accurate reference: RK45 leaves no numerical dissipation worth
   // the name, and creates next to no energy, against the energy the swing releases.
   for (const auto& run : results["runs"]) {
