@@ -37,7 +37,7 @@ struct RunArgs {
   std::string scene, out, method, preconditioner, resume;
   std::optional<std::string> frame_format, format_list;
   std::vector<std::string> formats;  ///< resolved (resolve_formats); what a checkpoint keeps
-  std::optional<double> alpha, dt, duration, tolerance, damping_ratio, checkpoint_every;
+  std::optional<double> alpha, dt, duration, tolerance, damping_ratio, checkpoint_every, newton;
   bool no_frames = false, quiet = false;
 };
 
@@ -51,7 +51,7 @@ nlohmann::json options_json(const RunArgs& a) {
   j["no_frames"] = a.no_frames;
   const std::pair<const char*, const std::optional<double>*> numbers[] = {
       {"alpha", &a.alpha}, {"dt", &a.dt}, {"duration", &a.duration}, {"tolerance", &a.tolerance},
-      {"damping_ratio", &a.damping_ratio}, {"checkpoint_every", &a.checkpoint_every}};
+      {"damping_ratio", &a.damping_ratio}, {"checkpoint_every", &a.checkpoint_every}, {"newton", &a.newton}};
   for (const auto& [key, value] : numbers)
     if (*value) j[key] = **value;
   return j;
@@ -68,7 +68,7 @@ RunArgs options_from_json(const nlohmann::json& j) {
   a.no_frames = j.at("no_frames").get<bool>();
   const std::pair<const char*, std::optional<double>*> numbers[] = {
       {"alpha", &a.alpha}, {"dt", &a.dt}, {"duration", &a.duration}, {"tolerance", &a.tolerance},
-      {"damping_ratio", &a.damping_ratio}, {"checkpoint_every", &a.checkpoint_every}};
+      {"damping_ratio", &a.damping_ratio}, {"checkpoint_every", &a.checkpoint_every}, {"newton", &a.newton}};
   for (const auto& [key, value] : numbers)
     if (j.contains(key)) *value = j.at(key).get<double>();
   return a;
@@ -97,6 +97,11 @@ weft::Scene build_scene(const RunArgs& a) {
   if (a.duration) scene.duration = *a.duration;
   if (a.tolerance) (scene.integrator.method == Method::Rk45 ? scene.integrator.error_tolerance : scene.integrator.cg_tolerance) = *a.tolerance;
   if (a.damping_ratio) scene.damping_ratio = *a.damping_ratio;
+  if (a.newton) {
+    if (!(*a.newton >= 0 && *a.newton <= 100 && *a.newton == std::floor(*a.newton)))
+      throw InputError(where + ": --newton " + nlohmann::json(*a.newton).dump() + ": expected an integer from 0 to 100");
+    scene.integrator.newton_iterations = static_cast<int>(*a.newton);
+  }
   if (!a.preconditioner.empty()) scene.integrator.preconditioner = *parse_preconditioner(a.preconditioner);
   validate_timing(scene, where);
   if (a.frame_format && a.format_list)
@@ -300,7 +305,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   nlohmann::json header;
   if (resume) {
     for (const char* option : {"scene", "--out", "--method", "--alpha", "--dt", "--duration", "--tolerance",
-                               "--preconditioner", "--damping-ratio", "--frame-format", "--format", "--no-frames"})
+                               "--preconditioner", "--damping-ratio", "--newton", "--frame-format", "--format", "--no-frames"})
       if (given(option))
         throw InputError(std::string("command line: ") + option +
                          " cannot be combined with --resume: the run goes on with the settings it started with");
@@ -622,6 +627,11 @@ weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write fram
     sub.add_option("--damping-ratio", a->damping_ratio,
                    "Adaptive damping target as a fraction of critical (0 turns it off; default 0.05 for "
                    "Implicit Midpoint and BDF-2, 0 for the others)");
+    sub.add_option("--newton", a->newton,
+                   "Newton iterations a semi-implicit step may add to its linearised solve, re-linearising the "
+                   "forces where the step ends up (0: one linearisation per step; default: the scene's "
+                   "integrator.newton_iterations, else 0)")
+        ->type_name("INT");
     sub.add_option("--format", a->format_list,
                    "What to write, comma-separated, any of obj, ply (frames), glb, pc2, usda (animations); "
                    "default: the scene's output.formats, else obj (docs/exports.md)");

@@ -38,6 +38,9 @@ void check_options(const EnergyExperimentOptions& o) {
   if (o.speed_repeats < 0 || o.speed_repeats > 1000)
     throw InputError("--repeats " + std::to_string(o.speed_repeats) +
                      ": expected an integer from 0 to 1000");
+  if (o.newton_iterations && (*o.newton_iterations < 0 || *o.newton_iterations > 100))
+    throw InputError("--newton " + std::to_string(*o.newton_iterations) +
+                     ": expected an integer from 0 to 100");
 }
 
 /// Total energy dissipated (viscous + numerical) at the last frame kept (J).
@@ -61,6 +64,21 @@ std::vector<EnergyConfiguration> energy_configurations(double zeta) {
   };
 }
 
+EnergyCreated energy_created(const std::vector<EnergyRow>& rows) {
+  EnergyCreated c;
+  for (size_t k = 1; k < rows.size(); ++k) {
+    const double fall = rows[k - 1].numerical_dissipated - rows[k].numerical_dissipated;
+    if (!(fall > 0)) continue;
+    c.total += fall;
+    ++c.frames;
+    if (fall > c.largest) {
+      c.largest = fall;
+      c.time_of_largest = rows[k].time;
+    }
+  }
+  return c;
+}
+
 double SpeedComparison::wall_ratio() const {
   return ratio_or_nan(median(midpoint_seconds), median(backward_euler_seconds));
 }
@@ -77,8 +95,10 @@ EnergyExperiment run_energy_experiment(const Scene& scene, const EnergyExperimen
   const auto entries = energy_configurations(options.damping_ratio);
   // Configure everything first so that a bad option fails before any long run.
   std::vector<Scene> scenes;
-  for (const auto& e : entries)
+  for (const auto& e : entries) {
     scenes.push_back(configure_scene(scene, e.configuration, options.dt, options.rk45_tolerance));
+    if (options.newton_iterations) scenes.back().integrator.newton_iterations = *options.newton_iterations;
+  }
   for (size_t k = 0; k < entries.size(); ++k) {
     const std::string& label = entries[k].configuration.label;
     auto report = [&](double f) {
@@ -93,6 +113,11 @@ EnergyExperiment run_energy_experiment(const Scene& scene, const EnergyExperimen
       if (ref.entry.configuration.label == run.entry.reference)
         run.rms_per_frame =
             rms_distance_per_frame(run.trajectory.positions, ref.trajectory.positions);
+  }
+
+  if (options.injection) {
+    if (progress) progress("injection " + entries[1].configuration.label, 0.0);
+    ex.injection = analyse_energy_injection(scenes[1], entries[1].configuration.label);
   }
 
   // Speed: Implicit Midpoint and backward Euler alternately, alternating which goes first so
@@ -181,7 +206,14 @@ nlohmann::json energy_results_json(const EnergyExperiment& ex) {
       o["dissipated_final"] = {{"viscous", last.viscous_dissipated},
                                {"numerical", last.numerical_dissipated},
                                {"total", dissipated_final(r)}};
+      const EnergyCreated created = energy_created(r.energy);
+      o["energy_created"] = {{"largest_J", created.largest},
+                             {"time_of_largest", created.time_of_largest},
+                             {"total_J", created.total},
+                             {"frames", created.frames}};
     }
+    o["newton_iterations"] = run.trajectory.scene.integrator.newton_iterations;
+    if (s.contains("newton")) o["newton"] = s["newton"];
     if (!run.entry.reference.empty()) {
       o["rms_distance_over_run"] = root_mean_square(run.rms_per_frame);
       o["rms_distance_final"] = run.rms_per_frame.empty() ? 0.0 : run.rms_per_frame.back();
@@ -193,6 +225,7 @@ nlohmann::json energy_results_json(const EnergyExperiment& ex) {
     runs.push_back(o);
   }
   j["runs"] = runs;
+  if (ex.injection) j["energy_injection"] = energy_injection_json(*ex.injection);
   const SpeedComparison& sp = ex.speed;
   if (sp.repeats > 0) {
     auto side = [](const char* label, const std::vector<double>& seconds,
@@ -222,7 +255,8 @@ std::string results_csv(const EnergyExperiment& ex) {
   std::ostringstream o;
   o << "label,method,alpha,damping_ratio,dt,status,unstable_time,steps,rejected_steps,wall_seconds,"
        "cg_iterations_per_step,kappa_min,kappa_median,kappa_max,energy_initial,viscous_dissipated,"
-       "numerical_dissipated,total_dissipated,reference,rms_distance_over_run,rms_distance_final\n";
+       "numerical_dissipated,total_dissipated,reference,rms_distance_over_run,rms_distance_final,"
+       "energy_created_largest,energy_created_total\n";
   for (const auto& run : ex.runs) {
     const auto& c = run.entry.configuration;
     const RunResult& r = run.trajectory.result;
@@ -240,6 +274,7 @@ std::string results_csv(const EnergyExperiment& ex) {
       << number(dissipated_final(r)) << ',' << run.entry.reference << ','
       << (compared ? number(root_mean_square(run.rms_per_frame)) : std::string()) << ','
       << (compared && !run.rms_per_frame.empty() ? number(run.rms_per_frame.back()) : std::string())
+      << ',' << number(energy_created(r.energy).largest) << ',' << number(energy_created(r.energy).total)
       << '\n';
   }
   return o.str();
@@ -369,6 +404,11 @@ std::vector<std::string> write_energy_experiment(const EnergyExperiment& ex,
   std::vector<std::string> warnings;
   for (const auto& fig : {energy_figure(ex), rms_figure(ex, columns)}) {
     std::string w = render_gnuplot_figure(dir, fig);
+    if (!w.empty()) warnings.push_back(std::move(w));
+  }
+  if (ex.injection) {
+    std::filesystem::create_directories(dir / "injection");
+    std::string w = write_energy_injection(*ex.injection, dir / "injection");
     if (!w.empty()) warnings.push_back(std::move(w));
   }
   return warnings;

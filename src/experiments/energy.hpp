@@ -6,9 +6,11 @@
 // Implicit Midpoint against backward Euler in interleaved repeats.
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "experiments/energy_injection.hpp"
 #include "experiments/trajectory.hpp"
 
 namespace weft {
@@ -18,7 +20,25 @@ struct EnergyExperimentOptions {
   double damping_ratio = 0.05;   ///< of the damped configurations
   double rk45_tolerance = 1e-6;  ///< local error tolerance of the references
   int speed_repeats = 5;         ///< interleaved Implicit Midpoint / backward Euler pairs
+  /// Newton iterations of the semi-implicit configurations (IntegratorSettings::
+  /// newton_iterations); unset: the scene's.
+  std::optional<int> newton_iterations;
+  /// Splits the energy Implicit Midpoint (damped) creates among the triangles
+  /// (analyse_energy_injection): one more run of that configuration.
+  bool injection = true;
 };
+
+/// Energy the integrator created (J): the falls of the numerical dissipation from one output
+/// frame to the next (METHOD.md 6: the numerical dissipation is what is left of the initial
+/// energy and the contacts' work after the mechanical energies and the viscous work, so a fall
+/// is energy no force put in).
+struct EnergyCreated {
+  double largest = 0;          ///< the largest fall over one frame interval
+  double time_of_largest = 0;  ///< the end of that interval (s)
+  double total = 0;            ///< the sum of the falls over the run
+  long frames = 0;             ///< frame intervals with a fall
+};
+EnergyCreated energy_created(const std::vector<EnergyRow>& rows);
 
 /// The six configurations, in plotting order; `reference` names the RK45 run each is compared to.
 struct EnergyConfiguration {
@@ -50,6 +70,7 @@ struct EnergyExperiment {
   EnergyExperimentOptions options;
   std::vector<EnergyRunResult> runs;
   SpeedComparison speed;
+  std::optional<InjectionAnalysis> injection;  ///< EnergyExperimentOptions::injection
 };
 
 using ExperimentProgress = std::function<void(const std::string& label, double fraction)>;
@@ -59,7 +80,8 @@ EnergyExperiment run_energy_experiment(const Scene& scene, const EnergyExperimen
                                        const ExperimentProgress& progress = {});
 
 /// Writes DIR/LABEL/{energy.csv,summary.json}, DIR/results.{json,csv}, DIR/rms.csv,
-/// DIR/speed.csv and the figures DIR/energy.{gp,png,svg}, DIR/rms.{gp,png,svg}.
+/// DIR/speed.csv and the figures DIR/energy.{gp,png,svg}, DIR/rms.{gp,png,svg}; with the
+/// injection analysis DIR/injection/ (write_energy_injection).
 /// Returns warnings (e.g. gnuplot missing); throws on a write failure.
 std::vector<std::string> write_energy_experiment(const EnergyExperiment& experiment,
                                                  const std::filesystem::path& dir);

@@ -56,6 +56,7 @@ Integrator::Integrator(System& system, IntegratorSettings settings)
   int free_nodes = 0;
   for (char f : system_.fixed()) free_nodes += f ? 0 : 1;
   preconditioner_ = choose_preconditioner(settings_, free_nodes);
+  if (settings_.newton_iterations > 0) newton_step_.matrix.reset(system_.pattern());
   guard_alphas_ = {settings_.alpha};
   for (double a : kGuardAlphas)
     if (a > settings_.alpha) guard_alphas_.push_back(a);
@@ -469,6 +470,9 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     if (r.converged) history_.record(rhs_, system_.fixed(), dv_);
   }
   stats.solve_seconds += seconds_since(t1);
+  const int newton_iterations = settings_.newton_iterations > 0 && alpha > 0.0 && contacts_.empty()
+                                    ? newton_iterate(s, alpha, beta, dt_b, stats)
+                                    : 0;
   if (!handlers_.empty()) x_start_ = s.x;
 
   // dx = beta dx_p + dt_b (v + alpha dv), built in dx_prev's storage (no allocation per step);
@@ -479,8 +483,13 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     s.dx_prev = dt_b * (s.v + alpha * dv_);
   }
   // Viscous work over the step, at the start's positions with the step's mean velocity
-  // dx/dt (METHOD.md 6); for forward Euler the start's velocity.
-  if (alpha > 0.0) {
+  // dx/dt (METHOD.md 6); for forward Euler the start's velocity. A step Newton iterated
+  // evaluated its forces at x_a = x + alpha dx: its viscous force does its work there.
+  if (newton_iterations > 0) {
+    tmp_ = s.dx_prev / dt;
+    tmp2_ = s.x + alpha * s.dx_prev;
+    s.viscous_dissipated -= dt * system_.viscous_power(tmp2_, tmp_);
+  } else if (alpha > 0.0) {
     tmp_ = s.dx_prev / dt;
     s.viscous_dissipated -= dt * system_.step_viscous_power(s.x, tmp_, step_);
   } else {
@@ -498,6 +507,86 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   }
   s.t += dt;
   history_t_ = s.t;
+}
+
+double Integrator::newton_residual(const State& s, double alpha, double beta, double dt_b, const VecX& dv,
+                                   VecX& r) {
+  newton_v_ = s.v + alpha * dv;
+  newton_x_ = s.x + (alpha * dt_b) * newton_v_;
+  if (beta != 0.0) newton_x_ += (alpha * beta) * s.dx_prev;
+  system_.evaluate(newton_x_, newton_v_, false, eval_);
+  r = dt_b * eval_.force - mass3_.cwiseProduct(dv);
+  if (beta != 0.0) r += beta * mass3_.cwiseProduct(s.dv_prev);
+  const auto& fixed = system_.fixed();
+  for (size_t i = 0; i < fixed.size(); ++i)
+    if (fixed[i]) r.segment<3>(3 * i).setZero();
+  return std::sqrt(r.cwiseAbs2().cwiseQuotient(mass3_).sum());
+}
+
+// Newton's method on the step's equations before linearisation (METHOD.md 1-2): the step
+// evaluates the derivative at Q + alpha dQ,
+//   g(dv) = M dv - beta M dv_p - dt_b f(x_a, v_a) = 0,
+//   x_a = x + alpha (beta dx_p + dt_b (v + alpha dv)),  v_a = v + alpha dv,
+// whose Jacobian M - alpha dt_b D - alpha^2 dt_b^2 K at (x_a, v_a) is the step matrix assembled
+// there. The linearised step (K, D and f at the step's start, f(x_a) extrapolated with K) is
+// the first iterate; on a stiffening curve it can stretch an element far past where the
+// start's tangent holds, and the next step's force then throws the cloth apart. Each iteration
+// solves A delta = r at the current iterate and takes the largest of delta, delta/2, ...
+// (kNewtonMaxHalvings halvings) that lowers |M^-1/2 r| (Armijo's rule); the step keeps the
+// last iterate when none does. Adaptive damping's viscosities stay those of the step's start.
+int Integrator::newton_iterate(const State& s, double alpha, double beta, double dt_b, StepStatistics& stats) {
+  const auto t0 = Clock::now();
+  const VecX& m = system_.node_mass();
+  const BlockPattern& P = system_.pattern();
+  const int n = system_.num_nodes();
+  const double rhs_norm = std::sqrt(rhs_.cwiseAbs2().cwiseQuotient(mass3_).sum());
+  double residual = newton_residual(s, alpha, beta, dt_b, dv_, newton_r_);
+  auto converged = [&] {
+    const double dv_norm = std::sqrt(mass3_.dot(dv_.cwiseAbs2()));
+    return residual <= settings_.newton_tolerance * std::max(dv_norm, rhs_norm);
+  };
+  int taken = 0, moved = 0;
+  bool stuck = false;
+  while (std::isfinite(residual) && !converged() && taken < settings_.newton_iterations) {
+    newton_step_.ck = alpha * alpha * dt_b * dt_b;
+    newton_step_.cd = alpha * dt_b;
+    newton_w_.setZero(3 * n);
+    system_.assemble_step(newton_x_, newton_v_, newton_w_, newton_step_);
+    for (int i = 0; i < n; ++i) newton_step_.matrix.block[P.diagonal_slot(i)].diagonal().array() += m[i];
+    newton_delta_.setZero(3 * n);
+    const PcgResult r = solve_pcg(newton_step_.matrix, newton_r_, system_.fixed(), pcg_settings(), newton_delta_, pcg_);
+    stats.cg_iterations += r.iterations;
+    ++stats.cg_solves;
+    if (!r.converged) ++stats.cg_failures;
+    ++taken;
+    double fraction = 1.0;
+    bool accepted = false;
+    for (int halving = 0; halving <= kNewtonMaxHalvings; ++halving) {
+      newton_dv_trial_ = dv_ + fraction * newton_delta_;
+      const double trial = newton_residual(s, alpha, beta, dt_b, newton_dv_trial_, newton_r_trial_);
+      if (trial <= (1.0 - 1e-4 * fraction) * residual) {
+        dv_.swap(newton_dv_trial_);
+        newton_r_.swap(newton_r_trial_);
+        residual = trial;
+        accepted = true;
+        ++moved;
+        break;
+      }
+      fraction *= 0.5;
+      ++stats.newton_halvings;
+    }
+    if (!accepted) {
+      stuck = true;
+      break;
+    }
+  }
+  if (taken > 0) {
+    ++stats.newton_steps;
+    stats.newton_iterations += taken;
+  }
+  if (stuck || !converged()) ++stats.newton_unconverged;
+  stats.newton_seconds += seconds_since(t0);
+  return moved;
 }
 
 // The contact constraints (Baraff and Witkin's filters, docs/collisions.md). A sliding contact

@@ -39,7 +39,20 @@ struct IntegratorSettings {
   /// into the cloth is taken again from its start as two halves (kGuardMaxSplits times at
   /// most), then with a larger alpha (kGuardAlphas), which relaxes back to `alpha`.
   bool guard = false;
+  /// Newton iterations a semi-implicit step (alpha family, BDF-2) may add to its linearised
+  /// solve (Integrator::newton_iterate): the step's nonlinear equations re-linearised at the
+  /// iterate, with a backtracking line search. 0: one linearisation per step, as the paper's
+  /// equations write the step. Steps that hold contacts in their solve stay linearised.
+  int newton_iterations = 0;
+  /// The iterations stop when the residual of the step's equations, as a change of velocity
+  /// (|M^-1/2 r|), is below this fraction of the step's (|M^1/2 dv|, or of its right-hand
+  /// side's |M^-1/2 b| where larger).
+  double newton_tolerance = 1e-3;
 };
+
+/// Halvings of a Newton iteration's step (IntegratorSettings::newton_iterations) before the
+/// line search gives up and the step keeps its last iterate.
+constexpr int kNewtonMaxHalvings = 6;
 
 /// The alphas a guarded step climbs through when a step puts energy in even after
 /// kGuardMaxSplits halvings, after the scene's own (only those above it). 0.6 keeps a second-order-like accuracy (METHOD.md 3: the step is
@@ -133,6 +146,11 @@ struct StepStatistics {
   long guard_split_steps = 0;    ///< guarded steps (or parts) taken again as two halves
   long guard_parts = 0;          ///< parts the guarded steps were taken in, halvings included
   double guard_seconds = 0;      ///< the guard's own work: saving the start, the energy check
+  long newton_iterations = 0;    ///< Newton iterations (one linear solve each) beyond the linearised step
+  long newton_steps = 0;         ///< steps (or parts) that took at least one
+  long newton_halvings = 0;      ///< line-search halvings
+  long newton_unconverged = 0;   ///< steps that ended above the Newton tolerance
+  double newton_seconds = 0;     ///< the iterations' own work: residuals, assemblies, solves
 };
 
 class Integrator {
@@ -192,6 +210,13 @@ class Integrator {
   void guarded_parts(State& s, double dt, StepStatistics& stats);
   double kinetic_energy(const VecX& v) const;
   void linear_step(State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
+  /// Newton iterations on the step's equations from the linearised solution in dv_
+  /// (IntegratorSettings::newton_iterations); returns how many changed dv_.
+  int newton_iterate(const State& s, double alpha, double beta, double dt_b, StepStatistics& stats);
+  /// The residual r = beta M dv_p + dt_b f(x_a, v_a) - M dv of the step's equations at dv, with
+  /// x_a = x + alpha (beta dx_p + dt_b (v + alpha dv)), v_a = v + alpha dv (left in newton_x_,
+  /// newton_v_); zero at pinned nodes. Returns |M^-1/2 r|.
+  double newton_residual(const State& s, double alpha, double beta, double dt_b, const VecX& dv, VecX& r);
   void rk4_step(State& s, double dt, StepStatistics& stats);
   bool rk45_try(State& s, double h, double& error_norm, StepStatistics& stats);
   void derivative(const VecX& x, const VecX& v, VecX& a, double& viscous_power);
@@ -251,6 +276,8 @@ class Integrator {
   bool guard_raised_now_ = false;  ///< a part of this step was taken above the scene's alpha
   VecX v_before_fail_safe_;                  ///< finish_contacts: the velocities before every correction
   VecX x_before_fail_safe_, v_before_group_; ///< finish_contacts: the state before one group of handlers
+  StepAssembly newton_step_;  ///< newton_iterate's assembly (step_ keeps the step start's)
+  VecX newton_x_, newton_v_, newton_r_, newton_r_trial_, newton_dv_trial_, newton_delta_, newton_w_;
 };
 
 }  // namespace weft

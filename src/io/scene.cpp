@@ -379,7 +379,7 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
 
   const Reader in = r.object("integrator");
   in.allow_only({"method", "alpha", "dt", "tolerance", "max_iterations", "preconditioner", "ssor_relaxation",
-                 "ssor_precision"});
+                 "ssor_precision", "newton_iterations", "newton_tolerance"});
   std::optional<double> alpha;
   if (in.has("alpha")) alpha = in.number("alpha");
   set_method(s, in.string("method"), alpha, in.where("method"));
@@ -408,6 +408,10 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
       in.fail("ssor_precision", "unknown precision '" + precision + "' (expected single or double)");
     s.integrator.ssor_single_precision = precision == "single";
   }
+  if (in.has("newton_iterations")) {
+    s.integrator.newton_iterations = static_cast<int>(in.integer_in("newton_iterations", 0, 100));
+  }
+  if (in.has("newton_tolerance")) s.integrator.newton_tolerance = in.number_in("newton_tolerance", 0, 1, true);
   if (r.has("damping")) {
     const Reader d = r.object("damping");
     d.allow_only({"ratio"});

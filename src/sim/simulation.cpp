@@ -365,6 +365,10 @@ std::uint64_t Simulation::fingerprint() const {
   w.i64(is.ssor_single_precision);
   w.i64(is.warm_start_history);
   w.i64(is.guard);
+  if (is.newton_iterations > 0) {  // (absent when off: fingerprints of older checkpoints hold)
+    w.i64(is.newton_iterations);
+    w.f64(is.newton_tolerance);
+  }
   w.f64(system_->damping_settings().damping_ratio);
   w.f64(system_->damping_settings().reference_dt);
   for (const Material& m : model_->materials)
@@ -399,11 +403,12 @@ void Simulation::save(BinaryWriter& out) const {
   for (long c : {stats_.steps, stats_.rejected_steps, stats_.cg_iterations, stats_.cg_solves, stats_.cg_failures,
                  stats_.contacts, stats_.max_contacts, stats_.released_contacts, stats_.fail_safe_moves,
                  stats_.contact_passes, stats_.failed_contact_steps, stats_.halved_steps, stats_.guard_redone_steps,
-                 stats_.guard_raised_steps, stats_.guard_split_steps, stats_.guard_parts})
+                 stats_.guard_raised_steps, stats_.guard_split_steps, stats_.guard_parts, stats_.newton_iterations,
+                 stats_.newton_steps, stats_.newton_halvings, stats_.newton_unconverged})
     out.i64(c);
   out.f64(stats_.guard_max_alpha);
   for (double d : {stats_.assembly_seconds, stats_.solve_seconds, stats_.detection_seconds, stats_.response_seconds,
-                   stats_.guard_seconds})
+                   stats_.guard_seconds, stats_.newton_seconds})
     out.f64(d);
   out.f64(gravity0_);
   out.f64(total0_);
@@ -461,11 +466,12 @@ void Simulation::restore(BinaryReader& in) {
   for (long* c : {&st.steps, &st.rejected_steps, &st.cg_iterations, &st.cg_solves, &st.cg_failures, &st.contacts,
                   &st.max_contacts, &st.released_contacts, &st.fail_safe_moves, &st.contact_passes,
                   &st.failed_contact_steps, &st.halved_steps, &st.guard_redone_steps, &st.guard_raised_steps,
-                  &st.guard_split_steps, &st.guard_parts})
+                  &st.guard_split_steps, &st.guard_parts, &st.newton_iterations, &st.newton_steps,
+                  &st.newton_halvings, &st.newton_unconverged})
     *c = in.i64();
   st.guard_max_alpha = in.f64();
   for (double* d : {&st.assembly_seconds, &st.solve_seconds, &st.detection_seconds, &st.response_seconds,
-                    &st.guard_seconds})
+                    &st.guard_seconds, &st.newton_seconds})
     *d = in.f64();
   const double gravity0 = in.f64(), total0 = in.f64(), energy_scale = in.f64();
 
@@ -687,6 +693,17 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
                   {"raised_steps", st.guard_raised_steps},
                   {"raised_fraction", st.steps ? static_cast<double>(st.guard_raised_steps) / st.steps : 0.0},
                   {"max_alpha", std::max(sc.integrator.alpha, st.guard_max_alpha)}};
+  }
+  if (sc.integrator.newton_iterations > 0) {
+    const StepStatistics& st = r.steps;
+    j["newton"] = {{"max_iterations", sc.integrator.newton_iterations},
+                   {"tolerance", sc.integrator.newton_tolerance},
+                   {"iterations", st.newton_iterations},
+                   {"iterations_per_step", st.steps ? static_cast<double>(st.newton_iterations) / st.steps : 0.0},
+                   {"iterated_steps", st.newton_steps},
+                   {"line_search_halvings", st.newton_halvings},
+                   {"unconverged_steps", st.newton_unconverged},
+                   {"seconds", st.newton_seconds}};
   }
   j["damping_ratio"] = r.damping_ratio;
   j["kappa"] = stats_json(r.damping.membrane_kappa);

@@ -8,23 +8,17 @@
 #include <vector>
 
 #include "integrate/integrator.hpp"
+#include "support/spinning_spring.hpp"
 #include "support/spring_system.hpp"
 #include "weft/simulation.hpp"
 
 using namespace weft;
 using weft::test::Spring;
 using weft::test::SpringSystem;
+using weft::test::mechanical_energy;
+using weft::test::spinning_spring_state;
 
 namespace {
-
-/// Kinetic plus elastic plus gravitational energy.
-double energy(SpringSystem& sys, const State& s) {
-  Evaluation e;
-  sys.evaluate(s.x, s.v, false, e);
-  double kinetic = 0;
-  for (int i = 0; i < sys.num_nodes(); ++i) kinetic += 0.5 * sys.node_mass()[i] * node(s.v, i).squaredNorm();
-  return kinetic + e.elastic_energy + e.gravity_energy;
-}
 
 IntegratorSettings midpoint(double dt, bool guard) {
   IntegratorSettings st;
@@ -35,15 +29,6 @@ IntegratorSettings midpoint(double dt, bool guard) {
   return st;
 }
 
-/// One 1 kg mass on a spring of rest length 1 m and stiffness k to the origin, going round
-/// it at `speed` (m/s) on the circle where the spring holds it.
-State spinning(double k, double speed) {
-  State s;
-  s.x = Vec3(1.0 + speed * speed / k, 0, 0);
-  s.v = Vec3(0, speed, 0);
-  return s;
-}
-
 }  // namespace
 
 TEST(GuardedMidpoint, StiffSpinningSpringGainsEnergyOnlyWithoutTheGuard) {
@@ -52,14 +37,14 @@ TEST(GuardedMidpoint, StiffSpinningSpringGainsEnergyOnlyWithoutTheGuard) {
   const double k = 1e6, dt = 0.02;
   for (bool guard : {false, true}) {
     SpringSystem sys(VecX::Constant(1, 1.0), {Spring{0, -1, k, 1.0, 0.0}});
-    State s = spinning(k, 5.0);
+    State s = spinning_spring_state(k, 5.0);
     Integrator in(sys, midpoint(dt, guard));
     StepStatistics st;
-    const double e0 = energy(sys, s);
+    const double e0 = mechanical_energy(sys, s);
     double e = e0, highest = e0;
     for (int n = 0; n < 200; ++n) {
       in.step(s, dt, st);
-      const double next = energy(sys, s);
+      const double next = mechanical_energy(sys, s);
       // No energy scale was set, so the guard's tolerance is a fraction of the state's own
       // (kinetic plus elastic) energy; the margin covers this test's own rounding.
       if (guard) EXPECT_LE(next, e * (1 + kGuardTolerance) + 1e-12 * e) << "step " << n;

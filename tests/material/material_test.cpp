@@ -294,27 +294,33 @@ TEST(MaterialPreset, ShippedPresetsAreSane) {
   for (const std::string& name : names) {
     SCOPED_TRACE(name);
     const Material m = material_preset(name);
+    // The woven presets keep to METHOD.md section 5's ranges; the jersey of the paper's swing
+    // test is a soft knit far below them (tests/fabric/jersey_test.cpp checks it).
+    const bool woven = name != "jersey";
     EXPECT_EQ(m.name, name);
     EXPECT_FALSE(m.source.empty());
     EXPECT_GT(m.surface_density_kg_m2, 0.0);
     EXPECT_LT(m.surface_density_kg_m2, 1.0);
-    // METHOD.md section 5 ranges.
-    for (double b : {m.bending_rigidity_weft_Nm, m.bending_rigidity_warp_Nm}) {
-      EXPECT_GE(b, 1e-6);
-      EXPECT_LE(b, 1e-4);
+    if (woven) {
+      for (double b : {m.bending_rigidity_weft_Nm, m.bending_rigidity_warp_Nm}) {
+        EXPECT_GE(b, 1e-6);
+        EXPECT_LE(b, 1e-4);
+      }
+      EXPECT_GE(m.shear.tangent(0.0), 20.0);
+      EXPECT_LE(m.shear.tangent(0.0), 120.0);
     }
-    EXPECT_GE(m.shear.tangent(0.0), 20.0);
-    EXPECT_LE(m.shear.tangent(0.0), 120.0);
     EXPECT_GE(m.viscosity_Ns_m, 0.0);
     EXPECT_GE(m.poisson_ratio, 0.0);
     EXPECT_LT(m.poisson_ratio, 0.5);
     for (const StressCurve* c : {&m.weft, &m.warp}) {
       ASSERT_FALSE(c->is_linear());
       EXPECT_NEAR(c->stress(0.0), 0.0, 1e-9);  // stress-free at rest
-      EXPECT_GE(c->tangent(0.0), 100.0);
-      EXPECT_LE(c->tangent(0.0), 1000.0);
       const double last = c->strain_points().back();
-      EXPECT_LE(last, 0.15);
+      if (woven) {
+        EXPECT_GE(c->tangent(0.0), 100.0);
+        EXPECT_LE(c->tangent(0.0), 1000.0);
+        EXPECT_LE(last, 0.15);
+      }
       EXPECT_GT(c->tangent(last), 5.0 * c->tangent(0.0));  // stiffens past a few percent
       for (int i = 0; i <= 1000; ++i) EXPECT_GT(c->tangent(last * i / 1000.0), 0.0);
     }
