@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "command.hpp"
+#include "fabric_common.hpp"
 #include "weft/atomic_file.hpp"
 #include "weft/error.hpp"
 #include "weft/fabric_experiments.hpp"
@@ -27,17 +28,6 @@ std::string num(double v) {
   char b[64];
   std::snprintf(b, sizeof b, "%.9g", v);
   return b;
-}
-
-// A preset name, or a material file when the argument names one (or looks like a path).
-Material resolve_material(const std::string& arg) {
-  try {
-    const bool looks_like_file = arg.find('/') != std::string::npos ||
-                                 fs::path(arg).extension() == ".json" || fs::is_regular_file(arg);
-    return looks_like_file ? load_material_file(arg) : material_preset(arg);
-  } catch (const InputError& e) {
-    throw InputError("--material '" + arg + "': " + e.what());
-  }
 }
 
 std::vector<std::string> split_directions(const std::string& list, const std::vector<std::string>& allowed) {
@@ -61,16 +51,6 @@ fs::path prepare_out(const std::string& out) {
   fs::create_directories(out, ec);
   if (ec || !fs::is_directory(out)) throw InputError("--out '" + out + "': cannot create the folder" + (ec ? ": " + ec.message() : ""));
   return fs::path(out);
-}
-
-// A text file for write_files_atomically.
-PendingFile text_file(const fs::path& path, std::string text) {
-  return {path, [text = std::move(text)](const fs::path& temporary) {
-            std::ofstream f(temporary, std::ios::binary);
-            f << text;
-            f.close();
-            if (!f) throw std::runtime_error("cannot write " + temporary.string());
-          }};
 }
 
 // Runs gnuplot on `script` in `dir`; the script writes NAME.png.tmp and NAME.svg.tmp, renamed

@@ -1,0 +1,173 @@
+// The drape test (experiments/drape.hpp, docs/fabric-validation.md): its shadow area and node
+// count on known shapes, and the drape of a very stiff, a very limp and a balanced fabric on a
+// coarse specimen.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <nlohmann/json.hpp>
+
+#include "experiments/drape.hpp"
+#include "weft/error.hpp"
+#include "weft/material.hpp"
+
+using namespace weft;
+
+namespace {
+
+Material inline_material(const nlohmann::json& j) { return parse_material(j, "test material"); }
+
+DrapeOptions coarse() {
+  DrapeOptions o;
+  o.edge_length_m = 0.02;
+  o.max_time_s = 6;
+  o.self_collision = false;
+  return o;
+}
+
+}  // namespace
+
+TEST(DrapeShadow, AreaOfTheUnionOfTheProjectedTriangles) {
+  // A flat specimen covers its own polygon once, whichever triangles overlap.
+  DrapeOptions o;
+  o.edge_length_m = 0.02;
+  std::vector<int> support, edge;
+  const TriMesh m = drape_specimen_mesh(o, support, edge);
+  double polygon = 0;  // the outer boundary's polygon area (shoelace, in x and -z)
+  for (size_t k = 0; k < edge.size(); ++k) {
+    const int a = edge[k], b = edge[(k + 1) % edge.size()];
+    polygon += 0.5 * (m.positions(a, 0) * -m.positions(b, 2) - m.positions(b, 0) * -m.positions(a, 2));
+  }
+  const double area = projected_area(m.positions, m.triangles, 2e-4);
+  EXPECT_NEAR(area, polygon, 2e-3 * polygon);
+  // The same triangles twice, and the mesh folded in half over itself, count once.
+  TriMesh twice = m;
+  twice.triangles.insert(twice.triangles.end(), m.triangles.begin(), m.triangles.end());
+  EXPECT_DOUBLE_EQ(projected_area(twice.positions, twice.triangles, 2e-4), area);
+  // Two copies side by side cover twice the area.
+  TriMesh two = twice;
+  two.positions.resize(2 * m.num_vertices(), 3);
+  two.positions << m.positions, m.positions.rowwise() + Eigen::RowVector3d(1.0, 0.0, 0.0);
+  for (size_t t = m.triangles.size(); t < two.triangles.size(); ++t)
+    for (int& v : two.triangles[t]) v += m.num_vertices();
+  EXPECT_NEAR(projected_area(two.positions, two.triangles, 2e-4), 2 * area, 1e-3 * area);
+  // A vertical triangle casts no area.
+  Points wall(3, 3);
+  wall << 0, 0, 0, 1, 0, 0, 0, 1, 0;
+  EXPECT_EQ(projected_area(wall, {{0, 1, 2}}, 1e-3), 0.0);
+  // The mesh: every support vertex within the disk, every edge vertex on the rim, in order.
+  for (int i : support) EXPECT_LE(std::hypot(m.positions(i, 0), m.positions(i, 2)), 0.09 + 1e-12);
+  for (size_t k = 0; k < edge.size(); ++k) {
+    EXPECT_NEAR(std::hypot(m.positions(edge[k], 0), m.positions(edge[k], 2)), 0.15, 1e-12);
+  }
+}
+
+TEST(DrapeNodes, CountsTheProminentMaximaOfAClosedProfile) {
+  for (int folds : {3, 5, 8, 11}) {
+    std::vector<double> r;
+    for (int k = 0; k < 180; ++k) {
+      const double a = 2 * M_PI * k / 180;
+      // Uneven folds plus ripples far below the prominence.
+      r.push_back(0.12 + 0.02 * std::cos(folds * a + 0.3) * (1 + 0.3 * std::sin(a)) + 1e-4 * std::sin(47 * a));
+    }
+    EXPECT_EQ(profile_nodes(r, 0.2 * 0.04).size(), static_cast<size_t>(folds)) << folds;
+  }
+  // A circle has none; a single bump has one; a plateau counts once.
+  EXPECT_TRUE(profile_nodes(std::vector<double>(60, 0.15), 1e-3).empty());
+  std::vector<double> bump(60, 0.1);
+  bump[20] = 0.11;
+  EXPECT_EQ(profile_nodes(bump, 1e-3), std::vector<int>{20});
+  bump[21] = 0.11;
+  EXPECT_EQ(profile_nodes(bump, 1e-3).size(), 1u);
+}
+
+TEST(DrapeTest, CoefficientTendsToOneForAStiffFabricAndToZeroForALimpOne) {
+  const DrapeOptions o = coarse();
+  const DrapeResult stiff = run_drape_test(
+      inline_material({{"surface_density", 0.2}, {"weft", 2e4}, {"warp", 2e4}, {"shear", 5e3}, {"bending_rigidity", 1.0}}), o);
+  const DrapeResult medium = run_drape_test(
+      inline_material({{"surface_density", 0.2}, {"weft", 2e3}, {"warp", 2e3}, {"shear", 100}, {"bending_rigidity", 1e-4}}), o);
+  const DrapeResult limp = run_drape_test(
+      inline_material({{"surface_density", 0.2}, {"weft", 2e3}, {"warp", 2e3}, {"shear", 100}, {"bending_rigidity", 1e-8}}), o);
+  for (const DrapeResult* r : {&stiff, &medium, &limp}) {
+    EXPECT_EQ(r->status, "ok");
+    EXPECT_TRUE(r->at_rest) << r->max_speed_m_s;
+  }
+  EXPECT_GT(stiff.drape_coefficient, 0.97);
+  EXPECT_LE(stiff.drape_coefficient, 1.0 + 1e-3);
+  EXPECT_EQ(stiff.nodes, 0);  // stays flat: no folds
+  EXPECT_LT(limp.drape_coefficient, 0.2);
+  EXPECT_GE(limp.drape_coefficient, 0.0);
+  EXPECT_GT(medium.drape_coefficient, limp.drape_coefficient);
+  EXPECT_LT(medium.drape_coefficient, stiff.drape_coefficient);
+  EXPECT_GT(medium.nodes, 2);
+}
+
+TEST(DrapeTest, FoldCountOfABalancedFabricDoesNotChangeWhenTheGrainTurnsBy90Degrees) {
+  // Weft and warp alike: turned by 90 degrees the material is the same, the mesh under it is not.
+  const Material balanced = inline_material(
+      {{"surface_density", 0.2}, {"weft", 2e3}, {"warp", 2e3}, {"shear", 100}, {"bending_rigidity", 3e-5}});
+  DrapeOptions o = coarse();
+  const DrapeResult along = run_drape_test(balanced, o);
+  o.grain_deg = 90;
+  const DrapeResult turned = run_drape_test(balanced, o);
+  EXPECT_GT(along.nodes, 2);
+  EXPECT_EQ(along.nodes, turned.nodes);
+  EXPECT_NEAR(along.drape_coefficient, turned.drape_coefficient, 0.01);
+}
+
+TEST(DrapeTest, RejectsBadOptionsNamingThem) {
+  DrapeOptions o = coarse();
+  o.support_diameter_m = 0.4;
+  try {
+    run_drape_test(material_preset("cotton"), o);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--support-diameter 0.4"), std::string::npos) << e.what();
+  }
+  o = coarse();
+  o.edge_length_m = 0.05;
+  EXPECT_THROW(run_drape_test(material_preset("cotton"), o), InputError);
+}
+
+TEST(DrapeCommand, WritesResultsAndPicturesAndRejectsBadOptionsWritingNothing) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("weft_drape_cmd_" + std::to_string(::getpid()));
+  const fs::path err_file = fs::temp_directory_path() / ("weft_drape_err_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  auto run = [&](const std::string& args) {
+    const std::string cmd = std::string("'") + WEFT_EXE + "' experiment drape " + args + " --out '" + dir.string() +
+                            "' -q > /dev/null 2> '" + err_file.string() + "'";
+    const int status = std::system(cmd.c_str());
+    std::ifstream in(err_file);
+    std::stringstream s;
+    s << in.rdbuf();
+    return std::pair{WIFEXITED(status) ? WEXITSTATUS(status) : -1, s.str()};
+  };
+  auto [code, err] = run("--material nosuchfabric");
+  EXPECT_EQ(code, 2);
+  EXPECT_NE(err.find("--material 'nosuchfabric'"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir));
+  std::tie(code, err) = run("--edge-length 0.05");
+  EXPECT_EQ(code, 2);
+  EXPECT_NE(err.find("--edge-length 0.05"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir));
+
+  std::tie(code, err) = run("--material silk --edge-length 0.025 --max-time 0.5");
+  EXPECT_EQ(code, 0) << err;
+  std::ifstream in(dir / "results.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j.at("material").at("name"), "silk");
+  EXPECT_GT(j.at("drape_coefficient").get<double>(), 0.0);
+  EXPECT_LT(j.at("drape_coefficient").get<double>(), 1.0);
+  EXPECT_EQ(j.at("node_angles_deg").size(), j.at("nodes").get<size_t>());
+  for (const char* name : {"results.md", "edge.csv", "top.png", "side.png"}) EXPECT_TRUE(fs::exists(dir / name)) << name;
+  fs::remove_all(dir);
+  fs::remove(err_file);
+}
