@@ -247,7 +247,9 @@ def sync_tree(root, tree):
                 if f.read() == data:
                     continue
         os.makedirs(os.path.dirname(dst), exist_ok=True)
-        shutil.copy2(src, dst)
+        # A fresh modification time (not the source's, which may be older than the objects
+        # built from the previous copy): the build then sees the change.
+        shutil.copy(src, dst)
     for top in ("src", "app", "include", "tests", "scenes", "data"):
         for dirpath, _, names in os.walk(os.path.join(tree, top)):
             for name in names:

@@ -2,11 +2,14 @@
 
 #include "collision/aabb_tree.hpp"
 #include "collision/geometry.hpp"
+#include "sim/threads.hpp"
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -404,7 +407,13 @@ class MeshCollider : public Collider {
     face_normals(start_, face_normal_start_);
     face_normal_end_ = face_normal_start_;
     for (auto& side : vertex_normal_) side.assign(static_cast<size_t>(start_.rows()), Vec3::Zero());
-    for (auto& side : vertex_normal_ready_) side.assign(static_cast<size_t>(start_.rows()), 0);
+    for (auto& side : vertex_normal_state_) side = std::make_unique<std::atomic<signed char>[]>(start_.rows());
+    clear_vertex_normals(0);
+    clear_vertex_normals(1);
+  }
+
+  void reserve_nodes(int n) override {
+    if (side_.size() < static_cast<size_t>(n)) side_.resize(n, 0);
   }
 
   void prepare(double t0, double t1) override {
@@ -414,18 +423,18 @@ class MeshCollider : public Collider {
       std::swap(tree_start_, tree_end_);
       std::swap(face_normal_start_, face_normal_end_);
       std::swap(vertex_normal_[0], vertex_normal_[1]);
-      std::swap(vertex_normal_ready_[0], vertex_normal_ready_[1]);
+      std::swap(vertex_normal_state_[0], vertex_normal_state_[1]);
     } else if (t0 != t0_) {
       motion_(t0, start_);
       tree_start_.refit(start_.data());
       face_normals(start_, face_normal_start_);
-      std::fill(vertex_normal_ready_[0].begin(), vertex_normal_ready_[0].end(), 0);
+      clear_vertex_normals(0);
     }
     if (t1 != t1_ || t0 != t0_) {
       motion_(t1, end_);
       tree_end_.refit(end_.data());
       face_normals(end_, face_normal_end_);
-      std::fill(vertex_normal_ready_[1].begin(), vertex_normal_ready_[1].end(), 0);
+      clear_vertex_normals(1);
     }
     t0_ = t0;
     t1_ = t1;
@@ -506,10 +515,17 @@ class MeshCollider : public Collider {
     }
   }
 
+  void clear_vertex_normals(int side) {
+    for (Eigen::Index v = 0; v < start_.rows(); ++v) vertex_normal_state_[side][v].store(0, std::memory_order_relaxed);
+  }
+
   /// The angle-weighted normal of vertex v (not unit) at the step's start or end, computed
-  /// when first asked for in a step (most queries end on a face or an edge).
-  const Vec3& vertex_normal(int v, bool end) const {
-    if (vertex_normal_ready_[end][v]) return vertex_normal_[end][v];
+  /// when first asked for in a step (most queries end on a face or an edge) and kept. Queries
+  /// on several threads may ask at once: the thread that claims the vertex (state 0 -> 1)
+  /// stores the normal and publishes it (state 2); the others compute the same value.
+  Vec3 vertex_normal(int v, bool end) const {
+    std::atomic<signed char>& state = vertex_normal_state_[end][v];
+    if (state.load(std::memory_order_acquire) == 2) return vertex_normal_[end][v];
     const Points& x = end ? end_ : start_;
     const std::vector<Vec3>& face = end ? face_normal_end_ : face_normal_start_;
     Vec3 sum = Vec3::Zero();
@@ -520,8 +536,12 @@ class MeshCollider : public Collider {
       const Vec3 p = x.row(v), e1 = Vec3(x.row(t[(at + 1) % 3])) - p, e2 = Vec3(x.row(t[(at + 2) % 3])) - p;
       sum += std::atan2(e1.cross(e2).norm(), e1.dot(e2)) * face[f];
     }
-    vertex_normal_ready_[end][v] = 1;
-    return vertex_normal_[end][v] = sum;
+    signed char unclaimed = 0;
+    if (state.compare_exchange_strong(unclaimed, 1, std::memory_order_acq_rel)) {
+      vertex_normal_[end][v] = sum;
+      state.store(2, std::memory_order_release);
+    }
+    return sum;
   }
 
   Vec3 pseudo_normal(int f, TriangleFeature feature, bool end) const {
@@ -552,7 +572,8 @@ class MeshCollider : public Collider {
   std::vector<Vec3> face_normal_start_, face_normal_end_;
   std::vector<int> vertex_face_start_, vertex_faces_;  ///< each vertex's faces, compressed rows
   mutable std::vector<Vec3> vertex_normal_[2];          ///< [0] start, [1] end
-  mutable std::vector<char> vertex_normal_ready_[2];
+  /// Per vertex and side: 0 not computed, 1 being stored, 2 stored (vertex_normal).
+  std::unique_ptr<std::atomic<signed char>[]> vertex_normal_state_[2];
   double t0_ = std::numeric_limits<double>::quiet_NaN(), t1_ = std::numeric_limits<double>::quiet_NaN();
   double step_motion_ = 0;
   mutable std::vector<signed char> side_;  ///< per cloth node, open surfaces: +1 or -1 (0: not yet)
@@ -582,7 +603,21 @@ std::unique_ptr<Collider> make_analytic_collider(const ColliderSpec& spec) {
 
 ColliderContacts::ColliderContacts(std::vector<Collider*> colliders, const VecX& mass, const std::vector<char>& fixed,
                                    std::vector<std::array<int, 3>> triangles)
-    : colliders_(std::move(colliders)), mass_(mass), fixed_(fixed), triangles_(std::move(triangles)) {}
+    : colliders_(std::move(colliders)), mass_(mass), fixed_(fixed), triangles_(std::move(triangles)) {
+  for (Collider* c : colliders_) c->reserve_nodes(static_cast<int>(fixed_.size()));
+}
+
+template <class Query>
+void ColliderContacts::query_nodes(const Query& query) {
+  const int n = static_cast<int>(fixed_.size());
+  found_.assign(n, 0);
+  surface_.resize(n);
+  constexpr int kChunk = 256;
+  parallel_chunks((n + kChunk - 1) / kChunk, [&](size_t k) {
+    for (int i = static_cast<int>(k) * kChunk, end = std::min(n, i + kChunk); i < end; ++i)
+      if (!fixed_[i]) found_[i] = query(i, surface_[i]) ? 1 : 0;
+  });
+}
 
 void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt, std::vector<NodeContact>& out) {
   out.clear();
@@ -596,13 +631,15 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
   for (Collider* c : colliders_) {
     c->prepare(t, t + dt);
     const double thickness = c->spec().thickness;
-    for (int i = 0; i < n; ++i) {
-      if (fixed_[i]) continue;
-      const Vec3 p = node(x, i), vi = node(v, i);
+    query_nodes([&](int i, SurfacePoint& s) {
       // Anything the node could reach this step, and the layer it must stay out of.
-      const double reach = 2 * thickness + dt * vi.norm() + c->step_motion();
-      SurfacePoint s;
-      if (!c->closest(p, reach, false, i, s)) continue;
+      const double reach = 2 * thickness + dt * node(v, i).norm() + c->step_motion();
+      return c->closest(node(x, i), reach, false, i, s);
+    });
+    for (int i = 0; i < n; ++i) {
+      if (!found_[i]) continue;
+      const Vec3 vi = node(v, i);
+      const SurfacePoint& s = surface_[i];
       const double approach = dt * vi.dot(s.normal) - s.displacement.dot(s.normal);
       // Where the node would end without the contact, at its present velocity. A node resting
       // at the thickness has gap = thickness: the margin keeps it held (its forces are not in
@@ -689,12 +726,16 @@ void ColliderContacts::detect_end(const VecX& x0, const VecX& x1, double /*t*/, 
   slot.assign(n, -1);
   for (Collider* c : colliders_) {
     const double thickness = c->spec().thickness;
-    for (int i = 0; i < n; ++i) {
-      if (fixed_[i] || held[i]) continue;
-      SurfacePoint s;
+    query_nodes([&](int i, SurfacePoint& s) {
+      if (held[i]) return false;
       // A node the surface swept past may be deep inside it at the end.
       const double reach = thickness + c->step_motion() + (node(x1, i) - node(x0, i)).norm();
-      if (!c->closest(node(x1, i), reach, true, i, s) || s.distance >= thickness) continue;
+      return c->closest(node(x1, i), reach, true, i, s);
+    });
+    for (int i = 0; i < n; ++i) {
+      if (!found_[i]) continue;
+      const SurfacePoint& s = surface_[i];
+      if (s.distance >= thickness) continue;
       if (slot[i] >= 0 && s.distance >= best_gap_[i]) continue;
       NodeContact contact;
       contact.node = i;
@@ -725,14 +766,18 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
   }
   for (Collider* c : colliders_) {
     const double thickness = c->spec().thickness;
-    for (int i = 0; i < n; ++i) {
-      if (fixed_[i]) continue;
-      SurfacePoint s;
-      // A node held by a constraint ends at the thickness; one that ends well inside the layer
-      // was missed or pushed in by its neighbours: it is put back at the thickness, its
-      // velocity along the normal no faster towards the surface than the surface itself.
+    // A node held by a constraint ends at the thickness; one that ends well inside the layer
+    // was missed or pushed in by its neighbours: it is put back at the thickness, its
+    // velocity along the normal no faster towards the surface than the surface itself. (A
+    // node's query reads only its own position, so all are made before any is moved.)
+    query_nodes([&](int i, SurfacePoint& s) {
       const double reach = thickness + c->step_motion() + (node(x1, i) - node(x0, i)).norm();
-      if (!c->closest(node(x1, i), reach, true, i, s) || s.distance >= 0.5 * thickness) continue;
+      return c->closest(node(x1, i), reach, true, i, s);
+    });
+    for (int i = 0; i < n; ++i) {
+      if (!found_[i]) continue;
+      const SurfacePoint& s = surface_[i];
+      if (s.distance >= 0.5 * thickness) continue;
       node(x1, i) += (thickness - s.distance) * s.normal;
       const Vec3 v_old = node(v1, i);
       const double surface_speed = s.displacement.dot(s.normal) / dt;

@@ -31,8 +31,11 @@ class Collider {
   /// The surface point closest to p at the step's start (end: at its end); false when p is
   /// farther than `reach` outside the surface as it is then and as it moves over the step (a
   /// collider may also answer farther points). `node` identifies the querying cloth node (open meshes
-  /// keep each node's side).
+  /// keep each node's side). Queries for different nodes may run on several threads at once,
+  /// for nodes below the count given to reserve_nodes.
   virtual bool closest(const Vec3& p, double reach, bool end, int node, SurfacePoint& out) const = 0;
+  /// Makes room for what closest keeps per node, for nodes 0 to n - 1.
+  virtual void reserve_nodes(int /*n*/) {}
   /// How far any point of the surface moves over the prepared step (m); 0 for a collider
   /// whose queries answer at any distance.
   virtual double step_motion() const { return 0; }
@@ -91,6 +94,12 @@ class ColliderContacts : public ContactHandler {
   std::vector<double> best_gap_;  ///< per node: the gap of its contact so far
   std::vector<int> slot_;         ///< per node: its contact's index in the output, or -1
   std::vector<char> touching_;    ///< touching()
+  /// Per node, the last query_nodes: whether it found a surface point, and the point.
+  std::vector<char> found_;
+  std::vector<SurfacePoint> surface_;
+  /// Runs `query(i, surface_[i])` for the free nodes i on every thread, its result in found_[i].
+  template <class Query>
+  void query_nodes(const Query& query);
   double prepared_t_ = -1, prepared_dt_ = -1;  ///< the step the colliders are prepared for
   /// Moves cloth faces that a mesh collider's vertex (a nose, a finger) came within the
   /// thickness of, or poked through, back out along that vertex's normal.
