@@ -23,6 +23,7 @@
 #include "weft/body.hpp"
 #include "weft/error.hpp"
 #include "weft/simulation.hpp"
+#include "weft/threads.hpp"
 
 namespace py = pybind11;
 namespace fs = std::filesystem;
@@ -333,6 +334,14 @@ PYBIND11_MODULE(weft, m) {
   m.attr("__version__") = WEFT_VERSION;
   // Bad input (a scene, a file, an argument): the command line's message, as a ValueError.
   py::register_exception<weft::InputError>(m, "InputError", PyExc_ValueError);
+  m.def("set_thread_count", [](int n) {
+          if (n < 0) throw weft::InputError("thread count must be 0 (every core) or positive, got " + std::to_string(n));
+          weft::set_thread_count(n);
+        },
+        py::arg("n"),
+        "Threads for the parallel parts of a step: n >= 1, or 0 for every core (the default). Results are the "
+        "same bits at every count.");
+  m.def("thread_count", &weft::thread_count, "The threads a parallel part of a step may use now");
 
   py::class_<PySimulation>(m, "Simulation",
                            "A scene ready to step: Simulation(path) reads a scene file, Simulation(dict, base_dir=...) "

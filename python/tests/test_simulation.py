@@ -210,3 +210,26 @@ def test_outputs_of_the_current_state(tmp_path, sheet):
     (tmp_path / "file").write_text("")
     with pytest.raises(OSError, match="could not write"):
         sim.write_obj(tmp_path / "file" / "cloth.obj")
+
+
+def test_thread_count_changes_no_bit(tmp_path):
+    """A cloth settling on a sphere with self-contact on: the parallel detection gives the
+    same positions on one thread and on two."""
+    scene = {"weft_scene": 1, "duration": 0.05, "frame_interval": 0.05,
+             "integrator": {"method": "backward-euler", "dt": 0.005},
+             "cloth": {"mesh": {"grid": {"size": [0.6, 0.6], "vertices": [25, 25]}},
+                       "placement": {"rotation_deg": [-90, 0, 0], "translation": [-0.3, 0.703, 0.3]},
+                       "material": "cotton", "self_collision": True},
+             "colliders": [{"type": "sphere", "centre": [0, 0.5, 0], "radius": 0.2}]}
+    results = []
+    for n in (1, 2):
+        weft.set_thread_count(n)
+        if n == 1:
+            assert weft.thread_count() == 1
+        sim = weft.Simulation(scene)
+        sim.advance(0.05)
+        results.append(np.array(sim.positions))
+    weft.set_thread_count(0)
+    assert np.array_equal(results[0], results[1])
+    with pytest.raises(ValueError, match="thread count must be 0"):
+        weft.set_thread_count(-1)
