@@ -847,22 +847,38 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
   });
   side_normal_known_.assign(fixed_.size(), 0);
   side_normal_.resize(fixed_.size());
-  std::sort(candidates.begin(), candidates.end());
+  parallel_sort(candidates);
   candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
-  for (const auto& [f, vertex] : candidates) {
-    const auto& t = triangles_[f];
-    if (fixed_[t[0]] && fixed_[t[1]] && fixed_[t[2]]) continue;
-    const Vec3 p = body.row(vertex).transpose();
-    const Vec3 n = c.end_vertex_normal(vertex);
-    const PointTriangleClosest q = closest_point_triangle(p, node(x, t[0]), node(x, t[1]), node(x, t[2]));
-    if (q.feature.kind == FeatureKind::kVertex) continue;  // a neighbouring face's
-    const double height = (q.point - p).dot(n);              // of the face above the vertex
-    if (height >= limit || height < -kMaxPokeDepth) continue;
-    // A vertex under one of the face's edges (the edge across a ridge, the faces on both sides
-    // clear of it): the edge itself, found from both its faces, each move measured where the
-    // last left it. Only where the edge passes over the vertex, not beside it (the rim of a
-    // sleeve around an arm).
-    if (q.feature.kind == FeatureKind::kEdge && (q.point - p - height * n).norm() > 0.5 * thickness) continue;
+  // The candidates' geometry on every thread, each into its own entry; then, in order, the
+  // side check (its nearest-normal queries are kept per node and made only when needed).
+  const size_t count = candidates.size();
+  poke_tests_.resize(count);
+  poke_qualifies_.assign(count, 0);
+  constexpr size_t kChunk = 512;
+  parallel_chunks((count + kChunk - 1) / kChunk, [&](size_t k) {
+    for (size_t m = k * kChunk, end = std::min(count, m + kChunk); m < end; ++m) {
+      const auto [f, vertex] = candidates[m];
+      const auto& t = triangles_[f];
+      if (fixed_[t[0]] && fixed_[t[1]] && fixed_[t[2]]) continue;
+      const Vec3 p = body.row(vertex).transpose();
+      const Vec3 n = c.end_vertex_normal(vertex);
+      const PointTriangleClosest q = closest_point_triangle(p, node(x, t[0]), node(x, t[1]), node(x, t[2]));
+      if (q.feature.kind == FeatureKind::kVertex) continue;  // a neighbouring face's
+      const double height = (q.point - p).dot(n);              // of the face above the vertex
+      if (height >= limit || height < -kMaxPokeDepth) continue;
+      // A vertex under one of the face's edges (the edge across a ridge, the faces on both
+      // sides clear of it): the edge itself, found from both its faces, each move measured
+      // where the last left it. Only where the edge passes over the vertex, not beside it (the
+      // rim of a sleeve around an arm).
+      if (q.feature.kind == FeatureKind::kEdge && (q.point - p - height * n).norm() > 0.5 * thickness) continue;
+      poke_tests_[m] = {f, vertex, q.weights, height, n, q.feature.kind == FeatureKind::kEdge};
+      poke_qualifies_[m] = 1;
+    }
+  });
+  for (size_t m = 0; m < count; ++m) {
+    if (!poke_qualifies_[m]) continue;
+    const FacePoke& poke = poke_tests_[m];
+    const auto& t = triangles_[poke.face];
     // The face must lie on the vertex's side of the collider: its own vertices' nearest
     // surface normals face the same way (not a face on the far side of a thin part). Lifting
     // faces more freely (those wrapped round an arm) moves so many vertices that the cloth's
@@ -876,10 +892,9 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
         side_normal_known_[i] = 1;
         side_normal_[i] = c.closest(node(x, i), kMaxPokeDepth + thickness, true, i, sp) ? sp.normal : Vec3::Zero();
       }
-      same_side = side_normal_[i].dot(n) > 0.5;
+      same_side = side_normal_[i].dot(poke.normal) > 0.5;
     }
-    if (!same_side) continue;
-    out.push_back({f, vertex, q.weights, height, n, q.feature.kind == FeatureKind::kEdge});
+    if (same_side) out.push_back(poke);
   }
 }
 

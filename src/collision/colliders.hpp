@@ -124,6 +124,9 @@ class ColliderContacts : public ContactHandler {
   VecX predicted_;                        ///< x + dt v at the step's start
   std::vector<double> face_held_height_;  ///< per node: the lowest poke holding it (inf: none)
   std::vector<std::pair<int, int>> poke_candidates_;
+  /// Per candidate of face_pokes: the poke, if its geometry qualifies (before the side check).
+  std::vector<FacePoke> poke_tests_;
+  std::vector<char> poke_qualifies_;
   /// Lifts cloth faces that sag between their vertices to within half the thickness of a
   /// round collider (sphere, capsule) back to the thickness.
   void lift_faces_off_round(const Collider& c, VecX& x1, VecX& v1, ContactReport& report);

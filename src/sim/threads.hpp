@@ -4,6 +4,7 @@
 #include <cstddef>
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include "weft/threads.hpp"
 
@@ -18,6 +19,13 @@ void parallel_chunks(size_t count, const Body& body) {
     return;
   }
   tbb::parallel_for(size_t{0}, count, [&body](size_t k) { body(k); });
+}
+
+/// Sorts v by operator< on the threads allowed. For elements whose order is total (no two
+/// unequal elements compare equivalent) the result is the one std::sort gives.
+template <class Vector>
+void parallel_sort(Vector& v) {
+  tbb::parallel_sort(v.begin(), v.end());
 }
 
 }  // namespace weft
