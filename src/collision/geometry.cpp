@@ -10,14 +10,21 @@ namespace weft {
 // ---------------------------------------------------------------------------------------------
 // Closest points
 
+namespace {
+
+/// The parameter in [0, 1] of the point of the segment a + t ab nearest to p (0 for a
+/// zero-length segment), from ap . ab and |ab|^2.
+double segment_parameter(double ap_dot_ab, double len2) {
+  return len2 > 0 ? std::clamp(ap_dot_ab / len2, 0.0, 1.0) : 0.0;
+}
+
+}  // namespace
+
 PointSegmentClosest closest_point_segment(const Vec3& p, const Vec3& a, const Vec3& b) {
   const Vec3 ab = b - a;
-  const double len2 = ab.squaredNorm();
-  double t = len2 > 0 ? (p - a).dot(ab) / len2 : 0.0;
-  t = std::clamp(t, 0.0, 1.0);
   PointSegmentClosest r;
-  r.t = t;
-  r.point = a + t * ab;
+  r.t = segment_parameter((p - a).dot(ab), ab.squaredNorm());
+  r.point = a + r.t * ab;
   r.distance = (p - r.point).norm();
   return r;
 }
@@ -43,26 +50,30 @@ PointTriangleClosest closest_point_triangle(const Vec3& p, const Vec3& a, const 
     }
   }
   // Outside the triangle (in projection) the nearest point is on the boundary: the nearest of
-  // the three edges' nearest points.
+  // the three edges' nearest points (compared by squared distance; one square root at the end).
   const Vec3* corner[3] = {&a, &b, &c};
-  r.distance = std::numeric_limits<double>::infinity();
+  double best = std::numeric_limits<double>::infinity();
   for (int k = 0; k < 3; ++k) {
     const int k1 = (k + 1) % 3;
-    const PointSegmentClosest e = closest_point_segment(p, *corner[k], *corner[k1]);
-    if (e.distance < r.distance) {
-      r.distance = e.distance;
-      r.point = e.point;
+    const Vec3 e = *corner[k1] - *corner[k];
+    const double t = segment_parameter((p - *corner[k]).dot(e), e.squaredNorm());
+    const Vec3 q = *corner[k] + t * e;
+    const double d2 = (p - q).squaredNorm();
+    if (d2 < best) {
+      best = d2;
+      r.point = q;
       r.weights = Vec3::Zero();
-      r.weights[k] = 1 - e.t;
-      r.weights[k1] = e.t;
-      if (e.t == 0)
+      r.weights[k] = 1 - t;
+      r.weights[k1] = t;
+      if (t == 0)
         r.feature = {FeatureKind::kVertex, k};
-      else if (e.t == 1)
+      else if (t == 1)
         r.feature = {FeatureKind::kVertex, k1};
       else
         r.feature = {FeatureKind::kEdge, k};
     }
   }
+  r.distance = std::sqrt(best);
   return r;
 }
 
@@ -70,26 +81,36 @@ SegmentSegmentClosest closest_points_segments(const Vec3& p0, const Vec3& p1, co
   // The squared distance is a convex quadratic over the unit square of (s, t): its minimum is
   // the unconstrained one when that lies in the square, otherwise on the square's boundary,
   // where one parameter is 0 or 1 and the other is a point-segment problem. Taking the least of
-  // all these candidates needs no case analysis for parallel or zero-length segments.
+  // all these candidates needs no case analysis for parallel or zero-length segments. They are
+  // compared by squared distance, with one square root at the end.
   const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
   const double a = d1.squaredNorm(), e = d2.squaredNorm(), b = d1.dot(d2);
   const double c = d1.dot(r), f = d2.dot(r);
   const double denom = a * e - b * b;
   SegmentSegmentClosest best;
-  best.distance = std::numeric_limits<double>::infinity();
+  double best2 = std::numeric_limits<double>::infinity();
   auto consider = [&](double s, double t) {
     const Vec3 pp = p0 + s * d1, qq = q0 + t * d2;
-    const double d = (pp - qq).norm();
-    if (d < best.distance) best = {s, t, pp, qq, d};
+    const double dd = (pp - qq).squaredNorm();
+    if (dd < best2) {
+      best2 = dd;
+      best.s = s;
+      best.t = t;
+      best.point_p = pp;
+      best.point_q = qq;
+    }
   };
   if (denom > 1e-14 * a * e && denom > 0) {
     const double s = (b * f - c * e) / denom, t = (a * f - b * c) / denom;
     if (s >= 0 && s <= 1 && t >= 0 && t <= 1) consider(s, t);
   }
-  consider(0, closest_point_segment(p0, q0, q1).t);
-  consider(1, closest_point_segment(p1, q0, q1).t);
-  consider(closest_point_segment(q0, p0, p1).t, 0);
-  consider(closest_point_segment(q1, p0, p1).t, 1);
+  // The endpoints against the other segment: p0 - q0 = r, p1 - q0 = r + d1, and the same
+  // seen from p.
+  consider(0, segment_parameter(f, e));
+  consider(1, segment_parameter(f + b, e));
+  consider(segment_parameter(-c, a), 0);
+  consider(segment_parameter(b - c, a), 1);
+  best.distance = std::sqrt(best2);
   return best;
 }
 

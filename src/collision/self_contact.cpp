@@ -151,6 +151,20 @@ void SelfContacts::for_each_candidate(const VecX& xa, const VecX& xb, double mar
 
 void SelfContacts::find_proximities(const VecX& x0) {
   pairs_.clear();
+  if (proximity_x_.size() == x0.size() && proximity_x_ == x0) {
+    // The same positions as the last search (detect, then finish_step at the step's start):
+    // the same pairs, the touching ones' normals turned to the current u as a search would.
+    pairs_ = proximity_pairs_;
+    for (Stencil& s : pairs_) {
+      if (!s.touching) continue;
+      const auto& k = s.node;
+      const Vec3 fallback =
+          s.vertex_face ? Vec3((node(x0, k[2]) - node(x0, k[1])).cross(node(x0, k[3]) - node(x0, k[1])))
+                        : Vec3((node(x0, k[1]) - node(x0, k[0])).cross(node(x0, k[3]) - node(x0, k[2])));
+      degenerate_normal(fallback, relative_velocity(s), s.normal);
+    }
+    return;
+  }
   const double h = thickness_;
   tree_.refit(x0.data(), 0.5 * h);
   for_each_candidate(
@@ -170,6 +184,7 @@ void SelfContacts::find_proximities(const VecX& x0) {
         } else {
           const Vec3 face = (node(x0, t[1]) - node(x0, t[0])).cross(node(x0, t[2]) - node(x0, t[0]));
           if (!degenerate_normal(face, relative_velocity(s), s.normal)) return false;
+          s.touching = true;
         }
         return true;
       },
@@ -189,9 +204,12 @@ void SelfContacts::find_proximities(const VecX& x0) {
         } else {
           const Vec3 common = (node(x0, p[1]) - node(x0, p[0])).cross(node(x0, q[1]) - node(x0, q[0]));
           if (!degenerate_normal(common, relative_velocity(s), s.normal)) return false;
+          s.touching = true;
         }
         return true;
       });
+  proximity_x_ = x0;
+  proximity_pairs_ = pairs_;
 }
 
 void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt, std::vector<NodeContact>& out) {

@@ -98,6 +98,9 @@ class SelfContacts : public ContactHandler {
     double gap = 0;               ///< separation along the normal at the step's start (m)
     double distance = 0;          ///< the distance the pair is kept at (m)
     bool vertex_face = false;     ///< node[0] is a vertex, the others a face's
+    /// The closest points (nearly) coincide: the normal is the face's or the edges' common
+    /// one, turned against the relative velocity (it depends on u, not only on positions).
+    bool touching = false;
   };
 
  private:
@@ -110,7 +113,9 @@ class SelfContacts : public ContactHandler {
   template <class VertexFace, class EdgeEdge>
   void for_each_candidate(const VecX& xa, const VecX& xb, double margin, bool only_changed, VertexFace&& vertex_face,
                           EdgeEdge&& edge_edge);
-  /// Pairs within the thickness at x0 into pairs_.
+  /// Pairs within the thickness at x0 into pairs_. detect and finish_step look at the same
+  /// start positions in a step: the second call reuses the first's pairs (proximity_x_ and
+  /// proximity_pairs_), only turning the normals of touching pairs to the current u.
   void find_proximities(const VecX& x0);
   /// Pairs that come within their collision distance along x0 -> x0 + dt u into pairs_ (with
   /// `skip_zones`, not those inside one impact zone); their number.
@@ -148,6 +153,8 @@ class SelfContacts : public ContactHandler {
   std::vector<Box> vertex_box_, edge_box_;  ///< of the detection under way
   std::vector<char> changed_;        ///< per node: u changed since the last detection
   std::vector<Stencil> pairs_;
+  VecX proximity_x_;                        ///< the positions of the last find_proximities
+  std::vector<Stencil> proximity_pairs_;    ///< and the pairs it found
   std::vector<int> parent_;          ///< impact zones: union-find over nodes
   std::vector<char> zone_stopped_;   ///< per zone root: stopped
   std::vector<char> zone_dirty_;     ///< per zone root: grew since its motion was set
