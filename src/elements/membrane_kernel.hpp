@@ -157,12 +157,18 @@ WEFT_ALWAYS_INLINE T viscous_power(const T& area, const Modes<T>& eta, const Mod
   return -area * (sv0 * rate.uu + sv1 * rate.vv + sv2 * rate.uv);
 }
 
+/// The elastic energy A W(e) of a triangle of rest area A at Green strain e.
+template <class T, class Curves>
+WEFT_ALWAYS_INLINE T strain_energy(const Curves& curves, const T& area, const Modes<T>& strain) {
+  return area * curves.energy(strain);
+}
+
 template <class T, class Curves>
 WEFT_ALWAYS_INLINE void forces(const Curves& curves, const T& area, const Modes<T>& eta, const T* U, const T* V,
                                const T* Ud, const T* Vd, Forces<T>& out) {
   out.strain = green_strain(U, V);
   out.stress = curves.stress(out.strain);
-  out.energy = area * curves.energy(out.strain);
+  out.energy = strain_energy(curves, area, out.strain);
   const Modes<T> rate = strain_rate(U, V, Ud, Vd);
   out.viscous_power = viscous_power(area, eta, rate);
   out.fu = area * (out.stress.uu + eta.uu * rate.uu);

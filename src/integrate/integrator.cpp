@@ -147,6 +147,7 @@ double Integrator::guard_alpha() const { return guard_alphas_[guard_rung_]; }
 
 void Integrator::advance(State& s, double t_end, StepStatistics& stats) {
   const double dt = settings_.dt;
+  energy_x_.resize(0);  // the system may have changed between calls
   if (settings_.method != Method::Rk45) {
     const long steps = std::lround((t_end - s.t) / dt);
     for (long k = 0; k < steps; ++k) step(s, dt, stats);
@@ -240,6 +241,17 @@ void Integrator::single_step(State& s, double dt, StepStatistics& stats) {
   ++stats.steps;
 }
 
+void Integrator::potential_energy(const VecX& x, double& elastic, double& gravity) {
+  // The guard asks for the energy at the very positions the contacts' fail-safe has just
+  // measured: the last answer is kept with its positions.
+  if (!(energy_x_.size() == x.size() && energy_x_ == x)) {
+    system_.potential_energy(x, energy_elastic_, energy_gravity_);
+    energy_x_ = x;
+  }
+  elastic = energy_elastic_;
+  gravity = energy_gravity_;
+}
+
 double Integrator::kinetic_energy(const VecX& v) const {
   return 0.5 * mass3_.dot(v.cwiseAbs2());
 }
@@ -282,8 +294,9 @@ void Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
     const double kinetic0 = kinetic_energy(guard_start_.v);
     const double e0 = kinetic0 + step_.elastic_energy + step_.gravity_energy;
     const double scale = std::max(energy_scale_, kinetic0 + step_.elastic_energy);
-    system_.evaluate(s.x, s.v, false, eval_);
-    const double e1 = kinetic_energy(s.v) + eval_.elastic_energy + eval_.gravity_energy;
+    double elastic1, gravity1;
+    potential_energy(s.x, elastic1, gravity1);
+    const double e1 = kinetic_energy(s.v) + elastic1 + gravity1;
     const double gain = (e1 - e0) + (s.viscous_dissipated - guard_start_.viscous_dissipated) -
                         (s.contact_work - guard_start_.contact_work);
     // A non-finite end is a step that put energy in too.
@@ -762,10 +775,11 @@ void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics&
     for (ContactHandler* h : handlers_)
       if (h->prescribes_motion() == prescribed) h->finish_step(x_start_, s.x, s.v, t0, dt, report);
     if (report.fail_safe_moves > 0) {
-      system_.evaluate(x_before_fail_safe_, v_before, false, eval_);
-      const double before = kinetic_energy(v_before) + eval_.elastic_energy + eval_.gravity_energy;
-      system_.evaluate(s.x, s.v, false, eval_);
-      report.work = kinetic_energy(s.v) + eval_.elastic_energy + eval_.gravity_energy - before;
+      double elastic, gravity;
+      potential_energy(x_before_fail_safe_, elastic, gravity);
+      const double before = kinetic_energy(v_before) + elastic + gravity;
+      potential_energy(s.x, elastic, gravity);
+      report.work = kinetic_energy(s.v) + elastic + gravity - before;
     }
     s.contact_work += report.work;
     if (!prescribed) s.fail_safe_work += report.work;

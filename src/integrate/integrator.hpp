@@ -209,6 +209,9 @@ class Integrator {
   /// A guarded step of dt as 2^depth parts (DynamicState::guard_depth).
   void guarded_parts(State& s, double dt, StepStatistics& stats);
   double kinetic_energy(const VecX& v) const;
+  /// The system's elastic and gravitational energy at x, the last answer kept with its
+  /// positions (energy_x_; forgotten at the start of every advance).
+  void potential_energy(const VecX& x, double& elastic, double& gravity);
   void linear_step(State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
   /// Newton iterations on the step's equations from the linearised solution in dv_
   /// (IntegratorSettings::newton_iterations); returns how many changed dv_.
@@ -272,6 +275,8 @@ class Integrator {
   std::vector<double> guard_alphas_;
   int guard_rung_ = 0, guard_calm_steps_ = 0;  ///< DynamicState::guard_rung, guard_calm_steps
   int guard_depth_ = 0, guard_depth_calm_steps_ = 0;  ///< DynamicState::guard_depth, ..._calm_steps
+  VecX energy_x_;             ///< potential_energy's last positions
+  double energy_elastic_ = 0, energy_gravity_ = 0;  ///< and its answer there
   State guard_start_;        ///< the guarded step's start, to take it again from
   bool guard_raised_now_ = false;  ///< a part of this step was taken above the scene's alpha
   VecX v_before_fail_safe_;                  ///< finish_contacts: the velocities before every correction

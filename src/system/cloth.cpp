@@ -870,6 +870,32 @@ WEFT_HOT_KERNEL double ClothSystem::viscous_power_with(const VecX& x, const VecX
   return power;
 }
 
+// The energies of evaluate without its forces: the same expressions summed in the same order
+// (gravity, then the membranes in triangle order, then the bending stencils node by node), so
+// the same numbers.
+void ClothSystem::potential_energy(const VecX& x, double& elastic, double& gravity) {
+  using namespace membrane;
+  elastic = gravity = 0;
+  for (int i = 0; i < num_nodes(); ++i) gravity -= model_.mass[i] * model_.gravity.dot(node(x, i));
+  for (size_t t = 0; t < model_.membranes.size(); ++t) {
+    const MembraneGeometry& g = model_.membranes[t];
+    const auto& tri = model_.mesh.triangles[t];
+    const double ru[3] = {g.ru[0], g.ru[1], g.ru[2]}, rv[3] = {g.rv[0], g.rv[1], g.rv[2]};
+    double U[3], V[3];
+    gradient(ru, rv, [&](int k, int c) { return x[3 * tri[k] + c]; }, U, V);
+    elastic += strain_energy(MaterialCurves(model_.material_of(t)), g.area, green_strain(U, V));
+  }
+  if (model_.bending.empty()) return;
+  const auto& rs = model_.pattern.row_start();
+  const auto& col = model_.pattern.column();
+  const double* q = model_.bending_slot_q.data();
+  for (int i = 0; i < num_nodes(); ++i) {
+    Vec3 qx = Vec3::Zero();
+    for (int s = rs[i]; s < rs[i + 1]; ++s) qx += q[s] * node(x, col[s]);
+    elastic += 0.5 * node(x, i).dot(qx);
+  }
+}
+
 void ClothSystem::evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluation& out) {
   const int n = num_nodes();
   // The Jacobian matrices are allocated on the first evaluation that asks for them (an

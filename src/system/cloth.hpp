@@ -100,6 +100,7 @@ class ClothSystem : public System {
   const std::vector<int>* solver_order() const override { return &model_.solver_order; }
   void begin_step(const VecX& x, const VecX& v, double dt) override;
   void evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluation& out) override;
+  void potential_energy(const VecX& x, double& elastic, double& gravity) override;
   /// Fused assembly: forces, step matrix and K w in one pass over the elements.
   void assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) override;
   double viscous_power(const VecX& x, const VecX& v) override;

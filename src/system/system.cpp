@@ -19,6 +19,13 @@ void System::assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAsse
   e.stiffness.multiply(w, out.stiffness_times_w);
 }
 
+void System::potential_energy(const VecX& x, double& elastic, double& gravity) {
+  Evaluation e;
+  evaluate(x, VecX::Zero(x.size()), false, e);
+  elastic = e.elastic_energy;
+  gravity = e.gravity_energy;
+}
+
 double System::viscous_power(const VecX& x, const VecX& v) {
   Evaluation e;
   prepare(e);

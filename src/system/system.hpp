@@ -49,6 +49,9 @@ class System {
   /// Fills `out` (force and energies always; Jacobians when `jacobians`), sizing what it
   /// fills as needed (an evaluation without Jacobians need not allocate the matrices).
   virtual void evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluation& out) = 0;
+  /// The elastic and gravitational energy at x (J), the same numbers evaluate reports. The
+  /// generic version evaluates; systems may compute them without the forces.
+  virtual void potential_energy(const VecX& x, double& elastic, double& gravity);
 
   /// Fills `out` for coefficients out.ck, out.cd and the vector w. The generic version
   /// evaluates K and D and combines them; systems may fuse the work.

@@ -268,6 +268,31 @@ TEST(ClothMaterials, EachTriangleStretchesByItsOwnMaterialAndTheStepAssemblyAgre
   }
 }
 
+TEST(ClothMaterials, ThePotentialEnergyAloneIsTheEnergyOfAFullEvaluation) {
+  // The energy guard and the contacts' energy account ask for the elastic and gravitational
+  // energy only; ClothSystem computes them without the forces. Two materials, one of them a
+  // spline curve, bending on, the cloth stretched and jiggled.
+  Material left = linear_fabric(0.15, 400, 150, 3e-5), right = linear_fabric(0.3, 120, 500, 8e-5);
+  right.weft = StressCurve::tabulated({-0.05, 0.0, 0.03, 0.06}, {-1.0, 0.0, 2.0, 12.0});
+  TwoMaterialCloth c = stretched_two_material_cloth(left, right);
+  ClothSystem system(c.model, DampingSettings{0.05});
+  VecX v(c.x.size());
+  for (Eigen::Index k = 0; k < v.size(); ++k) v[k] = uniform(-0.2, 0.2);
+  system.begin_step(c.x, v, 0.01);
+  Evaluation e;
+  system.evaluate(c.x, v, false, e);
+  double elastic = 0, gravity = 0;
+  system.potential_energy(c.x, elastic, gravity);
+  ASSERT_GT(e.elastic_energy, 0);
+  EXPECT_NEAR(elastic, e.elastic_energy, 1e-13 * e.elastic_energy);
+  EXPECT_NEAR(gravity, e.gravity_energy, 1e-13 * std::abs(e.gravity_energy) + 1e-15);
+  // The generic version (any system) gives the same.
+  double elastic_generic = 0, gravity_generic = 0;
+  system.System::potential_energy(c.x, elastic_generic, gravity_generic);
+  EXPECT_NEAR(elastic_generic, e.elastic_energy, 1e-13 * e.elastic_energy);
+  EXPECT_NEAR(gravity_generic, e.gravity_energy, 1e-13 * std::abs(e.gravity_energy) + 1e-15);
+}
+
 TEST(PanelGrain, APanelCutWithItsWarpAlongXStretchesAlongXByTheWarpCurve) {
   // One rectangle, 0.3 m along x and 0.2 m along y, stretched by 4% along the pattern's x.
   const Pattern pattern = parse_pattern(R"({"properties": {"units_in_meter": 100},
