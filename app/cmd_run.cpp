@@ -614,7 +614,7 @@ weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write fram
                    "(0: every frame)");
     sub.add_option("--method,-m", a->method,
                    "Integrator: " + weft::method_names() + " (default: the scene's)");
-    sub.add_option("--alpha", a->alpha, "Implicitness in [0, 1] for methods 'alpha' and 'bdf2-alpha'");
+    sub.add_option("--alpha", a->alpha, "Implicitness in [0, 1] for methods 'alpha', 'bdf2-alpha' and 'bdf2-alpha-guarded'");
     sub.add_option("--dt", a->dt, "Time step in seconds (for rk45: the largest step)");
     sub.add_option("--duration", a->duration, "Simulated time in seconds");
     sub.add_option("--tolerance", a->tolerance,

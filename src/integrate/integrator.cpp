@@ -28,6 +28,10 @@ const std::vector<MethodInfo>& method_table() {
       {"bdf2", Method::Bdf2, 1.0, 1.0, "progressive BDF-2, alpha = 1 (standard BDF-2)"},
       {"bdf2-alpha", Method::Bdf2, std::nullopt, 1.0 / std::sqrt(3.0),
        "progressive BDF-2 with the given alpha (default 1/sqrt(3))"},
+      {"bdf2-alpha-guarded", Method::Bdf2, std::nullopt, 1.0 / std::sqrt(3.0),
+       "progressive BDF-2 with the given alpha (default 1/sqrt(3)) and the energy guard: a step that would "
+       "put energy in is taken again with a larger alpha, up to standard BDF-2, then as a backward Euler step",
+       true},
       {"rk4", Method::Rk4, std::nullopt, 0.0, "classical explicit Runge-Kutta, fourth order"},
       {"rk45", Method::Rk45, std::nullopt, 0.0,
        "adaptive explicit Dormand-Prince 5(4) with local error tolerance (reference)"},
@@ -60,6 +64,9 @@ Integrator::Integrator(System& system, IntegratorSettings settings)
   guard_alphas_ = {settings_.alpha};
   for (double a : kGuardAlphas)
     if (a > settings_.alpha) guard_alphas_.push_back(a);
+  // BDF-2's guard climbs to alpha = 1 (standard BDF-2), then to backward Euler; a BDF-2 at
+  // alpha = 1 already goes straight to backward Euler.
+  if (settings_.method == Method::Bdf2 && guard_alphas_.back() < 1.0) guard_alphas_.push_back(1.0);
 }
 
 double Integrator::ssor_relaxation() const {
@@ -133,7 +140,9 @@ void Integrator::restore(const DynamicState& d) {
     throw std::invalid_argument("the contact flags do not fit this system");
   pulling_ = d.contact_pulling;
   stuck_ = d.contact_stuck;
-  if (d.guard_rung < 0 || d.guard_rung >= static_cast<int>(guard_alphas_.size()) || d.guard_calm_steps < 0)
+  // BDF-2's guard has one rung past its alphas (backward Euler).
+  const int rungs = static_cast<int>(guard_alphas_.size()) + (settings_.method == Method::Bdf2 ? 1 : 0);
+  if (d.guard_rung < 0 || d.guard_rung >= rungs || d.guard_calm_steps < 0)
     throw std::invalid_argument("the guard's alpha does not fit these settings");
   if (d.guard_depth < 0 || d.guard_depth > kGuardMaxSplits || d.guard_depth_calm_steps < 0)
     throw std::invalid_argument("the guard's step depth does not fit these settings");
@@ -143,7 +152,9 @@ void Integrator::restore(const DynamicState& d) {
   guard_depth_calm_steps_ = d.guard_depth_calm_steps;
 }
 
-double Integrator::guard_alpha() const { return guard_alphas_[guard_rung_]; }
+double Integrator::guard_alpha() const {
+  return guard_rung_ < static_cast<int>(guard_alphas_.size()) ? guard_alphas_[guard_rung_] : 1.0;
+}
 
 void Integrator::advance(State& s, double t_end, StepStatistics& stats) {
   const double dt = settings_.dt;
@@ -222,11 +233,10 @@ void Integrator::single_step(State& s, double dt, StepStatistics& stats) {
       }
       break;
     case Method::Bdf2:
-      if (!s.has_history) {
-        linear_step(s, dt, alpha, 0.0, dt, stats);  // start with one alpha-family step
+      if (settings_.guard) {
+        guarded_bdf2_step(s, dt, stats);
       } else {
-        // METHOD.md 2: beta = (2 alpha - 1)/(2 alpha + 1), dt_b = 2 dt/(2 alpha + 1)
-        linear_step(s, dt, alpha, (2 * alpha - 1) / (2 * alpha + 1), 2 * dt / (2 * alpha + 1), stats);
+        bdf2_step(s, dt, alpha, stats);
       }
       break;
     case Method::Rk4:
@@ -250,6 +260,15 @@ void Integrator::potential_energy(const VecX& x, double& elastic, double& gravit
   }
   elastic = energy_elastic_;
   gravity = energy_gravity_;
+}
+
+void Integrator::bdf2_step(State& s, double dt, double alpha, StepStatistics& stats) {
+  if (!s.has_history) {
+    linear_step(s, dt, alpha, 0.0, dt, stats);  // start with one alpha-family step
+  } else {
+    // METHOD.md 2: beta = (2 alpha - 1)/(2 alpha + 1), dt_b = 2 dt/(2 alpha + 1)
+    linear_step(s, dt, alpha, (2 * alpha - 1) / (2 * alpha + 1), 2 * dt / (2 * alpha + 1), stats);
+  }
 }
 
 double Integrator::kinetic_energy(const VecX& v) const {
@@ -291,16 +310,7 @@ void Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
     stats.guard_seconds += seconds_since(tg);
     linear_step(s, dt, alpha, 0.0, dt, stats);
     tg = Clock::now();
-    const double kinetic0 = kinetic_energy(guard_start_.v);
-    const double e0 = kinetic0 + step_.elastic_energy + step_.gravity_energy;
-    const double scale = std::max(energy_scale_, kinetic0 + step_.elastic_energy);
-    double elastic1, gravity1;
-    potential_energy(s.x, elastic1, gravity1);
-    const double e1 = kinetic_energy(s.v) + elastic1 + gravity1;
-    const double gain = (e1 - e0) + (s.viscous_dissipated - guard_start_.viscous_dissipated) -
-                        (s.contact_work - guard_start_.contact_work);
-    // A non-finite end is a step that put energy in too.
-    if (gain <= kGuardTolerance * scale) break;
+    if (!puts_energy_in(s)) break;
     stats.guard_seconds += seconds_since(tg);
     tg = Clock::now();
     if (splits < kGuardMaxSplits) {
@@ -327,15 +337,99 @@ void Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
     ++stats.guard_redone_steps;
   }
   stats.guard_seconds += seconds_since(tg);
-  ++stats.guard_parts;
+  accept_guarded(guard_alphas_[guard_rung_], stats);
+}
+
+bool Integrator::puts_energy_in(const State& s) {
+  const double kinetic0 = kinetic_energy(guard_start_.v);
+  const double e0 = kinetic0 + step_.elastic_energy + step_.gravity_energy;
+  const double scale = std::max(energy_scale_, kinetic0 + step_.elastic_energy);
+  double elastic1, gravity1;
+  potential_energy(s.x, elastic1, gravity1);
+  const double e1 = kinetic_energy(s.v) + elastic1 + gravity1;
+  const double gain = (e1 - e0) + (s.viscous_dissipated - guard_start_.viscous_dissipated) -
+                      (s.contact_work - guard_start_.contact_work);
+  // A non-finite end is a step that put energy in too.
+  return !(gain <= kGuardTolerance * scale);
+}
+
+void Integrator::accept_guarded(double alpha, StepStatistics& stats, int parts) {
+  stats.guard_parts += parts;
   if (guard_rung_ > 0) {
     guard_raised_now_ = true;
-    stats.guard_max_alpha = std::max(stats.guard_max_alpha, guard_alphas_[guard_rung_]);
+    stats.guard_max_alpha = std::max(stats.guard_max_alpha, alpha);
     if (++guard_calm_steps_ >= kGuardRelaxSteps) {
       --guard_rung_;
       guard_calm_steps_ = 0;
     }
   }
+}
+
+// The guard for BDF-2 (alpha family of BDF-2 steps, METHOD.md 2): the same energy balance as
+// guarded_step. A step that breaks it is taken again from its start with the next larger alpha
+// (up to alpha = 1, standard BDF-2, whose numerical dissipation of fast modes is strongest),
+// and past that as a backward Euler step, which needs no history; where even that puts energy
+// in, as backward Euler halves (backward_euler_parts). BDF-2 steps themselves are not halved:
+// their history holds the last step's displacement and change of velocity at the step's own
+// size. The rung reached stays for the next steps and relaxes as in guarded_step.
+void Integrator::guarded_bdf2_step(State& s, double dt, StepStatistics& stats) {
+  auto tg = Clock::now();
+  guard_start_ = s;
+  const std::vector<char> pulling = pulling_, stuck = stuck_;
+  const int backward_euler = static_cast<int>(guard_alphas_.size());  // the rung past the alphas
+  guard_raised_now_ = false;
+  for (;;) {
+    stats.guard_seconds += seconds_since(tg);
+    if (guard_rung_ == backward_euler) {
+      linear_step(s, dt, 1.0, 0.0, dt, stats);
+    } else {
+      bdf2_step(s, dt, guard_alphas_[guard_rung_], stats);
+    }
+    tg = Clock::now();
+    if (!puts_energy_in(s)) break;
+    s = guard_start_;
+    pulling_ = pulling;
+    stuck_ = stuck;
+    if (guard_rung_ == backward_euler) {
+      // Backward Euler still puts energy in (an element turning fast): its halves, each
+      // checked and halved again the same way (kGuardMaxSplits times at most).
+      ++stats.guard_split_steps;
+      stats.guard_seconds += seconds_since(tg);
+      int parts = 0;
+      backward_euler_parts(s, 0.5 * dt, stats, 1, parts);
+      backward_euler_parts(s, 0.5 * dt, stats, 1, parts);
+      accept_guarded(1.0, stats, parts);
+      if (guard_raised_now_) ++stats.guard_raised_steps;
+      return;
+    }
+    ++guard_rung_;
+    guard_calm_steps_ = 0;
+    ++stats.guard_redone_steps;
+  }
+  stats.guard_seconds += seconds_since(tg);
+  accept_guarded(guard_rung_ == backward_euler ? 1.0 : guard_alphas_[guard_rung_], stats);
+  if (guard_raised_now_) ++stats.guard_raised_steps;
+}
+
+void Integrator::backward_euler_parts(State& s, double dt, StepStatistics& stats, int splits, int& parts) {
+  auto tg = Clock::now();
+  guard_start_ = s;
+  const std::vector<char> pulling = pulling_, stuck = stuck_;
+  stats.guard_seconds += seconds_since(tg);
+  linear_step(s, dt, 1.0, 0.0, dt, stats);
+  tg = Clock::now();
+  if (splits >= kGuardMaxSplits || !puts_energy_in(s)) {
+    ++parts;
+    stats.guard_seconds += seconds_since(tg);
+    return;
+  }
+  s = guard_start_;
+  pulling_ = pulling;
+  stuck_ = stuck;
+  ++stats.guard_split_steps;
+  stats.guard_seconds += seconds_since(tg);
+  backward_euler_parts(s, 0.5 * dt, stats, splits + 1, parts);
+  backward_euler_parts(s, 0.5 * dt, stats, splits + 1, parts);
 }
 
 void Integrator::linear_step(State& s, double dt, double alpha, double beta, double dt_b,

@@ -35,9 +35,11 @@ struct IntegratorSettings {
   /// Steps whose right-hand sides and solutions the linear solves' warm start combines
   /// (SolutionHistory); 0 starts each solve from the previous step's dv.
   int warm_start_history = 3;
-  /// The energy guard (alpha family only; docs/guarded-midpoint.md): a step that puts energy
-  /// into the cloth is taken again from its start as two halves (kGuardMaxSplits times at
-  /// most), then with a larger alpha (kGuardAlphas), which relaxes back to `alpha`.
+  /// The energy guard (docs/guarded-midpoint.md): an alpha-family step that puts energy into
+  /// the cloth is taken again from its start as two halves (kGuardMaxSplits times at most),
+  /// then with a larger alpha (kGuardAlphas), which relaxes back to `alpha`. A BDF-2 step is
+  /// taken again with a larger alpha (up to standard BDF-2, alpha = 1), then as a backward
+  /// Euler step.
   bool guard = false;
   /// Newton iterations a semi-implicit step (alpha family, BDF-2) may add to its linearised
   /// solve (Integrator::newton_iterate): the step's nonlinear equations re-linearised at the
@@ -208,6 +210,23 @@ class Integrator {
   void guarded_step(State& s, double dt, StepStatistics& stats, int splits);
   /// A guarded step of dt as 2^depth parts (DynamicState::guard_depth).
   void guarded_parts(State& s, double dt, StepStatistics& stats);
+  /// A BDF-2 step checked by the energy guard: taken again with the next larger alpha of
+  /// guard_alphas_, past them as a backward Euler step (the rung after the last alpha), and
+  /// then as backward Euler halves.
+  void guarded_bdf2_step(State& s, double dt, StepStatistics& stats);
+  /// The step from the saved start guard_start_ to s put more energy in than the guard's
+  /// tolerance (or ended non-finite); the step's assembly holds the start's energies.
+  bool puts_energy_in(const State& s);
+  /// One BDF-2 step at the given alpha (METHOD.md 2); the first step of a run, with no
+  /// history, is an alpha-family step.
+  void bdf2_step(State& s, double dt, double alpha, StepStatistics& stats);
+  /// Counts an accepted guarded step (or part) taken in `parts` parts at the guard's rung and
+  /// lets the rung relax.
+  void accept_guarded(double alpha, StepStatistics& stats, int parts = 1);
+  /// A guarded BDF-2 step's last resort: a backward Euler step of dt from s, checked by the
+  /// guard and taken again as two halves while it puts energy in (kGuardMaxSplits halvings
+  /// at most, `splits` made so far); adds the parts taken to `parts`.
+  void backward_euler_parts(State& s, double dt, StepStatistics& stats, int splits, int& parts);
   double kinetic_energy(const VecX& v) const;
   /// The system's elastic and gravitational energy at x, the last answer kept with its
   /// positions (energy_x_; forgotten at the start of every advance).

@@ -29,62 +29,74 @@ IntegratorSettings midpoint(double dt, bool guard) {
   return st;
 }
 
-}  // namespace
-
-TEST(GuardedMidpoint, StiffSpinningSpringGainsEnergyOnlyWithoutTheGuard) {
-  // kappa = k dt^2 / m = 400, a quarter turn every 8 steps: the linearised step, whose
-  // Jacobian points along the spring at the step's start, stretches the spring it turns.
-  const double k = 1e6, dt = 0.02;
-  for (bool guard : {false, true}) {
-    SpringSystem sys(VecX::Constant(1, 1.0), {Spring{0, -1, k, 1.0, 0.0}});
-    State s = spinning_spring_state(k, 5.0);
-    Integrator in(sys, midpoint(dt, guard));
-    StepStatistics st;
-    const double e0 = mechanical_energy(sys, s);
-    double e = e0, highest = e0;
-    for (int n = 0; n < 200; ++n) {
-      in.step(s, dt, st);
-      const double next = mechanical_energy(sys, s);
-      // No energy scale was set, so the guard's tolerance is a fraction of the state's own
-      // (kinetic plus elastic) energy; the margin covers this test's own rounding.
-      if (guard) EXPECT_LE(next, e * (1 + kGuardTolerance) + 1e-12 * e) << "step " << n;
-      e = next;
-      highest = std::max(highest, e);
-    }
-    if (guard) {
-      EXPECT_GT(st.guard_split_steps, 0);
-      EXPECT_LE(highest, e0 * (1 + 200 * kGuardTolerance));
-      EXPECT_LT(e, e0);
-    } else {
-      EXPECT_GT(highest, 1.5 * e0);
-    }
+// 1 kg on a spring of 1 m and 10^6 N/m going round at 5 m/s, 200 steps of 20 ms (kappa 400, a
+// quarter turn every 8 steps): the linearised step, whose Jacobian points along the spring at
+// the step's start, stretches the spring it turns.
+struct Spin {
+  double start = 0, highest = 0, end = 0;
+  int steps_gaining = 0;  ///< steps that put in more than the guard's tolerance
+  StepStatistics stats;
+};
+Spin spin(const IntegratorSettings& settings) {
+  const double k = 1e6;
+  SpringSystem sys(VecX::Constant(1, 1.0), {Spring{0, -1, k, 1.0, 0.0}});
+  State s = spinning_spring_state(k, 5.0);
+  Integrator in(sys, settings);
+  Spin r;
+  r.start = r.highest = r.end = mechanical_energy(sys, s);
+  for (int n = 0; n < 200; ++n) {
+    in.step(s, settings.dt, r.stats);
+    const double next = mechanical_energy(sys, s);
+    // No energy scale was set, so the guard's tolerance is a fraction of the state's own
+    // (kinetic plus elastic) energy; the margin covers this test's own rounding.
+    if (next > r.end * (1 + kGuardTolerance) + 1e-12 * r.end) ++r.steps_gaining;
+    r.end = next;
+    r.highest = std::max(r.highest, next);
   }
+  return r;
 }
 
-TEST(GuardedMidpoint, SameResultsAsThePlainStepWhereTheGuardNeverActs) {
-  // Zero-rest-length springs are linear, and on a linear system Implicit Midpoint's energy
-  // changes by exactly the viscous work it books: only rounding is left for the guard to see.
+// Zero-rest-length springs are linear: a chain of them under gravity, 100 steps of 50 ms.
+State linear_chain_end(const IntegratorSettings& settings, StepStatistics& st) {
   const std::vector<Spring> chain = {{0, -1, 30.0, 0.0, 0.4}, {0, 1, 20.0, 0.0, 0.7}, {1, 2, 45.0, 0.0, 0.3}};
   VecX mass(3);
   mass << 0.2, 0.35, 0.15;
-  State start;
-  start.x = VecX(9);
-  start.x << 0.3, -0.2, 0.1, 0.9, -0.5, -0.2, 1.4, -0.1, 0.4;
-  start.v = VecX(9);
-  start.v << 0.5, 1.2, -0.3, -0.8, 0.2, 0.6, 0.1, -1.1, 0.9;
-  std::vector<State> ends;
-  for (bool guard : {false, true}) {
-    SpringSystem sys(mass, chain, Vec3(0, -9.81, 0));
-    Integrator in(sys, midpoint(0.05, guard));
-    StepStatistics st;
-    State s = start;
-    for (int n = 0; n < 100; ++n) in.step(s, 0.05, st);
-    EXPECT_EQ(st.guard_split_steps + st.guard_redone_steps + st.guard_raised_steps, 0);
-    ends.push_back(s);
-  }
-  EXPECT_TRUE((ends[0].x.array() == ends[1].x.array()).all());
-  EXPECT_TRUE((ends[0].v.array() == ends[1].v.array()).all());
-  EXPECT_EQ(ends[0].viscous_dissipated, ends[1].viscous_dissipated);
+  State s;
+  s.x = VecX(9);
+  s.x << 0.3, -0.2, 0.1, 0.9, -0.5, -0.2, 1.4, -0.1, 0.4;
+  s.v = VecX(9);
+  s.v << 0.5, 1.2, -0.3, -0.8, 0.2, 0.6, 0.1, -1.1, 0.9;
+  SpringSystem sys(mass, chain, Vec3(0, -9.81, 0));
+  Integrator in(sys, settings);
+  for (int n = 0; n < 100; ++n) in.step(s, settings.dt, st);
+  return s;
+}
+
+void expect_same_bits(const State& a, const State& b) {
+  EXPECT_TRUE((a.x.array() == b.x.array()).all());
+  EXPECT_TRUE((a.v.array() == b.v.array()).all());
+  EXPECT_EQ(a.viscous_dissipated, b.viscous_dissipated);
+}
+
+}  // namespace
+
+TEST(GuardedMidpoint, StiffSpinningSpringGainsEnergyOnlyWithoutTheGuard) {
+  const Spin plain = spin(midpoint(0.02, false)), guarded = spin(midpoint(0.02, true));
+  EXPECT_GT(plain.highest, 1.5 * plain.start);
+  EXPECT_EQ(guarded.steps_gaining, 0);
+  EXPECT_GT(guarded.stats.guard_split_steps, 0);
+  EXPECT_LE(guarded.highest, guarded.start * (1 + 200 * kGuardTolerance));
+  EXPECT_LT(guarded.end, guarded.start);
+}
+
+TEST(GuardedMidpoint, SameResultsAsThePlainStepWhereTheGuardNeverActs) {
+  // On a linear system Implicit Midpoint's energy changes by exactly the viscous work it
+  // books: only rounding is left for the guard to see.
+  StepStatistics plain_stats, guarded_stats;
+  const State plain = linear_chain_end(midpoint(0.05, false), plain_stats);
+  const State guarded = linear_chain_end(midpoint(0.05, true), guarded_stats);
+  EXPECT_EQ(guarded_stats.guard_split_steps + guarded_stats.guard_redone_steps + guarded_stats.guard_raised_steps, 0);
+  expect_same_bits(plain, guarded);
 }
 
 TEST(GuardedMidpoint, EnergyBalanceClosesWhereTheGuardActs) {
@@ -109,4 +121,63 @@ TEST(GuardedMidpoint, EnergyBalanceClosesWhereTheGuardActs) {
   set_method(scene, "implicit-midpoint-plain", std::nullopt, "test");
   Simulation plain(scene);
   EXPECT_EQ(run_simulation(plain).status, "unstable");
+}
+
+// The same guard on BDF-2 at alpha = 1/sqrt(3) (bdf2-alpha-guarded): a step that puts energy in
+// is taken again with a larger alpha, up to standard BDF-2, then as a backward Euler step, then
+// as backward Euler halves.
+namespace {
+
+IntegratorSettings bdf2_alpha(double dt, bool guard) {
+  IntegratorSettings st = midpoint(dt, guard);
+  st.method = Method::Bdf2;
+  st.alpha = 1.0 / std::sqrt(3.0);
+  return st;
+}
+
+}  // namespace
+
+TEST(GuardedBdf2, StiffSpinningSpringGainsEnergyOnlyWithoutTheGuard) {
+  const Spin plain = spin(bdf2_alpha(0.02, false)), guarded = spin(bdf2_alpha(0.02, true));
+  EXPECT_GT(plain.highest, 1.5 * plain.start);
+  EXPECT_EQ(guarded.steps_gaining, 0);
+  EXPECT_GT(guarded.stats.guard_redone_steps, 0) << "larger alphas, then backward Euler";
+  EXPECT_GT(guarded.stats.guard_split_steps, 0) << "backward Euler halves where it too puts energy in";
+  EXPECT_LE(guarded.highest, guarded.start * (1 + 200 * kGuardTolerance));
+}
+
+TEST(GuardedBdf2, SameResultsAsThePlainStepWhereTheGuardNeverActs) {
+  // On a linear system BDF-2 at alpha > 1/2 only dissipates: the guard never acts.
+  StepStatistics plain_stats, guarded_stats;
+  const State plain = linear_chain_end(bdf2_alpha(0.05, false), plain_stats);
+  const State guarded = linear_chain_end(bdf2_alpha(0.05, true), guarded_stats);
+  EXPECT_EQ(guarded_stats.guard_redone_steps + guarded_stats.guard_raised_steps, 0);
+  expect_same_bits(plain, guarded);
+}
+
+TEST(GuardedBdf2, TheSwingCreatesNoEnergyWithTheGuardAndTheBalanceCloses) {
+  // On the 21x21 swing the plain BDF-2 at alpha = 1/sqrt(3) stays bounded but creates energy
+  // (its numerical dissipation goes below zero by far more than the guard allows); the guarded
+  // one keeps every accepted step within the tolerance.
+  Scene scene = load_scene(std::string(WEFT_SOURCE_DIR) + "/scenes/swing-21x21.json");
+  scene.duration = 1.0;
+  double lowest[2] = {0, 0}, bound = 0;
+  for (bool guard : {false, true}) {
+    set_method(scene, guard ? "bdf2-alpha-guarded" : "bdf2-alpha", std::nullopt, "test");
+    Simulation sim(scene);
+    const RunResult r = run_simulation(sim);
+    ASSERT_EQ(r.status, "ok") << r.message;
+    double scale = sim.energy_scale();
+    for (const EnergyRow& e : r.energy) scale = std::max(scale, e.kinetic + e.elastic);
+    for (const EnergyRow& e : r.energy) {
+      lowest[guard] = std::min(lowest[guard], e.numerical_dissipated);
+      EXPECT_GE(e.viscous_dissipated, 0.0);
+    }
+    if (guard) {
+      EXPECT_GT(r.steps.guard_redone_steps, 0);
+      bound = static_cast<double>(r.steps.steps) * kGuardTolerance * scale;
+    }
+  }
+  EXPECT_GE(lowest[1], -bound);
+  EXPECT_LT(lowest[0], -10 * bound) << "the plain step must create energy here for the test to mean anything";
 }
