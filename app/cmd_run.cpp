@@ -644,7 +644,8 @@ weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write fram
     sub.add_flag("--quiet,-q", a->quiet, "No progress bar or summary line");
     sub.footer(
         "Writes DIR/frames/frame_00000.obj ... (one per output frame, the first at time 0), DIR/energy.csv\n"
-        "(time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total in J) and DIR/summary.json\n"
+        "(time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total in J; guarded methods\n"
+        "add guard_parts,guard_alpha) and DIR/summary.json\n"
         "(with --format glb also DIR/animation.glb; pc2: DIR/animation.pc2 and DIR/animation_rest.obj;\n"
         "usda: DIR/animation.usda), after removing those of an earlier run in DIR. Ctrl-C stops at the next\n"
         "frame boundary and writes "

@@ -30,6 +30,11 @@ struct EnergyRow {
   double numerical_dissipated = 0;///< initial total plus contact work minus the four above
   double contact_work = 0;        ///< cumulative work of contact and friction forces on the cloth
   double fail_safe_work = 0;      ///< the part of contact_work done by the fail-safes' corrections
+  /// Guarded methods (docs/guarded-midpoint.md), 0 otherwise: the parts the guarded steps were
+  /// taken in since the start (the steps, where the guard never split one), and the alpha the
+  /// guard's next step starts at (the method's own where it is calm).
+  double guard_parts = 0;
+  double guard_alpha = 0;
   double total() const { return kinetic + elastic + gravity; }
 };
 

@@ -19,7 +19,7 @@
 
 namespace weft {
 
-constexpr std::uint32_t kCheckpointFormatVersion = 5;
+constexpr std::uint32_t kCheckpointFormatVersion = 6;
 
 /// 64-bit FNV-1a of `size` bytes, continuing from `hash`.
 std::uint64_t fnv1a(const void* data, size_t size, std::uint64_t hash = 0xcbf29ce484222325ull);

@@ -7,6 +7,7 @@
 #include "sim/checkpoint.hpp"
 #include "weft/error.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -539,6 +540,10 @@ EnergyRow Simulation::energies() {
   r.contact_work = state_.contact_work;
   r.fail_safe_work = state_.fail_safe_work;
   r.numerical_dissipated = total0_ + r.contact_work - r.total() - r.viscous_dissipated;
+  if (scene_.integrator.guard) {
+    r.guard_parts = static_cast<double>(statistics().guard_parts);
+    r.guard_alpha = integrator_->guard_alpha();
+  }
   return r;
 }
 
@@ -739,7 +744,7 @@ std::string checkpoint_bytes(const nlohmann::json& header, const Simulation& sim
   w.u64(so_far.energy.size());
   for (const EnergyRow& e : so_far.energy)
     for (double d : {e.time, e.kinetic, e.elastic, e.gravity, e.viscous_dissipated, e.numerical_dissipated, e.contact_work,
-                     e.fail_safe_work})
+                     e.fail_safe_work, e.guard_parts, e.guard_alpha})
       w.f64(d);
   w.f64(so_far.wall_seconds);
   w.u64(fnv1a(w.bytes().data(), w.bytes().size()));
@@ -774,11 +779,11 @@ RunResult restore_checkpoint(const std::string& bytes, const std::string& file, 
   sim.restore(in);
   RunResult r;
   const std::uint64_t rows = in.u64();
-  if (rows > bytes.size() / (8 * sizeof(double))) in.fail("checkpoint is damaged (" + std::to_string(rows) + " energy rows)");
+  if (rows > bytes.size() / (10 * sizeof(double))) in.fail("checkpoint is damaged (" + std::to_string(rows) + " energy rows)");
   for (std::uint64_t k = 0; k < rows; ++k) {
     EnergyRow e;
     for (double* d : {&e.time, &e.kinetic, &e.elastic, &e.gravity, &e.viscous_dissipated, &e.numerical_dissipated,
-                      &e.contact_work, &e.fail_safe_work})
+                      &e.contact_work, &e.fail_safe_work, &e.guard_parts, &e.guard_alpha})
       *d = in.f64();
     r.energy.push_back(e);
   }
@@ -789,11 +794,16 @@ RunResult restore_checkpoint(const std::string& bytes, const std::string& file, 
 
 std::string energy_csv(const std::vector<EnergyRow>& rows) {
   std::ostringstream out;
-  out << "time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total\n";
-  char buf[300];
+  // A guarded run's rows carry the guard's alpha (never 0); other runs' have no guard columns.
+  const bool guard = std::any_of(rows.begin(), rows.end(), [](const EnergyRow& e) { return e.guard_alpha > 0; });
+  out << "time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total"
+      << (guard ? ",guard_parts,guard_alpha\n" : "\n");
+  char buf[360];
   for (const auto& e : rows) {
-    std::snprintf(buf, sizeof buf, "%.6f,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g\n", e.time, e.kinetic, e.elastic,
-                  e.gravity, e.viscous_dissipated, e.numerical_dissipated, e.contact_work, e.total());
+    int k = std::snprintf(buf, sizeof buf, "%.6f,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g", e.time, e.kinetic,
+                          e.elastic, e.gravity, e.viscous_dissipated, e.numerical_dissipated, e.contact_work, e.total());
+    if (guard) k += std::snprintf(buf + k, sizeof buf - k, ",%.0f,%.6g", e.guard_parts, e.guard_alpha);
+    std::snprintf(buf + k, sizeof buf - k, "\n");
     out << buf;
   }
   return out.str();

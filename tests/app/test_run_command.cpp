@@ -41,7 +41,9 @@ TEST_F(RunCommand, WritesFramesEnergyAndSummary) {
   }
   EXPECT_FALSE(std::filesystem::exists(out / "frames" / "frame_00006.obj"));
   const std::string csv = read_text(out / "energy.csv");
-  EXPECT_EQ(csv.substr(0, csv.find('\n')), "time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total");
+  // The default method is the guarded midpoint: its two guard columns come last.
+  EXPECT_EQ(csv.substr(0, csv.find('\n')),
+            "time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total,guard_parts,guard_alpha");
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 7);  // header + 6 frames
   const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
   for (const char* key : {"method", "alpha", "dt", "steps", "wall_seconds", "solver_iterations_mean", "status"})

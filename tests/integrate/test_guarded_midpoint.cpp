@@ -117,10 +117,29 @@ TEST(GuardedMidpoint, EnergyBalanceClosesWhereTheGuardActs) {
     EXPECT_GE(e.numerical_dissipated, -parts * kGuardTolerance * scale) << "t = " << e.time;
     EXPECT_GE(e.viscous_dissipated, 0.0);
   }
-  // The plain step on the same scene is not stable: the guard is what keeps it.
+  // energy.csv reports the guard frame by frame: the parts taken so far (as many as the
+  // steps, or more where the guard split them) and the alpha the next step starts at.
+  double parts_so_far = 0;
+  for (const EnergyRow& e : r.energy) {
+    EXPECT_GE(e.guard_parts, parts_so_far) << "t = " << e.time;
+    parts_so_far = e.guard_parts;
+    EXPECT_GE(e.guard_alpha, 0.5);
+    EXPECT_LE(e.guard_alpha, 1.0);
+  }
+  EXPECT_EQ(parts_so_far, static_cast<double>(r.steps.guard_parts));
+  EXPECT_GT(parts_so_far, static_cast<double>(r.steps.steps)) << "the guard split steps";
+  const std::string csv = energy_csv(r.energy);
+  EXPECT_EQ(csv.substr(0, csv.find('\n')),
+            "time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total,guard_parts,guard_alpha");
+  // The plain step on the same scene is not stable: the guard is what keeps it; its rows have
+  // no guard columns.
   set_method(scene, "implicit-midpoint-plain", std::nullopt, "test");
   Simulation plain(scene);
-  EXPECT_EQ(run_simulation(plain).status, "unstable");
+  const RunResult p = run_simulation(plain);
+  EXPECT_EQ(p.status, "unstable");
+  const std::string plain_csv = energy_csv(p.energy);
+  EXPECT_EQ(plain_csv.substr(0, plain_csv.find('\n')),
+            "time,kinetic,elastic,gravity,viscous_dissipated,numerical_dissipated,contact_work,total");
 }
 
 // The same guard on BDF-2 at alpha = 1/sqrt(3) (bdf2-alpha-guarded): a step that puts energy in

@@ -25,7 +25,9 @@ export class EnergyChart {
     const {names, columns} = parseCsv(csvText);
     const timeColumn = names.indexOf('time');
     this.times = columns[timeColumn] || [];
-    this.series = names.map((name, k) => ({name, values: columns[k]})).filter((s, k) => k !== timeColumn);
+    // The guard's columns (a count of parts and an alpha) are not energies.
+    this.series = names.map((name, k) => ({name, values: columns[k]}))
+        .filter((s, k) => k !== timeColumn && !s.name.startsWith('guard_'));
     this.series.forEach((s, k) => { s.colour = COLOURS[s.name] || FALLBACK[k % FALLBACK.length]; });
     keys.replaceChildren(...this.series.map((s) => {
       const span = document.createElement('span');
