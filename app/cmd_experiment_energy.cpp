@@ -94,8 +94,8 @@ const RegisterCommand register_energy{CommandSpec{
                      "integrator.newton_iterations)");
       sub.footer(
           "Configurations: backward-euler (undamped), implicit-midpoint-damped, bdf2 (undamped),\n"
-          "bdf2-alpha-damped (alpha = 1/sqrt(3)), rk45-damped and rk45 (references). Damped ones "
-          "use\n"
+          "bdf2-alpha-damped (alpha = 1/sqrt(3)), the guarded implicit-midpoint-guarded-damped and\n"
+          "bdf2-alpha-guarded-damped, rk45-damped and rk45 (references). Damped ones use\n"
           "--damping-ratio; each is compared with the RK45 run of the same damping.\n"
           "Writes DIR/LABEL/{energy.csv,summary.json}, DIR/results.{json,csv}, DIR/rms.csv, "
           "DIR/speed.csv and\n"

@@ -59,6 +59,9 @@ std::vector<EnergyConfiguration> energy_configurations(double zeta) {
       {{kMidpoint, "implicit-midpoint-plain", std::nullopt, zeta}, "rk45-damped"},
       {{"bdf2", "bdf2", std::nullopt, 0.0}, "rk45"},
       {{"bdf2-alpha-damped", "bdf2-alpha", inv_sqrt3, zeta}, "rk45-damped"},
+      // weft's guarded steps (docs/guarded-midpoint.md), beside the paper's plain ones.
+      {{"implicit-midpoint-guarded-damped", "implicit-midpoint", std::nullopt, zeta}, "rk45-damped"},
+      {{"bdf2-alpha-guarded-damped", "bdf2-alpha-guarded", inv_sqrt3, zeta}, "rk45-damped"},
       {{"rk45-damped", "rk45", std::nullopt, zeta}, ""},
       {{"rk45", "rk45", std::nullopt, 0.0}, ""},
   };

@@ -90,9 +90,14 @@ TEST_F(ExperimentCommand, EnergyWritesEveryFileAndEnergiesClose) {
   const CommandResult r =
       run("energy -q --scene '" + scene_.string() + "' --out '" + out.string() + "' --repeats 2");
   ASSERT_EQ(r.exit_code, 0) << r.error_output;
-  const std::vector<std::string> labels = {"backward-euler", "implicit-midpoint-damped",
-                                           "bdf2",           "bdf2-alpha-damped",
-                                           "rk45-damped",    "rk45"};
+  const std::vector<std::string> labels = {"backward-euler",
+                                           "implicit-midpoint-damped",
+                                           "bdf2",
+                                           "bdf2-alpha-damped",
+                                           "implicit-midpoint-guarded-damped",
+                                           "bdf2-alpha-guarded-damped",
+                                           "rk45-damped",
+                                           "rk45"};
   for (const char* f :
        {"results.json", "results.csv", "rms.csv", "speed.csv", "energy.gp", "rms.gp"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
@@ -155,7 +160,7 @@ TEST_F(ExperimentCommand, EnergyWritesEveryFileAndEnergiesClose) {
   // One row per frame of the longest run; one column per compared configuration.
   const auto rms_rows = read_csv(out / "rms.csv");
   EXPECT_EQ(rms_rows.size(), 21u);
-  EXPECT_EQ(rms_rows.front().size(), 5u);
+  EXPECT_EQ(rms_rows.front().size(), 7u);  // time and the six configurations with a reference
 }
 
 TEST_F(ExperimentCommand, MidpointWithFivePercentDampingDissipatesLessThanBackwardEuler) {

@@ -73,7 +73,7 @@ TEST_F(PaperSwing, EnergyBalanceClosesAndEnergyCreatedIsWhatTheColumnsImply) {
   ASSERT_EQ(r.exit_code, 0) << r.error_output;
   std::ifstream in(out / "results.json");
   const nlohmann::json results = nlohmann::json::parse(in);
-  ASSERT_EQ(results["runs"].size(), 6u);
+  ASSERT_EQ(results["runs"].size(), 8u);
   double released = 0;  // the most potential energy any run released (J)
   for (const auto& run : results["runs"]) {
     const std::string label = run["label"];

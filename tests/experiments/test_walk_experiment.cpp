@@ -76,6 +76,6 @@ TEST(WalkExperiment, AnUnknownConfigurationIsRefusedByName) {
   } catch (const InputError& e) {
     EXPECT_STREQ(e.what(),
                  "--configs: unknown configuration 'rk4-1ms' (expected some of im-5ms, im-2ms, be-2ms, be-5ms, "
-                 "bdf2-2ms, bdf2-alpha-2ms)");
+                 "bdf2-2ms, bdf2-alpha-2ms, bdf2-alpha-guarded-5ms)");
   }
 }
