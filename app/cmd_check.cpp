@@ -7,9 +7,9 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
-#include "collision/frame_check.hpp"
+#include "weft/frame_check.hpp"
 #include "command.hpp"
-#include "io/run_frames.hpp"
+#include "weft/run_frames.hpp"
 #include "weft/error.hpp"
 
 namespace fs = std::filesystem;

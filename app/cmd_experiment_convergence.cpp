@@ -5,7 +5,7 @@
 
 #include "command.hpp"
 #include "experiment_common.hpp"
-#include "experiments/convergence.hpp"
+#include "weft/experiments/convergence.hpp"
 
 namespace weft::app {
 namespace {

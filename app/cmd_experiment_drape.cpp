@@ -11,7 +11,7 @@
 
 #include "command.hpp"
 #include "experiment_common.hpp"
-#include "experiments/drape.hpp"
+#include "weft/experiments/drape.hpp"
 #include "fabric_common.hpp"
 #include "render/picture.hpp"
 #include "weft/atomic_file.hpp"

@@ -6,7 +6,7 @@
 
 #include "command.hpp"
 #include "experiment_common.hpp"
-#include "experiments/energy.hpp"
+#include "weft/experiments/energy.hpp"
 
 namespace weft::app {
 namespace {

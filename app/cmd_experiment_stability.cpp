@@ -6,7 +6,7 @@
 #include <memory>
 
 #include "command.hpp"
-#include "experiments/stability_experiment.hpp"
+#include "weft/experiments/stability_experiment.hpp"
 #include "progress.hpp"
 #include "weft/atomic_file.hpp"
 #include "weft/error.hpp"

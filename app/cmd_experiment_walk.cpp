@@ -5,7 +5,7 @@
 
 #include "command.hpp"
 #include "experiment_common.hpp"
-#include "experiments/walk.hpp"
+#include "weft/experiments/walk.hpp"
 
 namespace weft::app {
 namespace {

@@ -17,7 +17,7 @@
 #include <unistd.h>
 
 #include "command.hpp"
-#include "io/run_frames.hpp"
+#include "weft/run_frames.hpp"
 #include "progress.hpp"
 #include "render/picture.hpp"
 #include "weft/atomic_file.hpp"

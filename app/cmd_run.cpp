@@ -15,12 +15,10 @@
 
 #include <unistd.h>
 
-#include "collision/colliders.hpp"
-#include "collision/frame_check.hpp"
+#include "weft/frame_check.hpp"
 #include "command.hpp"
-#include "io/exports.hpp"
+#include "weft/exports.hpp"
 #include "progress.hpp"
-#include "sim/checkpoint.hpp"
 #include "weft/atomic_file.hpp"
 #include "weft/error.hpp"
 #include "weft/simulation.hpp"
@@ -389,17 +387,17 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   FrameChecker frame_checker(0);
   // The colliders' surfaces in file order: a walking body's skinned mesh, another collider's
   // surface as Collider::surface draws it.
-  const size_t collider_count = sim.colliders().size();
+  const size_t collider_count = sim.collider_count();
   std::vector<Points> collider_positions(collider_count);
   std::vector<Triangles> collider_triangles(collider_count);
   std::vector<std::vector<std::array<int, 3>>> collider_triangle_lists(collider_count);
   auto collider_surface = [&](const Simulation& s, size_t k) {
-    s.collider_surface(k, s.state().t, collider_positions[k], collider_triangles[k]);
+    s.collider_surface(k, s.time(), collider_positions[k], collider_triangles[k]);
     if (collider_triangle_lists[k].empty()) collider_triangle_lists[k] = triangle_list(collider_triangles[k]);
   };
   // Texture coordinates: the pattern coordinates in the units of the cloth's OBJ texture
   // coordinates (metres on a grid), so an OBJ cloth's own come back.
-  const TriMesh& cloth_mesh = sim.model().mesh;
+  const TriMesh& cloth_mesh = sim.mesh();
   const std::vector<float> cloth_texcoords = pattern_texcoords(cloth_mesh.pattern, scene.cloth.uv_scale);
   // The animations (glb, pc2, usda) are written at the end from the frames recorded here.
   AnimatedMesh cloth_animation;
@@ -438,18 +436,18 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
       collider_surface(s, k);
       body_meshes.push_back({collider_positions[k].data(), &collider_triangle_lists[k]});
     }
-    tally.add(frame_checker.check({s.state().x.data(), &s.model().mesh.triangles}, body_meshes));
+    tally.add(frame_checker.check({s.positions().data(), &s.mesh().triangles}, body_meshes));
     tally.seconds += std::chrono::duration<double>(Clock::now() - check_start).count();
     if (!out.failures.empty()) return;
     const auto export_start = Clock::now();
     if (animate) {
-      const VecX eta = write_glb ? s.system().added_viscosity_per_vertex() : VecX();
-      cloth_animation.add_frame(s.state().x.data(), s.model().num_vertices(), write_glb ? eta.data() : nullptr);
-      frame_times.push_back(s.state().t);
+      const VecX eta = write_glb ? s.added_viscosity_per_vertex() : VecX();
+      cloth_animation.add_frame(s.positions().data(), s.vertex_count(), write_glb ? eta.data() : nullptr);
+      frame_times.push_back(s.time());
       for (size_t k = 0; k < collider_animations.size(); ++k) {
         AnimatedMesh& c = collider_animations[k];
         if (c.triangles.empty()) {
-          const ColliderSpec& spec = s.colliders()[k]->spec();
+          const ColliderSpec& spec = s.collider(k);
           c.name = spec.shape == ColliderShape::kBody ? "body" + std::to_string(spec.body) : "collider" + std::to_string(k);
           c.triangles = collider_triangle_lists[k];
         }
@@ -465,18 +463,18 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     const fs::path path = out.frames() / name;
     bool ok = frame_format == "ply"
                   ? out.write(path, [&](std::ostream& o) {
-                      const VecX eta = s.system().added_viscosity_per_vertex();
-                      write_ply_frame(o, s.state().x.data(), s.model().num_vertices(), eta.data(), cloth_mesh.triangles);
+                      const VecX eta = s.added_viscosity_per_vertex();
+                      write_ply_frame(o, s.positions().data(), s.vertex_count(), eta.data(), cloth_mesh.triangles);
                     })
                   : out.write(path, [&](std::ostream& o) {
-                      write_textured_obj(o, s.state().x.data(), s.model().num_vertices(), cloth_texcoords,
-                                         vertex_normals(s.state().x.data(), s.model().num_vertices(), cloth_mesh.triangles),
+                      write_textured_obj(o, s.positions().data(), s.vertex_count(), cloth_texcoords,
+                                         vertex_normals(s.positions().data(), s.vertex_count(), cloth_mesh.triangles),
                                          cloth_mesh.triangles);
                     });
     // The colliders' surfaces: body<k> for the k-th walking body, collider<k> for the k-th
     // collider of another kind.
     for (size_t k = 0; ok && k < collider_count; ++k) {
-      const ColliderSpec& spec = s.colliders()[k]->spec();
+      const ColliderSpec& spec = s.collider(k);
       if (spec.shape == ColliderShape::kBody) {
         std::snprintf(name, sizeof name, "body%d_%05d.obj", spec.body, f);
       } else {
@@ -561,7 +559,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     if (energy_written) kept += ", energy.csv (" + count_of(r.energy.size(), "row") + ")";
     if (summary_written) kept += ", summary.json (status output_failed)";
     std::fprintf(stderr, "weft: error: could not write %s: %s.\nStopped at t = %.4f s. Kept: %s.\n",
-                 out.failures.front().path.c_str(), out.failures.front().reason.c_str(), sim.state().t, kept.c_str());
+                 out.failures.front().path.c_str(), out.failures.front().reason.c_str(), sim.time(), kept.c_str());
     for (size_t k = 1; k < out.failures.size(); ++k)
       std::fprintf(stderr, "weft: could not write %s either: %s\n", out.failures[k].path.c_str(),
                    out.failures[k].reason.c_str());
@@ -573,7 +571,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   if (interrupted) {
     std::fprintf(stderr, "weft: interrupted at t = %.4f s. Kept: %s, energy.csv, summary.json (status interrupted) "
                          "and %s. Continue with `weft run --resume %s`.\n",
-                 sim.state().t, frames_kept.c_str(), out.checkpoint().c_str(), a.out.c_str());
+                 sim.time(), frames_kept.c_str(), out.checkpoint().c_str(), a.out.c_str());
     return app::kExitInterrupted;
   }
   if (!a.quiet) {

@@ -21,8 +21,8 @@
 #include <thread>
 
 #include "command.hpp"
-#include "io/input_file.hpp"
-#include "io/run_folder.hpp"
+#include "weft/input_file.hpp"
+#include "weft/run_folder.hpp"
 #include "weft/error.hpp"
 
 namespace fs = std::filesystem;

@@ -12,14 +12,14 @@ void Assemble(benchmark::State& bs) {
   const int n = static_cast<int>(bs.range(0));
   test::ClothStepProblem p;
   test::make_cloth_step_problem(n, 0.05, p);
-  State& st = p.sim->state();
-  System& sys = p.sim->system();
+  State& st = p.sim->core().state();
+  System& sys = p.sim->core().system();
   const VecX w = p.sim->scene().integrator.dt * st.v;
   for (auto _ : bs) {
     sys.assemble_step(st.x, st.v, w, p.step);
     benchmark::DoNotOptimize(p.step.matrix.block.data());
   }
-  const double triangles = static_cast<double>(p.sim->model().mesh.triangles.size());
+  const double triangles = static_cast<double>(p.sim->core().model().mesh.triangles.size());
   bs.counters["triangles"] = triangles;
   // Seconds per triangle (printed with an SI prefix, e.g. 85n).
   bs.counters["per_triangle"] =

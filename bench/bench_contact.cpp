@@ -14,7 +14,7 @@
 
 #include <string>
 
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 
@@ -74,7 +74,7 @@ void run(benchmark::State& bs, const Scene& scene) {
   Simulation sim(scene);
   sim.advance_to(0.3);
   StepStatistics stats;
-  for (auto _ : bs) sim.integrator().step(sim.state(), scene.integrator.dt, stats);
+  for (auto _ : bs) sim.core().integrator().step(sim.core().state(), scene.integrator.dt, stats);
   const double per = 1.0 / std::max(1L, stats.steps);
   bs.counters["detection_ms"] = 1e3 * stats.detection_seconds * per;
   bs.counters["response_ms"] = 1e3 * stats.response_seconds * per;
@@ -83,7 +83,7 @@ void run(benchmark::State& bs, const Scene& scene) {
   bs.counters["cg_iterations"] = stats.cg_iterations * per;
   bs.counters["solves"] = stats.cg_solves * per;
   bs.counters["contacts"] = stats.contacts * per;
-  bs.counters["vertices"] = sim.model().num_vertices();
+  bs.counters["vertices"] = sim.core().model().num_vertices();
 }
 
 void SphereDrop(benchmark::State& bs) { run(bs, sphere_drop(static_cast<int>(bs.range(0)), true)); }

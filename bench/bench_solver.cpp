@@ -26,7 +26,7 @@
 
 #include "linalg/pcg.hpp"
 #include "support/cloth_step_problem.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 
@@ -51,7 +51,7 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 void Solve(benchmark::State& bs, Preconditioner pc) {
   const int n = static_cast<int>(bs.range(0));
   const test::ClothStepProblem& p = problem(n);
-  const auto& fixed = p.sim->system().fixed();
+  const auto& fixed = p.sim->core().system().fixed();
   PcgSettings settings;
   settings.relative_tolerance = 1e-6;
   settings.preconditioner = pc;
@@ -102,7 +102,7 @@ template <class T>
 void SsorLowerSolve(benchmark::State& bs) {
   const test::ClothStepProblem& p = problem(static_cast<int>(bs.range(0)));
   SsorOperatorT<T> S;
-  S.assign(p.step.matrix, p.sim->system().fixed(), 1.4);
+  S.assign(p.step.matrix, p.sim->core().system().fixed(), 1.4);
   typename SsorOperatorT<T>::Vector v4, y4(S.vector_size());
   S.pad(p.rhs, v4);
   for (auto _ : bs) {
@@ -116,8 +116,8 @@ void SsorLowerSolve(benchmark::State& bs) {
 void StepPart(benchmark::State& bs) {
   const int n = static_cast<int>(bs.range(0)), part = static_cast<int>(bs.range(1));
   const test::ClothStepProblem& p = problem(n);
-  const auto& fixed = p.sim->system().fixed();
-  const std::vector<int>* order = p.sim->system().solver_order();
+  const auto& fixed = p.sim->core().system().fixed();
+  const std::vector<int>* order = p.sim->core().system().solver_order();
   int free_nodes = 0;
   for (char f : fixed) free_nodes += !f;
   const double omega = ssor_relaxation_for(free_nodes), cp = omega - 1.0, cu = 2.0 - omega;

@@ -24,7 +24,7 @@
 #include <string>
 
 #include "support/cloth_step_problem.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 
@@ -81,7 +81,7 @@ void Step(benchmark::State& bs, const std::string& method) {
   // Let the cloth start moving so the measured steps are representative.
   sim.advance_to(0.05);
   StepStatistics stats;
-  for (auto _ : bs) sim.integrator().step(sim.state(), sim.scene().integrator.dt, stats);
+  for (auto _ : bs) sim.core().integrator().step(sim.core().state(), sim.scene().integrator.dt, stats);
   const double per = 1.0 / std::max(1L, stats.steps);
   bs.counters["cg_iterations"] = stats.cg_iterations * per;
   bs.counters["assembly_ms"] = 1e3 * stats.assembly_seconds * per;
@@ -94,12 +94,12 @@ void Step(benchmark::State& bs, const std::string& method) {
   }
   bs.counters["peak_rss_MB"] = peak;
   bs.counters["heap_MB"] = heap_MB() - heap_before;
-  const double blocks = sim.model().pattern.num_blocks();
+  const double blocks = sim.core().model().pattern.num_blocks();
   bs.counters["matrix_MB"] = blocks * sizeof(Mat3) / 1e6;  // the step matrix (K and D are fused into it)
   bs.counters["vertices"] = n * n;
   bs.counters["tolerance"] = sim.scene().integrator.cg_tolerance;
   bs.counters["preconditioner"] = preconditioner;
-  bs.SetLabel(method + " " + preconditioner_name(sim.integrator().preconditioner()));
+  bs.SetLabel(method + " " + preconditioner_name(sim.core().integrator().preconditioner()));
 }
 
 void WarmStart(benchmark::State& bs) {
@@ -109,7 +109,7 @@ void WarmStart(benchmark::State& bs) {
   Simulation sim(scene);
   sim.advance_to(0.05);
   StepStatistics stats;
-  for (auto _ : bs) sim.integrator().step(sim.state(), scene.integrator.dt, stats);
+  for (auto _ : bs) sim.core().integrator().step(sim.core().state(), scene.integrator.dt, stats);
   const double per = 1.0 / std::max(1L, stats.steps);
   bs.counters["cg_iterations"] = stats.cg_iterations * per;
   bs.counters["assembly_ms"] = 1e3 * stats.assembly_seconds * per;

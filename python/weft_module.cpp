@@ -17,8 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "collision/colliders.hpp"
-#include "io/exports.hpp"
+#include "weft/exports.hpp"
 #include "weft/atomic_file.hpp"
 #include "weft/body.hpp"
 #include "weft/error.hpp"
@@ -83,20 +82,20 @@ class PySimulation {
  public:
   PySimulation(const py::object& scene, const std::optional<std::string>& base_dir)
       : sim_(std::make_unique<Simulation>(load(scene, base_dir))) {
-    const weft::TriMesh& mesh = sim_->model().mesh;
+    const weft::TriMesh& mesh = sim_->mesh();
     cloth_.name = "cloth";
     cloth_.triangles = mesh.triangles;
     cloth_.texcoords = weft::pattern_texcoords(mesh.pattern, sim_->scene().cloth.uv_scale);
     cloth_.vertex_count = mesh.num_vertices();
-    colliders_.resize(sim_->colliders().size());
+    colliders_.resize(sim_->collider_count());
   }
 
   Simulation& sim() { return *sim_; }
   const Simulation& sim() const { return *sim_; }
-  int vertex_count() const { return sim_->model().num_vertices(); }
+  int vertex_count() const { return sim_->vertex_count(); }
 
   void advance(double t) {
-    const double now = sim_->state().t;
+    const double now = sim_->time();
     if (!(t >= now) || !std::isfinite(t))
       throw weft::InputError("advance: the time " + std::to_string(t) + " s is before the current time " +
                              std::to_string(now) + " s");
@@ -106,7 +105,7 @@ class PySimulation {
   }
   void step(long n) {
     if (n < 0) throw weft::InputError("step: the number of steps must be >= 0, got " + std::to_string(n));
-    for (long k = 0; k < n; ++k) advance(sim_->state().t + sim_->scene().integrator.dt);
+    for (long k = 0; k < n; ++k) advance(sim_->time() + sim_->scene().integrator.dt);
   }
 
   /// The frame times of `weft run` on this scene: 0, then every frame interval to the duration.
@@ -144,7 +143,7 @@ class PySimulation {
   }
 
   py::dict statistics() const {
-    const weft::StepStatistics& s = sim_->statistics();
+    const weft::StepStatistics& s = sim_->step_statistics();
     py::dict d;
     d["steps"] = s.steps;
     d["rejected_steps"] = s.rejected_steps;
@@ -198,7 +197,7 @@ class PySimulation {
   }
 
   py::array collider_pose(long k) const {
-    const Eigen::Isometry3d T = sim_->collider_pose(collider_index(k), sim_->state().t);
+    const Eigen::Isometry3d T = sim_->collider_pose(collider_index(k), sim_->time());
     py::array_t<double> out({4, 4});
     auto m = out.mutable_unchecked<2>();
     for (int r = 0; r < 4; ++r)
@@ -209,21 +208,21 @@ class PySimulation {
   // Outputs of the current state.
   void write_obj(const std::string& path) const {
     const int n = vertex_count();
-    const double* x = sim_->state().x.data();
+    const double* x = sim_->positions().data();
     write_file(path, [&](std::ostream& o) {
       weft::write_textured_obj(o, x, n, cloth_.texcoords, weft::vertex_normals(x, n, cloth_.triangles), cloth_.triangles);
     });
   }
   void write_ply(const std::string& path) const {
-    const weft::VecX eta = sim_->system().added_viscosity_per_vertex();
+    const weft::VecX eta = sim_->added_viscosity_per_vertex();
     write_file(path, [&](std::ostream& o) {
-      weft::write_ply_frame(o, sim_->state().x.data(), vertex_count(), eta.data(), cloth_.triangles);
+      weft::write_ply_frame(o, sim_->positions().data(), vertex_count(), eta.data(), cloth_.triangles);
     });
   }
   void write_collider_obj(long k, const std::string& path) const {
     weft::Points positions;
     weft::Triangles triangles;
-    sim_->collider_surface(collider_index(k), sim_->state().t, positions, triangles);
+    sim_->collider_surface(collider_index(k), sim_->time(), positions, triangles);
     try {
       weft::write_obj(path, positions, triangles);
     } catch (const std::exception& e) {
@@ -234,21 +233,21 @@ class PySimulation {
   // The recorded frames and what is written from them.
   void record_frame() {
     energy_.push_back(sim_->energies());
-    const weft::VecX eta = sim_->system().added_viscosity_per_vertex();
-    cloth_.add_frame(sim_->state().x.data(), vertex_count(), eta.data());
+    const weft::VecX eta = sim_->added_viscosity_per_vertex();
+    cloth_.add_frame(sim_->positions().data(), vertex_count(), eta.data());
     for (size_t k = 0; k < colliders_.size(); ++k) {
       weft::AnimatedMesh& c = colliders_[k];
       weft::Points positions;
       weft::Triangles triangles;
-      sim_->collider_surface(k, sim_->state().t, positions, triangles);
+      sim_->collider_surface(k, sim_->time(), positions, triangles);
       if (c.triangles.empty()) {
-        const weft::ColliderSpec& spec = sim_->colliders()[k]->spec();
+        const weft::ColliderSpec& spec = sim_->collider(k);
         c.name = spec.shape == weft::ColliderShape::kBody ? "body" + std::to_string(spec.body) : "collider" + std::to_string(k);
         c.triangles = weft::triangle_list(triangles);
       }
       c.add_frame(positions.data(), static_cast<int>(positions.rows()));
     }
-    frame_times_.push_back(sim_->state().t);
+    frame_times_.push_back(sim_->time());
   }
   size_t frames_recorded() const { return frame_times_.size(); }
   py::list recorded_energies() const {
@@ -290,12 +289,12 @@ class PySimulation {
   nlohmann::json summary() const {
     weft::RunResult r;
     r.energy = energy_;
-    r.steps = sim_->statistics();
-    r.damping = sim_->system().statistics();
+    r.steps = sim_->step_statistics();
+    r.damping = sim_->damping_statistics();
     r.wall_seconds = wall_seconds_;
     r.damping_ratio = sim_->scene().effective_damping_ratio();
     r.vertices = vertex_count();
-    r.triangles = static_cast<long>(sim_->model().mesh.triangles.size());
+    r.triangles = static_cast<long>(sim_->mesh().triangles.size());
     return weft::summary_json(*sim_, r);
   }
   void write_summary(const std::string& path) const {
@@ -312,10 +311,10 @@ class PySimulation {
   double wall_seconds_ = 0;
 
   double arrival(std::optional<double> over) const {
-    return sim_->state().t + over.value_or(sim_->scene().integrator.dt);
+    return sim_->time() + over.value_or(sim_->scene().integrator.dt);
   }
   size_t collider_index(long k) const {
-    const long n = static_cast<long>(sim_->colliders().size());
+    const long n = static_cast<long>(sim_->collider_count());
     if (k < 0 || k >= n)
       throw weft::InputError("collider " + std::to_string(k) + " does not exist (the scene has " + std::to_string(n) +
                              " colliders)");
@@ -353,7 +352,7 @@ PYBIND11_MODULE(weft, m) {
                  scene, base_dir.is_none() ? std::nullopt : std::optional<std::string>(path_text(base_dir)));
            }),
            py::arg("scene"), py::arg("base_dir") = py::none())
-      .def_property_readonly("time", [](const PySimulation& s) { return s.sim().state().t; }, "Simulated time (s)")
+      .def_property_readonly("time", [](const PySimulation& s) { return s.sim().time(); }, "Simulated time (s)")
       .def_property_readonly("dt", [](const PySimulation& s) { return s.sim().scene().integrator.dt; },
                              "The scene's time step (s; for rk45 the largest step)")
       .def_property_readonly("duration", [](const PySimulation& s) { return s.sim().scene().duration; })
@@ -368,17 +367,17 @@ PYBIND11_MODULE(weft, m) {
            "Advances to time t (s), in steps of dt as `weft run` takes them between frames")
       .def_property_readonly(
           "positions",
-          [](py::object self) { return PySimulation::view(self.cast<PySimulation&>().sim().state().x, self); },
+          [](py::object self) { return PySimulation::view(self.cast<PySimulation&>().sim().positions(), self); },
           "#V by 3 positions (m): a writable numpy view of the simulation's own array (no copy); "
           "steps update it in place")
       .def_property_readonly(
           "velocities",
-          [](py::object self) { return PySimulation::view(self.cast<PySimulation&>().sim().state().v, self); },
+          [](py::object self) { return PySimulation::view(self.cast<PySimulation&>().sim().velocities(), self); },
           "#V by 3 velocities (m/s): a writable numpy view of the simulation's own array")
       .def_property_readonly(
           "masses",
           [](py::object self) {
-            const weft::VecX& m = self.cast<PySimulation&>().sim().model().mass;
+            const weft::VecX& m = self.cast<PySimulation&>().sim().masses();
             py::array a(py::dtype::of<double>(), {m.size()}, {static_cast<py::ssize_t>(sizeof(double))}, m.data(), self);
             a.attr("setflags")(py::arg("write") = false);
             return a;
@@ -387,7 +386,7 @@ PYBIND11_MODULE(weft, m) {
       .def_property_readonly(
           "triangles",
           [](const PySimulation& s) {
-            const auto& t = s.sim().model().mesh.triangles;
+            const auto& t = s.sim().mesh().triangles;
             py::array_t<int> out({static_cast<py::ssize_t>(t.size()), py::ssize_t(3)});
             auto a = out.mutable_unchecked<2>();
             for (size_t f = 0; f < t.size(); ++f)
@@ -399,7 +398,7 @@ PYBIND11_MODULE(weft, m) {
           "pinned",
           [](const PySimulation& s) {
             std::vector<int> pins;
-            const auto& fixed = s.sim().model().fixed;
+            const auto& fixed = s.sim().pinned();
             for (size_t i = 0; i < fixed.size(); ++i)
               if (fixed[i]) pins.push_back(static_cast<int>(i));
             return py::array_t<int>(static_cast<py::ssize_t>(pins.size()), pins.data());
@@ -408,7 +407,7 @@ PYBIND11_MODULE(weft, m) {
       .def_property_readonly(
           "added_viscosity",
           [](const PySimulation& s) {
-            const weft::VecX eta = s.sim().system().added_viscosity_per_vertex();
+            const weft::VecX eta = s.sim().added_viscosity_per_vertex();
             return py::array_t<double>(eta.size(), eta.data());
           },
           "Per vertex, the viscosity adaptive damping added in the last step (N s/m; a copy)")
@@ -416,8 +415,9 @@ PYBIND11_MODULE(weft, m) {
           "colliders",
           [](const PySimulation& s) {
             py::list l;
-            for (const auto& c : s.sim().colliders())
-              l.append(py::dict(py::arg("name") = c->spec().name, py::arg("shape") = shape_name(c->spec().shape)));
+            for (size_t k = 0; k < s.sim().collider_count(); ++k)
+              l.append(py::dict(py::arg("name") = s.sim().collider(k).name,
+                                py::arg("shape") = shape_name(s.sim().collider(k).shape)));
             return l;
           },
           "The scene's colliders in file order: dicts with name and shape")

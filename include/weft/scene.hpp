@@ -8,12 +8,12 @@
 #include <string_view>
 #include <vector>
 
-#include "integrate/integrator.hpp"
-#include "garment/placement.hpp"
-#include "mesh/mesh.hpp"
 #include "weft/body.hpp"
 #include "weft/collider.hpp"
+#include "weft/garment.hpp"
 #include "weft/material.hpp"
+#include "weft/mesh.hpp"
+#include "weft/settings.hpp"
 #include "weft/types.hpp"
 
 namespace weft {

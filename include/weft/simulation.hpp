@@ -7,18 +7,22 @@
 #include <string>
 #include <vector>
 
-#include "integrate/integrator.hpp"
-#include "system/cloth.hpp"
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+
+#include "weft/collider.hpp"
+#include "weft/mesh.hpp"
 #include "weft/scene.hpp"
+#include "weft/statistics.hpp"
+#include "weft/types.hpp"
 
 namespace weft {
 
-class BinaryWriter;
-class BinaryReader;
-class Collider;
-class ColliderContacts;
-class SelfContacts;
-class Clamps;
+class SimulationCore;
+
+/// Called while a Simulation is built: the stage starting ("cloth mesh", "model", ...) and the
+/// fraction of the set-up done before it (1 with stage "done" at the end).
+using SetupProgress = std::function<void(const std::string& stage, double fraction)>;
 
 /// Energies at one output frame (METHOD.md 6), in joules.
 struct EnergyRow {
@@ -38,38 +42,54 @@ struct EnergyRow {
   double total() const { return kinetic + elastic + gravity; }
 };
 
-/// Everything needed to step a scene: the model, the system and the integrator.
+/// A scene being simulated: built from a Scene, advanced in time, its state and statistics
+/// read, its pins and colliders moved between steps. What `weft run`, the experiments, the
+/// benchmarks and the Python module drive.
 class Simulation {
  public:
-  /// Called while the constructor works: the stage starting ("cloth mesh", "model", ...) and
-  /// the fraction of the set-up done before it (1 with stage "done" at the end).
-  using SetupProgress = std::function<void(const std::string& stage, double fraction)>;
+  /// Called while the constructor works (SetupProgress).
+  using SetupProgress = weft::SetupProgress;
+  /// Builds the cloth, its model and the colliders; throws InputError naming the scene's key
+  /// for what the scene's validation could not see (a pin out of range, a pattern that does
+  /// not mesh, a run too large for the machine).
   explicit Simulation(const Scene& scene, const SetupProgress& on_setup = {});
   ~Simulation();
-  const Scene& scene() const { return scene_; }
-  const ClothModel& model() const { return *model_; }
-  ClothSystem& system() { return *system_; }
-  const ClothSystem& system() const { return *system_; }
-  Integrator& integrator() { return *integrator_; }
-  const Integrator& integrator() const { return *integrator_; }
-  State& state() { return state_; }
-  const State& state() const { return state_; }
-  const StepStatistics& statistics() const { return stats_; }
-  /// The scene's colliders in file order (Collider::surface draws one at any time).
-  const std::vector<std::unique_ptr<Collider>>& colliders() const { return colliders_; }
-  /// The walking bodies of the body colliders (Scene::bodies order).
-  const std::vector<std::unique_ptr<WalkingBody>>& bodies() const { return bodies_; }
-  /// Collider k's surface at time t: a walking body's skinned mesh, another collider's as
-  /// Collider::surface draws it (what the frames' body<k> and collider<k> files hold).
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  const Scene& scene() const;
+  double time() const;  ///< simulated time (s)
+  /// The cloth mesh as the simulation built it: its starting positions, pattern coordinates
+  /// and triangles (a garment's sewn mesh, a grid, an OBJ).
+  const TriMesh& mesh() const;
+  int vertex_count() const;
+  /// Positions (m) and velocities (m/s), 3 per vertex. Their storage stays the same from step
+  /// to step; what is written into them between steps is where the next step starts from (the
+  /// energy reference and a BDF-2 history stay as they were: reset_state starts afresh).
+  const VecX& positions() const;
+  const VecX& velocities() const;
+  VecX& positions();
+  VecX& velocities();
+  const VecX& masses() const;  ///< per vertex, 3 entries each (kg)
+  /// Per vertex: 1 where the scene pins it, 0 elsewhere (clamped vertices move with their clamps).
+  const std::vector<char>& pinned() const;
+  /// The viscosity adaptive damping added at the last step, per vertex (N s/m; the area-weighted
+  /// mean over the vertex's triangles of its largest mode's addition).
+  VecX added_viscosity_per_vertex() const;
+  const StepStatistics& step_statistics() const;
+  const DampingStatistics& damping_statistics() const;
+  size_t collider_count() const;
+  /// Collider k's description (the scene's, colliders in file order).
+  const ColliderSpec& collider(size_t k) const;
+  /// Collider k's surface at time t: a walking body's skinned mesh, another collider's surface
+  /// (what the frames' body<k> and collider<k> files hold).
   void collider_surface(size_t k, double t, Points& positions, Triangles& triangles) const;
-  /// Cloth-cloth contact handling; null when the scene turns self_collision off.
-  const SelfContacts* self_contacts() const { return self_contacts_.get(); }
+
   /// Replaces positions and velocities (e.g. a perturbed start) and makes it the reference of
   /// the energy accounting: time 0, no dissipation yet, no BDF-2 history.
   void reset_state(const VecX& x, const VecX& v);
   /// Advances to time t (s), stopping pins on their targets when they arrive (move_pins).
   void advance_to(double t);
-
   /// Moves pinned vertices in straight lines at constant velocities from where they are to
   /// `targets` (one per vertex of `nodes`), arriving at time `arrival` (s, after now; for a
   /// fixed-step method rounded to a whole number of steps, one at least), where they stop. The
@@ -79,59 +99,33 @@ class Simulation {
   /// vertex that is not pinned, and for an arrival not after now or a non-finite target.
   void move_pins(const std::vector<int>& nodes, const std::vector<Vec3>& targets, double arrival);
   /// The pins still moving to their targets (move_pins).
-  size_t moving_pins() const { return pin_moves_.size(); }
-  /// Replaces the motion of collider k (colliders() order) for the steps from now on: from its
-  /// pose now to `target` at time `arrival` (rounded like move_pins'), linearly (the rotation
-  /// by spherical interpolation), then held there. A pose is the transform the collider's
-  /// motion applies to the collider as the scene places it (the identity at t = 0 for a
-  /// scene's static or constant-velocity motion). Throws InputError for a walking body (its
-  /// motion comes from its motion file), an index out of range or an arrival not after now.
+  size_t moving_pins() const;
+  /// Replaces the motion of collider k from now on: from its pose now to `target` at time
+  /// `arrival` (rounded like move_pins'), linearly (the rotation by spherical interpolation),
+  /// then held there. A pose is the transform the collider's motion applies to the collider as
+  /// the scene places it (the identity at t = 0 for a static or constant-velocity motion).
+  /// Throws InputError for a walking body (its motion comes from its motion file), an index
+  /// out of range or an arrival not after now.
   void move_collider(size_t k, const Eigen::Isometry3d& target, double arrival);
   /// The pose of collider k at time t (move_collider).
   Eigen::Isometry3d collider_pose(size_t k, double t) const;
   /// Energies at the current state.
   EnergyRow energies();
   /// A scale of the scene's energy (J): initial kinetic + elastic + weight times size.
-  double energy_scale() const { return energy_scale_; }
+  double energy_scale() const;
   /// Mechanical energy (kinetic + elastic + gravity) of the reference state (J).
-  double initial_total_energy() const { return total0_; }
-
-  /// Writes everything later steps and the run's statistics depend on, bit for bit: the
-  /// State, the step statistics, the energy reference and the system's and integrator's
-  /// dynamic state, after a fingerprint of the model and settings.
-  void save(BinaryWriter& out) const;
-  /// Reads what save wrote into a Simulation built from the same scene and settings; throws
-  /// InputError (through `in`) when the fingerprint or a size does not match.
-  void restore(BinaryReader& in);
+  double initial_total_energy() const;
   /// A hash of what a step's result depends on in the model and settings: the mesh's
   /// positions, masses, pins and pattern, the integrator settings and the damping.
   std::uint64_t fingerprint() const;
 
+  /// The parts behind this simulation, for weft's own code: SimulationCore is defined in the
+  /// library's private headers (src/sim/simulation_core.hpp) and is not part of the API.
+  SimulationCore& core() { return *core_; }
+  const SimulationCore& core() const { return *core_; }
+
  private:
-  Scene scene_;
-  std::unique_ptr<ClothModel> model_;
-  std::unique_ptr<ClothSystem> system_;
-  std::unique_ptr<Integrator> integrator_;
-  std::vector<std::unique_ptr<WalkingBody>> bodies_;
-  std::vector<std::unique_ptr<Collider>> colliders_;
-  std::unique_ptr<ColliderContacts> contacts_;
-  std::unique_ptr<SelfContacts> self_contacts_;
-  std::unique_ptr<Clamps> clamps_;
-  State state_;
-  StepStatistics stats_;
-  Evaluation eval_;
-  double gravity0_ = 0, total0_ = 0, energy_scale_ = 0;
-  struct PinMove {
-    int node;
-    Vec3 target;
-    double arrival;
-  };
-  std::vector<PinMove> pin_moves_;  ///< move_pins: the pins on their way
-  void set_energy_reference();
-  /// Sets the velocity of pinned vertex i (and its BDF-2 history, as if it had moved so before).
-  void set_pin_velocity(int i, const Vec3& v);
-  /// `arrival` on the step grid from now (fixed-step methods); checks it is after now.
-  double arrival_time(double arrival, const std::string& what) const;
+  std::unique_ptr<SimulationCore> core_;
 };
 
 struct RunResult {
@@ -164,7 +158,11 @@ struct RunCallbacks {
 /// run goes on from the frame after its last.
 RunResult run_simulation(Simulation& sim, const RunCallbacks& callbacks = {}, const RunResult* resumed = nullptr);
 
-/// A checkpoint (sim/checkpoint.hpp) of a run at a frame boundary: `header` (what the
+/// 64-bit FNV-1a of `size` bytes, continuing from `hash`: the checksum of checkpoints, and the
+/// hash `weft run` keeps of the scene a checkpoint was made from.
+std::uint64_t fnv1a(const void* data, size_t size, std::uint64_t hash = 0xcbf29ce484222325ull);
+
+/// A checkpoint (docs/scene-format.md, "Checkpoints") of a run at a frame boundary: `header` (what the
 /// caller needs to rebuild the Simulation), sim's state and the run so far. The bytes to
 /// write to a file.
 std::string checkpoint_bytes(const nlohmann::json& header, const Simulation& sim, const RunResult& so_far);

@@ -6,6 +6,7 @@
 #include <Eigen/LU>
 #include <Eigen/SVD>
 #include <Eigen/Geometry>
+#include <array>
 #include <vector>
 
 namespace weft {
@@ -23,6 +24,15 @@ using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 inline Eigen::Map<Vec3> node(VecX& x, int i) { return Eigen::Map<Vec3>(x.data() + 3 * i); }
 inline Eigen::Map<const Vec3> node(const VecX& x, int i) {
   return Eigen::Map<const Vec3>(x.data() + 3 * i);
+}
+
+/// The rows of a #F by 3 index matrix as vertex triples.
+template <class Matrix>
+std::vector<std::array<int, 3>> triangle_list(const Matrix& triangles) {
+  std::vector<std::array<int, 3>> out(static_cast<size_t>(triangles.rows()));
+  for (size_t i = 0; i < out.size(); ++i)
+    for (int k = 0; k < 3; ++k) out[i][k] = triangles(static_cast<Eigen::Index>(i), k);
+  return out;
 }
 
 }  // namespace weft

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "body/text.hpp"
-#include "io/input_file.hpp"
+#include "weft/input_file.hpp"
 #include "weft/body.hpp"
 #include "weft/error.hpp"
 

@@ -172,13 +172,4 @@ void AabbTree::for_each_pair(const AabbTree& other, F&& f) const {
   }
 }
 
-/// The rows of a #F by 3 index matrix as vertex triples.
-template <class Matrix>
-std::vector<std::array<int, 3>> triangle_list(const Matrix& triangles) {
-  std::vector<std::array<int, 3>> out(static_cast<size_t>(triangles.rows()));
-  for (size_t i = 0; i < out.size(); ++i)
-    for (int k = 0; k < 3; ++k) out[i][k] = triangles(static_cast<Eigen::Index>(i), k);
-  return out;
-}
-
 }  // namespace weft

@@ -1,4 +1,6 @@
-#include "collision/frame_check.hpp"
+#include "weft/frame_check.hpp"
+
+#include "collision/intersections.hpp"
 
 #include <algorithm>
 #include <cstdint>
@@ -11,8 +13,19 @@ size_t FrameIntersections::count() const {
   return n;
 }
 
-const AabbTree& FrameChecker::tree_for(size_t slot, const FrameMesh& mesh) {
-  AabbTree& tree = trees_[slot];
+struct FrameChecker::Trees {
+  std::vector<AabbTree> slots;
+  /// A tree for `mesh` in `slot`, refitted; rebuilt when its triangles differ from the last ones.
+  const AabbTree& tree_for(size_t slot, const FrameMesh& mesh);
+};
+
+FrameChecker::FrameChecker(size_t examples) : examples_(examples), trees_(std::make_unique<Trees>()) {}
+FrameChecker::~FrameChecker() = default;
+FrameChecker::FrameChecker(FrameChecker&&) noexcept = default;
+FrameChecker& FrameChecker::operator=(FrameChecker&&) noexcept = default;
+
+const AabbTree& FrameChecker::Trees::tree_for(size_t slot, const FrameMesh& mesh) {
+  AabbTree& tree = slots[slot];
   if (tree.triangles() != *mesh.triangles)
     tree = AabbTree(*mesh.triangles, mesh.xyz);
   else
@@ -23,12 +36,12 @@ const AabbTree& FrameChecker::tree_for(size_t slot, const FrameMesh& mesh) {
 FrameIntersections FrameChecker::check(const FrameMesh& cloth, const std::vector<FrameMesh>& bodies) {
   FrameIntersections out;
   // All slots first: the references below must outlive any growth of trees_.
-  if (trees_.size() < bodies.size() + 1) trees_.resize(bodies.size() + 1);
-  const AabbTree& cloth_tree = tree_for(0, cloth);
+  if (trees_->slots.size() < bodies.size() + 1) trees_->slots.resize(bodies.size() + 1);
+  const AabbTree& cloth_tree = trees_->tree_for(0, cloth);
   out.cloth_self = self_intersections(cloth.xyz, cloth_tree, examples_);
   for (size_t k = 0; k < bodies.size(); ++k) {
     const FrameMesh& body = bodies[k];
-    const AabbTree& body_tree = tree_for(k + 1, body);
+    const AabbTree& body_tree = trees_->tree_for(k + 1, body);
     const auto& body_tris = *body.triangles;
     const IntersectionCount all = mesh_intersections(cloth.xyz, cloth_tree, body.xyz, body_tree, SIZE_MAX);
     // The body's own crossings and the triangles around them (sharing a vertex): looked for

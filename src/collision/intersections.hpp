@@ -6,13 +6,9 @@
 #include <vector>
 
 #include "collision/aabb_tree.hpp"
+#include "weft/frame_check.hpp"
 
 namespace weft {
-
-struct IntersectionCount {
-  size_t count = 0;                          ///< intersecting pairs
-  std::vector<std::array<int, 2>> examples;  ///< the first pairs found (up to the limit asked)
-};
 
 /// The pairs of triangles of one mesh that intersect (geometry.hpp: closed triangles, touching
 /// counts) and share no vertex; pairs are (lower, higher) triangle numbers. `tree` must be

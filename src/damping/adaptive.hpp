@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "weft/statistics.hpp"
 #include "weft/types.hpp"
 
 namespace weft {
@@ -31,42 +32,5 @@ Vec3 membrane_required_viscosity(double area, const Vec3& tangent_moduli, const 
                                  double damping_ratio);
 
 
-/// Running statistics of positive values (min, max, mean and a median from a fine
-/// histogram of the values' exponent and leading mantissa bits: 128 bins per octave, each
-/// at most 0.8% of its value wide).
-class LogStatistics {
- public:
-  void add(double value);
-  void merge(const LogStatistics& other);
-  long count() const { return count_; }
-  double min() const { return count_ ? min_ : 0.0; }
-  double max() const { return count_ ? max_ : 0.0; }
-  double mean() const { return count_ ? sum_ / count_ : 0.0; }
-  /// Median to within half a bin (0.4% relative).
-  double median() const;
-
-  /// The exact contents (checkpoints): the non-empty bins as (bin, count) and the running
-  /// values; from_snapshot throws std::invalid_argument for a bin out of range.
-  struct Snapshot {
-    std::vector<std::pair<int, long>> bins;
-    long count = 0;
-    double min = 0, max = 0, sum = 0;
-  };
-  Snapshot snapshot() const;
-  static LogStatistics from_snapshot(const Snapshot& s);
-
- private:
-  // A positive double's bit pattern shifted right by 52 - kMantissaBits is monotone in the
-  // value: exponent times 2^kMantissaBits plus the leading mantissa bits. That is the bin,
-  // so adding a value costs no logarithm.
-  static constexpr int kMantissaBits = 7;
-  static constexpr int kMinExponent = -60, kMaxExponent = 60;  ///< about 1e-18 to 1e18
-  static constexpr int kBins = (kMaxExponent - kMinExponent) << kMantissaBits;
-  static int bin_of(double value);
-  static double bin_centre(int bin);
-  std::vector<long> bins_ = std::vector<long>(kBins, 0);
-  long count_ = 0;
-  double min_ = 0, max_ = 0, sum_ = 0;
-};
 
 }  // namespace weft

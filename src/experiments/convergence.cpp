@@ -1,4 +1,4 @@
-#include "experiments/convergence.hpp"
+#include "weft/experiments/convergence.hpp"
 
 #include <cmath>
 #include <sstream>

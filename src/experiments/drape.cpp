@@ -1,5 +1,5 @@
 // The drape test (experiments/drape.hpp, docs/fabric-validation.md).
-#include "experiments/drape.hpp"
+#include "weft/experiments/drape.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -9,7 +9,7 @@
 
 #include "mesh/panel_mesher.hpp"
 #include "weft/error.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 namespace weft {
 namespace {
@@ -206,7 +206,7 @@ DrapeResult run_drape_test(const Material& material, const DrapeOptions& o, cons
   for (long f = 1; f <= frames; ++f) {
     const double t = std::min(o.max_time_s, f * o.frame_interval_s);
     sim.advance_to(t);
-    const State& s = sim.state();
+    const State& s = sim.core().state();
     if (!s.x.allFinite() || !s.v.allFinite()) {
       res.status = "unstable";
       break;
@@ -227,13 +227,13 @@ DrapeResult run_drape_test(const Material& material, const DrapeOptions& o, cons
     }
   }
   res.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  res.simulated_time_s = sim.state().t;
-  res.steps = sim.statistics().steps;
+  res.simulated_time_s = sim.core().state().t;
+  res.steps = sim.core().statistics().steps;
   res.vertices = n;
   res.triangles = static_cast<int>(mesh->triangles.size());
   res.pinned = static_cast<int>(support.size());
   res.mesh = *mesh;
-  for (int i = 0; i < n; ++i) res.mesh.positions.row(i) = sim.state().x.segment<3>(3 * i).transpose();
+  for (int i = 0; i < n; ++i) res.mesh.positions.row(i) = sim.core().state().x.segment<3>(3 * i).transpose();
 
   const double R = o.specimen_diameter_m / 2, r = o.support_diameter_m / 2;
   res.specimen_area_m2 = M_PI * R * R;

@@ -1,4 +1,4 @@
-#include "experiments/energy.hpp"
+#include "weft/experiments/energy.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,5 @@
-#include "experiments/energy_injection.hpp"
+#include "weft/experiments/energy_injection.hpp"
+#include "sim/simulation_core.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -34,7 +35,7 @@ InjectionAnalysis analyse_energy_injection(const Scene& configured, const std::s
   a.alpha = configured.integrator.alpha;
   a.dt = configured.integrator.dt;
   Simulation sim(configured);
-  const ClothModel& model = sim.model();
+  const ClothModel& model = sim.core().model();
   const TriMesh& mesh = model.mesh;
   const size_t nt = mesh.triangles.size();
   a.triangles.resize(nt);
@@ -50,17 +51,17 @@ InjectionAnalysis analyse_energy_injection(const Scene& configured, const std::s
   std::vector<double> term(nt);
   double numerical = sim.energies().numerical_dissipated;
   for (long k = 0; k < steps; ++k) {
-    const VecX x0 = sim.state().x;
-    const long newton_before = sim.statistics().newton_iterations;
+    const VecX x0 = sim.core().state().x;
+    const long newton_before = sim.core().statistics().newton_iterations;
     sim.advance_to(std::min(configured.duration, (k + 1) * dt));
-    const VecX& x1 = sim.state().x;
+    const VecX& x1 = sim.core().state().x;
     const EnergyRow e = sim.energies();
     if (!x1.allFinite() || !std::isfinite(e.total()) ||
         e.total() - e.contact_work - sim.initial_total_energy() > sim.energy_scale()) {
       a.status = "unstable";
       break;
     }
-    const bool newton = sim.statistics().newton_iterations > newton_before;
+    const bool newton = sim.core().statistics().newton_iterations > newton_before;
     const VecX dx = x1 - x0;
     double membranes = 0;
     for (size_t t = 0; t < nt; ++t) {
@@ -88,7 +89,7 @@ InjectionAnalysis analyse_energy_injection(const Scene& configured, const std::s
       ti.max_strain = std::max(ti.max_strain, r1.strain.cwiseAbs().maxCoeff());
       if (term[t] > ti.largest_J) {
         ti.largest_J = term[t];
-        ti.time_of_largest = sim.state().t;
+        ti.time_of_largest = sim.core().state().t;
         ti.strain_at_largest = r1.strain;
         ti.strain_change_at_largest = r1.strain - r0.strain;
         const double c = std::clamp(unit_normal(p0).dot(unit_normal(p1)), -1.0, 1.0);
@@ -97,7 +98,7 @@ InjectionAnalysis analyse_energy_injection(const Scene& configured, const std::s
     }
     const double created = numerical - e.numerical_dissipated;
     numerical = e.numerical_dissipated;
-    a.step_time.push_back(sim.state().t);
+    a.step_time.push_back(sim.core().state().t);
     a.step_created.push_back(created);
     a.step_membranes.push_back(membranes);
     if (created > 0) {
@@ -105,7 +106,7 @@ InjectionAnalysis analyse_energy_injection(const Scene& configured, const std::s
       a.membranes_in_those_J += membranes;
     }
   }
-  a.time_reached = sim.state().t;
+  a.time_reached = sim.core().state().t;
   return a;
 }
 

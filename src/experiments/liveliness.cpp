@@ -1,4 +1,4 @@
-#include "experiments/liveliness.hpp"
+#include "weft/experiments/liveliness.hpp"
 
 #include <algorithm>
 #include <limits>

@@ -1,4 +1,4 @@
-#include "experiments/stability_experiment.hpp"
+#include "weft/experiments/stability_experiment.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -7,7 +7,7 @@
 #include <sstream>
 
 #include "weft/error.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 namespace weft {
 
@@ -253,9 +253,9 @@ StabilityCell run_stability_cell(const StabilityExperimentSettings& s, const Sta
   Simulation sim(stability_scene(s, method, dt, damping_ratio));
   c.alpha = sim.scene().integrator.alpha;
   VecX x, v;
-  stability_perturbation(s, sim.model().mesh, sim.model().mass, x, v);
+  stability_perturbation(s, sim.core().model().mesh, sim.core().model().mass, x, v);
   sim.reset_state(x, v);
-  const std::vector<double> kappa = sim.system().membrane_kappa_max(x, dt);
+  const std::vector<double> kappa = sim.core().system().membrane_kappa_max(x, dt);
   c.kappa_max = kappa.empty() ? 0.0 : *std::max_element(kappa.begin(), kappa.end());
 
   const EnergyRow e0 = sim.energies();
@@ -267,7 +267,7 @@ StabilityCell run_stability_cell(const StabilityExperimentSettings& s, const Sta
   for (long k = 1; k <= steps; ++k) {
     sim.advance_to(k * dt);
     c.steps = k;
-    const State& st = sim.state();
+    const State& st = sim.core().state();
     const EnergyRow e = sim.energies();
     const double energy = e.kinetic + e.elastic;
     std::string reason;
@@ -275,7 +275,7 @@ StabilityCell run_stability_cell(const StabilityExperimentSettings& s, const Sta
     // the scene's energy scale (nothing external adds energy here).
     if (!st.x.allFinite() || !st.v.allFinite() || !std::isfinite(energy)) reason = "nan";
     else if (e.total() - e0.total() > sim.energy_scale()) reason = "energy";
-    else if (sim.statistics().cg_failures > 0) reason = "cg";
+    else if (sim.core().statistics().cg_failures > 0) reason = "cg";
     if (!reason.empty()) {
       c.stable = false;
       c.reason = reason;
@@ -291,7 +291,7 @@ StabilityCell run_stability_cell(const StabilityExperimentSettings& s, const Sta
       break;
     }
   }
-  const StepStatistics& ss = sim.statistics();
+  const StepStatistics& ss = sim.core().statistics();
   c.cg_iterations_mean = ss.cg_solves ? static_cast<double>(ss.cg_iterations) / ss.cg_solves : 0.0;
   c.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return c;
@@ -306,7 +306,7 @@ StabilityExperimentResult run_stability_experiment(const StabilityExperimentSett
   {
     Simulation sim(stability_scene(s, s.methods.front(), s.dts.front(), 0.0));
     VecX x, v;
-    stability_perturbation(s, sim.model().mesh, sim.model().mass, x, v);
+    stability_perturbation(s, sim.core().model().mesh, sim.core().model().mass, x, v);
     sim.reset_state(x, v);
     const EnergyRow e = sim.energies();
     r.initial_energy = e.kinetic + e.elastic;

@@ -1,4 +1,5 @@
-#include "experiments/trajectory.hpp"
+#include "weft/experiments/trajectory.hpp"
+#include "sim/simulation_core.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -31,7 +32,7 @@ Trajectory run_trajectory(const Scene& configured, const MethodConfiguration& c,
   Simulation sim(configured);
   RunCallbacks cb;
   if (keep_positions)
-    cb.on_frame = [&](int, const Simulation& s) { t.positions.push_back(s.state().x); };
+    cb.on_frame = [&](int, const Simulation& s) { t.positions.push_back(s.core().state().x); };
   cb.on_progress = progress;
   t.result = run_simulation(sim, cb);
   t.summary = summary_json(sim, t.result);

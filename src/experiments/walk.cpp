@@ -1,4 +1,5 @@
-#include "experiments/walk.hpp"
+#include "weft/experiments/walk.hpp"
+#include "sim/simulation_core.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,10 +7,10 @@
 #include <sstream>
 
 #include "collision/colliders.hpp"
-#include "collision/frame_check.hpp"
-#include "experiments/energy.hpp"
-#include "experiments/liveliness.hpp"
-#include "io/exports.hpp"
+#include "weft/frame_check.hpp"
+#include "weft/experiments/energy.hpp"
+#include "weft/experiments/liveliness.hpp"
+#include "weft/exports.hpp"
 #include "io/gnuplot.hpp"
 #include "weft/atomic_file.hpp"
 #include "weft/error.hpp"
@@ -78,9 +79,9 @@ WalkExperiment run_walk_experiment(const Scene& scene_in, const WalkExperimentOp
     WalkRun run;
     run.entry = entry;
     Simulation sim(configured);
-    const auto& cloth_triangles = sim.model().mesh.triangles;
-    const std::vector<int> hem = lowest_boundary_loop(cloth_triangles, sim.state().x);
-    const WalkingBody& body = *sim.bodies()[scene.colliders[body_collider].body];
+    const auto& cloth_triangles = sim.core().model().mesh.triangles;
+    const std::vector<int> hem = lowest_boundary_loop(cloth_triangles, sim.core().state().x);
+    const WalkingBody& body = *sim.core().bodies()[scene.colliders[body_collider].body];
     const std::vector<std::array<int, 3>> body_list = triangle_list(body.triangles());
     FrameChecker checker(0);
     Points body_x, body_v;
@@ -89,23 +90,23 @@ WalkExperiment run_walk_experiment(const Scene& scene_in, const WalkExperimentOp
     if (o.frames) std::filesystem::create_directories(frames);
     RunCallbacks cb;
     cb.on_frame = [&](int f, const Simulation& s) {
-      const double t = s.state().t;
+      const double t = s.core().state().t;
       body.positions(t, body_x);
       body.velocities(t, body_v);
       const RigidVelocity rigid = fit_rigid_velocity(body_x, body_v);
       run.time.push_back(t);
-      run.relative_kinetic.push_back(relative_kinetic_energy(s.state().x, s.state().v, s.model().mass, rigid));
+      run.relative_kinetic.push_back(relative_kinetic_energy(s.core().state().x, s.core().state().v, s.core().model().mass, rigid));
       body_centres.push_back(rigid.centre);
       run.hem_forward.push_back(0);  // the walking direction is known at the end
-      run.positions.push_back(s.state().x);
-      const FrameIntersections r = checker.check({s.state().x.data(), &cloth_triangles}, {{body_x.data(), &body_list}});
+      run.positions.push_back(s.core().state().x);
+      const FrameIntersections r = checker.check({s.core().state().x.data(), &cloth_triangles}, {{body_x.data(), &body_list}});
       run.intersections.push_back(static_cast<long>(r.count()));
       if (o.frames) {
         char name[64];
         std::snprintf(name, sizeof name, "frame_%05d.ply", f);
-        const VecX eta = s.system().added_viscosity_per_vertex();
+        const VecX eta = s.core().system().added_viscosity_per_vertex();
         write_file_atomically((frames / name).string(), [&](std::ostream& out) {
-          write_ply_frame(out, s.state().x.data(), s.model().num_vertices(), eta.data(), cloth_triangles);
+          write_ply_frame(out, s.core().state().x.data(), s.core().model().num_vertices(), eta.data(), cloth_triangles);
         });
         std::snprintf(name, sizeof name, "body0_%05d.obj", f);
         write_obj((frames / name).string(), body_x, body.triangles());

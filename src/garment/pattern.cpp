@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "io/input_file.hpp"
+#include "weft/input_file.hpp"
 #include "io/json_util.hpp"
 #include "weft/error.hpp"
 

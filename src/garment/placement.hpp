@@ -12,24 +12,10 @@
 #include "garment/garment_mesh.hpp"
 #include "mesh/mesh.hpp"
 #include "weft/body.hpp"
+#include "weft/garment.hpp"
 
 namespace weft {
 
-/// The body parts panels are wrapped around.
-enum class BodyPart { torso, left_arm, right_arm, left_leg, right_leg, head };
-/// "torso", "left_arm", ...; throws InputError naming `where` for another name.
-BodyPart parse_body_part(const std::string& name, const std::string& where);
-std::string body_part_name(BodyPart part);
-
-/// A panel's placement chosen by hand (the scene's `patterns.panels.NAME`).
-struct PanelPlacementOverride {
-  std::optional<BodyPart> part;
-  /// Direction the panel's middle faces, in degrees about the part's axis: 0 = the front
-  /// (+z), 90 = the wearer's left (+x) for the torso, legs and head; for an arm, 0 = the
-  /// front and 90 = up.
-  std::optional<double> angle_deg;
-  double shift_m = 0;  ///< moves the panel along the part's axis (up the torso, out along an arm)
-};
 
 struct PlacementOptions {
   double clearance_m = 0.02;  ///< gap between the body and the cylinders the panels lie on

@@ -7,7 +7,7 @@
 
 #include "weft/error.hpp"
 #include "weft/scene.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 namespace weft {
 namespace {
@@ -140,16 +140,16 @@ SewnGarment sew_garment(const PlacedGarment& placed, const BindBody& body, const
   for (int k = 1; k <= intervals && gap > options.gap_m; ++k) {
     if (history.size() > window && gap > 0.9 * history[history.size() - 1 - window]) break;
     sim.advance_to(k * options.interval_s);
-    sim.state().v.setZero();  // quasi-static: the seams close without swinging
-    gap = largest_seam_gap(as_points(sim.state().x), placed.seam_pairs);
+    sim.core().state().v.setZero();  // quasi-static: the seams close without swinging
+    gap = largest_seam_gap(as_points(sim.core().state().x), placed.seam_pairs);
     history.push_back(gap);
     out.sewing_time_s = k * options.interval_s;
     if (progress) progress(out.sewing_time_s, gap);
   }
-  out.steps = static_cast<int>(sim.statistics().steps);
+  out.steps = static_cast<int>(sim.core().statistics().steps);
   out.largest_gap_m = gap;
   out.converged = gap <= options.gap_m;
-  out.sewn_positions = as_points(sim.state().x);
+  out.sewn_positions = as_points(sim.core().state().x);
   SewnGarment welded = weld_seams(placed, out.sewn_positions);
   out.mesh = std::move(welded.mesh);
   out.panel_of_triangle = std::move(welded.panel_of_triangle);

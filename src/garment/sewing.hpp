@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "collision/frame_check.hpp"
+#include "weft/frame_check.hpp"
 #include "garment/placement.hpp"
 #include "weft/material.hpp"
 

@@ -13,44 +13,11 @@
 #include "linalg/pcg.hpp"
 #include "linalg/solution_history.hpp"
 #include "system/system.hpp"
+#include "weft/settings.hpp"
+#include "weft/statistics.hpp"
 
 namespace weft {
 
-enum class Method { ForwardEuler, AlphaFamily, Bdf2, Rk4, Rk45 };
-
-struct IntegratorSettings {
-  Method method = Method::AlphaFamily;
-  double alpha = 0.5;               ///< implicitness (alpha family and BDF-2)
-  double dt = 0.02;                 ///< step (s); for RK45 the largest step
-  double cg_tolerance = 1e-6;       ///< relative residual of the linear solve
-  int cg_max_iterations = 1000;
-  /// Preconditioner of the conjugate-gradient solve; unset: chosen by size (below).
-  std::optional<Preconditioner> preconditioner;
-  double error_tolerance = 1e-6;    ///< RK45 local error tolerance (relative and absolute)
-  /// SSOR relaxation in (0, 2); 0 chooses it from the mesh size (ssor_relaxation_for).
-  double ssor_relaxation = 0.0;
-  /// SSOR iterations in single precision (PcgSettings::ssor_single_precision): the same
-  /// stopping rule on the true residual, 0.8-0.9 of the step time on the benchmark cloth.
-  bool ssor_single_precision = true;
-  /// Steps whose right-hand sides and solutions the linear solves' warm start combines
-  /// (SolutionHistory); 0 starts each solve from the previous step's dv.
-  int warm_start_history = 3;
-  /// The energy guard (docs/guarded-midpoint.md): an alpha-family step that puts energy into
-  /// the cloth is taken again from its start as two halves (kGuardMaxSplits times at most),
-  /// then with a larger alpha (kGuardAlphas), which relaxes back to `alpha`. A BDF-2 step is
-  /// taken again with a larger alpha (up to standard BDF-2, alpha = 1), then as a backward
-  /// Euler step.
-  bool guard = false;
-  /// Newton iterations a semi-implicit step (alpha family, BDF-2) may add to its linearised
-  /// solve (Integrator::newton_iterate): the step's nonlinear equations re-linearised at the
-  /// iterate, with a backtracking line search. 0: one linearisation per step, as the paper's
-  /// equations write the step. Steps that hold contacts in their solve stay linearised.
-  int newton_iterations = 0;
-  /// The iterations stop when the residual of the step's equations, as a change of velocity
-  /// (|M^-1/2 r|), is below this fraction of the step's (|M^1/2 dv|, or of its right-hand
-  /// side's |M^-1/2 b| where larger).
-  double newton_tolerance = 1e-3;
-};
 
 /// Halvings of a Newton iteration's step (IntegratorSettings::newton_iterations) before the
 /// line search gives up and the step keeps its last iterate.
@@ -70,11 +37,6 @@ constexpr int kGuardMaxSplits = 4;
 /// Steps without a redo after which a raised alpha goes down one rung.
 constexpr int kGuardRelaxSteps = 5;
 
-/// Free nodes from which the automatic choice is multigrid rather than SSOR: below, SSOR's
-/// iterations (two triangular solves each) win over the V-cycle's and the per-step coarse
-/// operators; above, its iteration count keeps growing with the mesh while multigrid's
-/// barely does (docs/performance.md).
-constexpr int kMultigridMinFreeNodes = 30000;
 /// Solves per step at most while contacts change (Integrator::linear_step's active set): a
 /// second solve takes the nodes the first would leave inside a collider and lets go of
 /// contacts that pull; what a third would find, the contact fail-safe corrects (on the 65x65
@@ -89,23 +51,7 @@ constexpr int kMaxStepHalvings = 3;
 constexpr double kReleaseSpeed = 1e-3;
 /// The preconditioner `settings` selects for a system with `free_nodes` unpinned nodes.
 Preconditioner choose_preconditioner(const IntegratorSettings& settings, int free_nodes);
-/// "auto", "block-jacobi", "ssor" or "multigrid"; nullopt for an unknown name.
-std::optional<std::optional<Preconditioner>> parse_preconditioner(const std::string& name);
-std::string preconditioner_name(Preconditioner p);
 
-/// Method names accepted on the command line and in scenes, and their meaning.
-struct MethodInfo {
-  std::string name;
-  Method method;
-  std::optional<double> fixed_alpha;  ///< alpha implied by the name, if any
-  double default_alpha;
-  std::string description;
-  bool guard = false;  ///< IntegratorSettings::guard
-};
-const std::vector<MethodInfo>& method_table();
-/// Looks a method up by name; nullptr when unknown.
-const MethodInfo* find_method(const std::string& name);
-std::string method_names();  ///< "forward-euler, backward-euler, ..."
 
 /// The integrators write into x and v in place: their storage stays the same from step to step
 /// (the Python module's numpy arrays view it).
@@ -125,35 +71,6 @@ struct State {
   double rk45_step = 0;           ///< RK45 step size carried between calls
 };
 
-struct StepStatistics {
-  long steps = 0;            ///< accepted steps
-  long rejected_steps = 0;   ///< RK45 rejections
-  long cg_iterations = 0;
-  long cg_solves = 0;
-  long cg_failures = 0;      ///< solves that hit the iteration cap
-  double assembly_seconds = 0;
-  double solve_seconds = 0;
-  long contacts = 0;             ///< node contacts held by linear solves, summed over steps
-  long max_contacts = 0;         ///< the most in one step
-  long released_contacts = 0;    ///< contacts let go because they pulled at the previous step
-  long fail_safe_moves = 0;      ///< nodes moved by the contact fail-safe after a step
-  long contact_passes = 0;       ///< solves repeated because nodes would have ended in a collider
-  long failed_contact_steps = 0; ///< steps the contact fail-safe could not make valid
-  long halved_steps = 0;         ///< steps taken again as two halves for that reason
-  double detection_seconds = 0;  ///< finding contacts
-  double response_seconds = 0;   ///< constraints, friction and the fail-safe
-  long guard_redone_steps = 0;   ///< attempts the energy guard took again with a larger alpha
-  long guard_raised_steps = 0;   ///< accepted steps taken (in part) with an alpha above the scene's
-  double guard_max_alpha = 0;    ///< the largest alpha of an accepted guarded step (0: none)
-  long guard_split_steps = 0;    ///< guarded steps (or parts) taken again as two halves
-  long guard_parts = 0;          ///< parts the guarded steps were taken in, halvings included
-  double guard_seconds = 0;      ///< the guard's own work: saving the start, the energy check
-  long newton_iterations = 0;    ///< Newton iterations (one linear solve each) beyond the linearised step
-  long newton_steps = 0;         ///< steps (or parts) that took at least one
-  long newton_halvings = 0;      ///< line-search halvings
-  long newton_unconverged = 0;   ///< steps that ended above the Newton tolerance
-  double newton_seconds = 0;     ///< the iterations' own work: residuals, assemblies, solves
-};
 
 class Integrator {
  public:

@@ -2,7 +2,7 @@
 // model (every buffer copied into its structures) before serialising; the glb layout is a
 // JSON chunk and a binary chunk, which weft writes here straight from the recorded frames
 // with the JSON library it already uses.
-#include "io/exports.hpp"
+#include "weft/exports.hpp"
 
 #include <algorithm>
 #include <bit>

@@ -1,4 +1,4 @@
-#include "io/input_file.hpp"
+#include "weft/input_file.hpp"
 
 #include <filesystem>
 #include <fstream>

@@ -5,7 +5,7 @@
 #include <unordered_set>
 #include <vector>
 
-#include "io/input_file.hpp"
+#include "weft/input_file.hpp"
 
 namespace weft::json_util {
 

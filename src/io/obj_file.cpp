@@ -10,7 +10,7 @@
 #include <climits>
 #include <cmath>
 
-#include "io/input_file.hpp"
+#include "weft/input_file.hpp"
 #include "weft/error.hpp"
 #include "weft/scene.hpp"
 

@@ -1,4 +1,4 @@
-#include "io/run_folder.hpp"
+#include "weft/run_folder.hpp"
 
 #include <algorithm>
 #include <charconv>
@@ -11,7 +11,7 @@
 #include <sstream>
 #include <thread>
 
-#include "io/input_file.hpp"
+#include "weft/input_file.hpp"
 #include "io/obj_file.hpp"
 #include "weft/error.hpp"
 

@@ -1,4 +1,4 @@
-#include "io/run_frames.hpp"
+#include "weft/run_frames.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -6,7 +6,7 @@
 #include <regex>
 
 #include "io/obj_file.hpp"
-#include "io/run_folder.hpp"
+#include "weft/run_folder.hpp"
 #include "weft/error.hpp"
 
 namespace fs = std::filesystem;

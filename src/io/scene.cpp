@@ -10,8 +10,8 @@
 #include <filesystem>
 #include <limits>
 
-#include "io/exports.hpp"
-#include "io/input_file.hpp"
+#include "weft/exports.hpp"
+#include "weft/input_file.hpp"
 #include "io/json_util.hpp"
 #include "io/obj_file.hpp"
 #include "system/cloth.hpp"

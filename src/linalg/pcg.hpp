@@ -5,17 +5,10 @@
 #include "linalg/block_sparse.hpp"
 #include "linalg/multigrid.hpp"
 #include "linalg/ssor.hpp"
+#include "weft/settings.hpp"
 
 namespace weft {
 
-enum class Preconditioner {
-  kBlockJacobi,  ///< inverse 3x3 diagonal blocks
-  kMultigrid,    ///< one V-cycle of aggregation multigrid (linalg/multigrid.hpp)
-  /// Symmetric block successive over-relaxation, M = (D/w + L) (D/w)^-1 (D/w + L^T), applied
-  /// with Eisenstat's trick: an iteration costs two triangular solves over the lower half of A
-  /// instead of a product plus the preconditioner.
-  kSsor,
-};
 
 struct PcgSettings {
   double relative_tolerance = 1e-6;  ///< stop when |r| <= tol |b| (filtered)

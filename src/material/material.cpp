@@ -11,7 +11,7 @@
 #include <sstream>
 #include <tuple>
 
-#include "io/input_file.hpp"
+#include "weft/input_file.hpp"
 #include "io/json_util.hpp"
 #include "weft/error.hpp"
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "io/exports.hpp"
+#include "weft/exports.hpp"
 #include "render/bitmap_font.hpp"
 
 namespace weft::render {

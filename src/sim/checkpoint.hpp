@@ -15,14 +15,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "weft/simulation.hpp"
 #include "weft/types.hpp"
 
 namespace weft {
 
 constexpr std::uint32_t kCheckpointFormatVersion = 6;
 
-/// 64-bit FNV-1a of `size` bytes, continuing from `hash`.
-std::uint64_t fnv1a(const void* data, size_t size, std::uint64_t hash = 0xcbf29ce484222325ull);
 
 /// Appends values in binary to a byte string.
 class BinaryWriter {

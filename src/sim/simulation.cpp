@@ -1,4 +1,4 @@
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 #include "collision/colliders.hpp"
 #include "collision/clamps.hpp"
@@ -23,7 +23,7 @@ constexpr double kSetupShareMesh = 0.2, kSetupShareModel = 0.6, kSetupShareSyste
 /// The scene's garment: its pattern meshed, placed around the first body in its bind pose and
 /// sewn (garment/sewing.hpp), each panel in its material (the scene's cloth material unless
 /// cloth.mesh.pattern.panels.NAME.material gives one); `materials` receives them per triangle.
-TriMesh sew_scene_garment(const Scene& scene, const Simulation::SetupProgress& on_setup, TriangleMaterials& materials) {
+TriMesh sew_scene_garment(const Scene& scene, const SetupProgress& on_setup, TriangleMaterials& materials) {
   const GarmentSpec& g = *scene.cloth.garment;
   const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": cloth.mesh.pattern";
   if (on_setup) on_setup("garment: meshing " + g.pattern_file, 0.0);
@@ -56,7 +56,7 @@ TriMesh sew_scene_garment(const Scene& scene, const Simulation::SetupProgress& o
 
 }  // namespace
 
-Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scene_(scene) {
+SimulationCore::SimulationCore(const Scene& scene, const SetupProgress& on_setup) : scene_(scene) {
   // The fractions are roughly the stages' shares of a large grid's set-up (a 601x601 grid).
   auto stage = [&](const char* name, double fraction) {
     if (on_setup) on_setup(name, fraction);
@@ -178,9 +178,9 @@ Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup) : scen
   stage("done", 1.0);
 }
 
-Simulation::~Simulation() = default;
+SimulationCore::~SimulationCore() = default;
 
-void Simulation::advance_to(double t) {
+void SimulationCore::advance_to(double t) {
   // While pins move: a step at a time (each arrival is on the step grid), each moving pin's
   // velocity set again after every step to reach its target at its arrival, so that a pin the
   // self-collision fail-safe held still for a step (an impact zone holding a pin stops) catches
@@ -203,7 +203,7 @@ void Simulation::advance_to(double t) {
   integrator_->advance(state_, t, stats_);
 }
 
-double Simulation::arrival_time(double arrival, const std::string& what) const {
+double SimulationCore::arrival_time(double arrival, const std::string& what) const {
   const double now = state_.t, dt = scene_.integrator.dt;
   if (!(arrival > now) || !std::isfinite(arrival))
     throw InputError(what + ": the arrival time " + std::to_string(arrival) + " s must be after the current time " +
@@ -212,7 +212,7 @@ double Simulation::arrival_time(double arrival, const std::string& what) const {
   return now + std::max(1L, std::lround((arrival - now) / dt)) * dt;
 }
 
-void Simulation::set_pin_velocity(int i, const Vec3& v) {
+void SimulationCore::set_pin_velocity(int i, const Vec3& v) {
   node(state_.v, i) = v;
   // BDF-2 moves a node by beta dx_prev + dt_b v (with dv = 0 on a pin): a previous change of
   // dt v, beta dt + dt_b = dt, makes that dt v from the next step on.
@@ -222,7 +222,7 @@ void Simulation::set_pin_velocity(int i, const Vec3& v) {
   }
 }
 
-void Simulation::move_pins(const std::vector<int>& nodes, const std::vector<Vec3>& targets, double arrival) {
+void SimulationCore::move_pins(const std::vector<int>& nodes, const std::vector<Vec3>& targets, double arrival) {
   const std::string what = "move_pins";
   if (nodes.size() != targets.size())
     throw InputError(what + ": " + std::to_string(nodes.size()) + " vertices but " + std::to_string(targets.size()) +
@@ -245,7 +245,7 @@ void Simulation::move_pins(const std::vector<int>& nodes, const std::vector<Vec3
   }
 }
 
-void Simulation::move_collider(size_t k, const Eigen::Isometry3d& target, double arrival) {
+void SimulationCore::move_collider(size_t k, const Eigen::Isometry3d& target, double arrival) {
   const std::string what = "move_collider";
   if (k >= colliders_.size())
     throw InputError(what + ": collider " + std::to_string(k) + " does not exist (the scene has " +
@@ -264,7 +264,7 @@ void Simulation::move_collider(size_t k, const Eigen::Isometry3d& target, double
   colliders_[k]->set_motion(motion);
 }
 
-void Simulation::collider_surface(size_t k, double t, Points& positions, Triangles& triangles) const {
+void SimulationCore::collider_surface(size_t k, double t, Points& positions, Triangles& triangles) const {
   const Collider& c = *colliders_.at(k);
   if (c.spec().shape == ColliderShape::kBody) {
     const WalkingBody& body = *bodies_[c.spec().body];
@@ -275,7 +275,7 @@ void Simulation::collider_surface(size_t k, double t, Points& positions, Triangl
   }
 }
 
-Eigen::Isometry3d Simulation::collider_pose(size_t k, double t) const {
+Eigen::Isometry3d SimulationCore::collider_pose(size_t k, double t) const {
   if (k >= colliders_.size())
     throw InputError("collider_pose: collider " + std::to_string(k) + " does not exist (the scene has " +
                      std::to_string(colliders_.size()) + " colliders)");
@@ -284,14 +284,14 @@ Eigen::Isometry3d Simulation::collider_pose(size_t k, double t) const {
   return scene_.colliders[k].motion.at(t);
 }
 
-void Simulation::reset_state(const VecX& x, const VecX& v) {
+void SimulationCore::reset_state(const VecX& x, const VecX& v) {
   state_ = State{};
   state_.x = x;
   state_.v = v;
   set_energy_reference();
 }
 
-void Simulation::set_energy_reference() {
+void SimulationCore::set_energy_reference() {
   gravity0_ = 0;
   total0_ = 0;
   system_->evaluate(state_.x, state_.v, false, eval_);
@@ -349,7 +349,7 @@ VecX get_state_vector(BinaryReader& in, Eigen::Index size, const char* name, boo
 }
 }  // namespace
 
-std::uint64_t Simulation::fingerprint() const {
+std::uint64_t SimulationCore::fingerprint() const {
   BinaryWriter w;
   const VecX x0 = model_->initial_positions();
   w.vec(x0);
@@ -388,7 +388,7 @@ std::uint64_t Simulation::fingerprint() const {
   return fnv1a(w.bytes().data(), w.bytes().size());
 }
 
-void Simulation::save(BinaryWriter& out) const {
+void SimulationCore::save(BinaryWriter& out) const {
   out.u64(fingerprint());
   const State& s = state_;
   out.vec(s.x);
@@ -447,7 +447,7 @@ void Simulation::save(BinaryWriter& out) const {
   out.f64(self.seconds);
 }
 
-void Simulation::restore(BinaryReader& in) {
+void SimulationCore::restore(BinaryReader& in) {
   if (in.u64() != fingerprint())
     in.fail("checkpoint belongs to another cloth or other settings (the mesh, pins, material, integrator or "
             "timing differ from the scene's)");
@@ -528,7 +528,7 @@ void Simulation::restore(BinaryReader& in) {
   if (self_contacts_) self_contacts_->set_statistics(self);
 }
 
-EnergyRow Simulation::energies() {
+EnergyRow SimulationCore::energies() {
   system_->evaluate(state_.x, state_.v, false, eval_);
   EnergyRow r;
   r.time = state_.t;
@@ -565,15 +565,15 @@ RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResul
   const double wall_before = res.wall_seconds;
   const Scene& sc = sim.scene();
   res.damping_ratio = sc.effective_damping_ratio();
-  res.vertices = sim.model().num_vertices();
-  res.triangles = static_cast<long>(sim.model().mesh.triangles.size());
+  res.vertices = sim.core().model().num_vertices();
+  res.triangles = static_cast<long>(sim.core().model().mesh.triangles.size());
   const long frames = std::lround(std::floor(sc.duration / sc.frame_interval + 1e-9));
   // The reference state's energy: a resumed run compares with the energy its first part did.
   const double total0 = sim.initial_total_energy();
   for (long f = static_cast<long>(res.energy.size()); f <= frames; ++f) {
     if (f > 0) sim.advance_to(std::min(sc.duration, f * sc.frame_interval));
     const EnergyRow e = sim.energies();
-    const State& s = sim.state();
+    const State& s = sim.core().state();
     std::string problem;
     if (!s.x.allFinite() || !s.v.allFinite() || !std::isfinite(e.total())) {
       problem = "positions or velocities became non-finite (NaN or infinity)";
@@ -609,8 +609,8 @@ RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResul
       break;
     }
   }
-  res.steps = sim.statistics();
-  res.damping = sim.system().statistics();
+  res.steps = sim.core().statistics();
+  res.damping = sim.core().system().statistics();
   res.wall_seconds = wall_before + std::chrono::duration<double>(Clock::now() - start).count();
   return res;
 }
@@ -645,9 +645,9 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
   j["solver_iterations_total"] = r.steps.cg_iterations;
   j["solver_failures"] = r.steps.cg_failures;
   j["solver_tolerance"] = sc.integrator.cg_tolerance;
-  j["preconditioner"] = preconditioner_name(sim.integrator().preconditioner());
-  if (sim.integrator().preconditioner() == Preconditioner::kSsor) {
-    j["ssor_relaxation"] = sim.integrator().ssor_relaxation();
+  j["preconditioner"] = preconditioner_name(sim.core().integrator().preconditioner());
+  if (sim.core().integrator().preconditioner() == Preconditioner::kSsor) {
+    j["ssor_relaxation"] = sim.core().integrator().ssor_relaxation();
     j["ssor_precision"] = sc.integrator.ssor_single_precision ? "single" : "double";
   }
   const bool capped = r.status == "ok" && r.steps.cg_failures > 0;
@@ -663,9 +663,9 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
     j["message"] = r.message;
   }
   j["frames"] = r.energy.size();
-  if (!sim.colliders().empty() || sim.self_contacts()) {
+  if (!sim.core().colliders().empty() || sim.core().self_contacts()) {
     const StepStatistics& st = r.steps;
-    j["contacts"] = {{"colliders", sim.colliders().size()},
+    j["contacts"] = {{"colliders", sim.core().colliders().size()},
                      {"node_contacts_mean", st.steps ? static_cast<double>(st.contacts) / st.steps : 0.0},
                      {"node_contacts_max", st.max_contacts},
                      {"released", st.released_contacts},
@@ -677,7 +677,7 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
                      {"response_seconds", st.response_seconds},
                      {"work_J", r.energy.empty() ? 0.0 : r.energy.back().contact_work},
                      {"fail_safe_work_J", r.energy.empty() ? 0.0 : r.energy.back().fail_safe_work}};
-    if (const SelfContacts* self = sim.self_contacts()) {
+    if (const SelfContacts* self = sim.core().self_contacts()) {
       const SelfContactStatistics& ss = self->statistics();
       j["contacts"]["self"] = {{"thickness", self->thickness()},
                                {"friction", self->friction()},
@@ -716,7 +716,7 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
   j["bending_kappa"] = stats_json(r.damping.bending_kappa);
   j["added_viscosity_Ns_m"] = {{"mean_over_raised", r.damping.added_viscosity.mean()},
                                {"max", r.damping.added_viscosity.max()},
-                               {"material_viscosity", sim.model().materials.front().viscosity_Ns_m},
+                               {"material_viscosity", sim.core().model().materials.front().viscosity_Ns_m},
                                {"raised_fraction", r.damping.element_steps
                                                         ? static_cast<double>(r.damping.raised_element_steps) / r.damping.element_steps
                                                         : 0.0}};
@@ -740,7 +740,7 @@ std::string checkpoint_bytes(const nlohmann::json& header, const Simulation& sim
   const std::uint32_t version = kCheckpointFormatVersion;
   w.raw(&version, sizeof version);
   w.text(header.dump());
-  sim.save(w);
+  sim.core().save(w);
   w.u64(so_far.energy.size());
   for (const EnergyRow& e : so_far.energy)
     for (double d : {e.time, e.kinetic, e.elastic, e.gravity, e.viscous_dissipated, e.numerical_dissipated, e.contact_work,
@@ -776,7 +776,7 @@ RunResult restore_checkpoint(const std::string& bytes, const std::string& file, 
   checkpoint_header(bytes, file);  // checks the format and checksum
   BinaryReader in(bytes, file, sizeof kCheckpointMagic + sizeof(std::uint32_t), bytes.size() - sizeof(std::uint64_t));
   in.text();
-  sim.restore(in);
+  sim.core().restore(in);
   RunResult r;
   const std::uint64_t rows = in.u64();
   if (rows > bytes.size() / (10 * sizeof(double))) in.fail("checkpoint is damaged (" + std::to_string(rows) + " energy rows)");
@@ -808,5 +808,48 @@ std::string energy_csv(const std::vector<EnergyRow>& rows) {
   }
   return out.str();
 }
+
+
+// The public Simulation: its core does the work.
+Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup)
+    : core_(std::make_unique<SimulationCore>(scene, on_setup)) {}
+Simulation::~Simulation() = default;
+const Scene& Simulation::scene() const { return core_->scene(); }
+double Simulation::time() const { return core_->state().t; }
+const TriMesh& Simulation::mesh() const { return core_->model().mesh; }
+int Simulation::vertex_count() const { return core_->model().num_vertices(); }
+const VecX& Simulation::positions() const { return core_->state().x; }
+const VecX& Simulation::velocities() const { return core_->state().v; }
+VecX& Simulation::positions() { return core_->state().x; }
+VecX& Simulation::velocities() { return core_->state().v; }
+const VecX& Simulation::masses() const { return core_->model().mass; }
+const std::vector<char>& Simulation::pinned() const { return core_->model().fixed; }
+VecX Simulation::added_viscosity_per_vertex() const { return core_->system().added_viscosity_per_vertex(); }
+const StepStatistics& Simulation::step_statistics() const { return core_->statistics(); }
+const DampingStatistics& Simulation::damping_statistics() const { return core_->system().statistics(); }
+size_t Simulation::collider_count() const { return core_->colliders().size(); }
+const ColliderSpec& Simulation::collider(size_t k) const {
+  if (k >= core_->colliders().size())
+    throw InputError("collider " + std::to_string(k) + " does not exist: the scene has " +
+                     std::to_string(core_->colliders().size()) + " colliders");
+  return core_->colliders()[k]->spec();
+}
+void Simulation::collider_surface(size_t k, double t, Points& positions, Triangles& triangles) const {
+  core_->collider_surface(k, t, positions, triangles);
+}
+void Simulation::reset_state(const VecX& x, const VecX& v) { core_->reset_state(x, v); }
+void Simulation::advance_to(double t) { core_->advance_to(t); }
+void Simulation::move_pins(const std::vector<int>& nodes, const std::vector<Vec3>& targets, double arrival) {
+  core_->move_pins(nodes, targets, arrival);
+}
+size_t Simulation::moving_pins() const { return core_->moving_pins(); }
+void Simulation::move_collider(size_t k, const Eigen::Isometry3d& target, double arrival) {
+  core_->move_collider(k, target, arrival);
+}
+Eigen::Isometry3d Simulation::collider_pose(size_t k, double t) const { return core_->collider_pose(k, t); }
+EnergyRow Simulation::energies() { return core_->energies(); }
+double Simulation::energy_scale() const { return core_->energy_scale(); }
+double Simulation::initial_total_energy() const { return core_->initial_total_energy(); }
+std::uint64_t Simulation::fingerprint() const { return core_->fingerprint(); }
 
 }  // namespace weft

@@ -79,15 +79,6 @@ struct DampingSettings {
   double reference_dt = 0.0;
 };
 
-/// Per-run statistics of the stiffness factors and of the added viscosity.
-struct DampingStatistics {
-  LogStatistics membrane_kappa;   ///< largest mode per element and step
-  LogStatistics membrane_lambda;  ///< lambda of that mode, with the viscosity used
-  LogStatistics bending_kappa;
-  LogStatistics added_viscosity;  ///< N s/m added over the material's, per element and step
-  long element_steps = 0;         ///< membrane element-steps observed
-  long raised_element_steps = 0;  ///< those whose viscosity was raised
-};
 
 class ClothSystem : public System {
  public:

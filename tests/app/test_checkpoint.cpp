@@ -13,7 +13,7 @@
 #include <thread>
 
 #include "support/command.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using weft::test::CommandTest;
 using weft::test::read_text;
@@ -74,7 +74,7 @@ weft::State final_state(const fs::path& scene_file, const fs::path& dir) {
   weft::Simulation sim(weft::load_scene(scene_file.string()));
   const fs::path file = dir / "checkpoint.weft";
   weft::restore_checkpoint(read_binary(file), file.string(), sim);
-  return sim.state();
+  return sim.core().state();
 }
 
 bool same_bits(const weft::VecX& a, const weft::VecX& b) {

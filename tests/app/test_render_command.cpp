@@ -6,7 +6,7 @@
 #include <cstring>
 #include <set>
 
-#include "io/run_folder.hpp"
+#include "weft/run_folder.hpp"
 #include "render/appearance.hpp"
 #include "support/command.hpp"
 #include "support/png.hpp"

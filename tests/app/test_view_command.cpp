@@ -8,7 +8,7 @@
 
 #include <cmath>
 
-#include "io/run_folder.hpp"
+#include "weft/run_folder.hpp"
 #include "support/command.hpp"
 
 using weft::test::CommandTest;

@@ -7,8 +7,8 @@
 #include <string>
 
 #include "collision/colliders.hpp"
-#include "collision/frame_check.hpp"
-#include "weft/simulation.hpp"
+#include "weft/frame_check.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 
@@ -32,8 +32,8 @@ Totals run_scene(const std::string& file, int n, double duration) {
 
 Totals run_scene(const Scene& scene, const std::string& file, RunResult* out) {
   Simulation sim(scene);
-  const std::vector<std::array<int, 3>>& cloth_triangles = sim.model().mesh.triangles;
-  const size_t count = sim.colliders().size();
+  const std::vector<std::array<int, 3>>& cloth_triangles = sim.core().model().mesh.triangles;
+  const size_t count = sim.core().colliders().size();
   std::vector<Points> positions(count);
   std::vector<Triangles> triangles(count);
   std::vector<std::vector<std::array<int, 3>>> lists(count);
@@ -43,24 +43,24 @@ Totals run_scene(const Scene& scene, const std::string& file, RunResult* out) {
   cb.on_frame = [&](int, const Simulation& s) {
     std::vector<FrameMesh> meshes;
     for (size_t k = 0; k < count; ++k) {
-      const Collider& c = *s.colliders()[k];
+      const Collider& c = *s.core().colliders()[k];
       if (c.spec().shape == ColliderShape::kBody) {
-        s.bodies()[c.spec().body]->positions(s.state().t, positions[k]);
-        triangles[k] = s.bodies()[c.spec().body]->triangles();
+        s.core().bodies()[c.spec().body]->positions(s.core().state().t, positions[k]);
+        triangles[k] = s.core().bodies()[c.spec().body]->triangles();
       } else {
-        c.surface(s.state().t, positions[k], triangles[k]);
+        c.surface(s.core().state().t, positions[k], triangles[k]);
       }
       lists[k] = triangle_list(triangles[k]);
       meshes.push_back({positions[k].data(), &lists[k]});
     }
-    const FrameIntersections r = checker.check({s.state().x.data(), &cloth_triangles}, meshes);
+    const FrameIntersections r = checker.check({s.core().state().x.data(), &cloth_triangles}, meshes);
     ++totals.frames;
     totals.cloth_self += r.cloth_self.count;
     for (const auto& c : r.cloth_body) totals.cloth_collider += c.count;
   };
   const RunResult result = run_simulation(sim, cb);
   EXPECT_EQ(result.status, "ok") << file << ": " << result.message;
-  totals.contacts = sim.statistics().contacts;
+  totals.contacts = sim.core().statistics().contacts;
   if (scene.cloth.self_collision) EXPECT_EQ(totals.cloth_self, 0u) << file;
   if (out) *out = result;
   return totals;

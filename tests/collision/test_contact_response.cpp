@@ -12,7 +12,7 @@
 #include <fstream>
 
 #include "collision/colliders.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 
@@ -75,12 +75,12 @@ TEST(ContactResponse, ClothComesToRestOnAPlaneAtTheThicknessWithNoNormalVelocity
     Simulation sim(s);
     const RunResult r = run_simulation(sim);
     ASSERT_EQ(r.status, "ok") << method << ": " << r.message;
-    const State& st = sim.state();
-    for (int i = 0; i < sim.model().num_vertices(); ++i) {
+    const State& st = sim.core().state();
+    for (int i = 0; i < sim.core().model().num_vertices(); ++i) {
       EXPECT_NEAR(st.x[3 * i + 1], kThickness, 1e-9) << method << " node " << i;
       EXPECT_NEAR(st.v[3 * i + 1], 0.0, 1e-9) << method << " node " << i;
     }
-    EXPECT_GT(sim.statistics().contacts, 0) << method;
+    EXPECT_GT(sim.core().statistics().contacts, 0) << method;
   }
 }
 
@@ -93,11 +93,11 @@ TEST(ContactResponse, ClothRestsOnASphereAtTheThickness) {
   Simulation sim(s);
   const RunResult r = run_simulation(sim);
   ASSERT_EQ(r.status, "ok") << r.message;
-  for (int i = 0; i < sim.model().num_vertices(); ++i) {
-    const Vec3 p = node(sim.state().x, i);
+  for (int i = 0; i < sim.core().model().num_vertices(); ++i) {
+    const Vec3 p = node(sim.core().state().x, i);
     const Vec3 n = (p - centre).normalized();
     EXPECT_NEAR((p - centre).norm() - radius, kThickness, 1e-6) << "node " << i;
-    EXPECT_NEAR(n.dot(node(sim.state().v, i)), 0.0, 1e-6) << "node " << i;
+    EXPECT_NEAR(n.dot(node(sim.core().state().v, i)), 0.0, 1e-6) << "node " << i;
   }
 }
 
@@ -121,9 +121,9 @@ TEST(ContactResponse, FrictionHoldsBelowTheFrictionAngleAndSlidesWithTheCoulombA
     const RunResult r = run_simulation(sim);
     ASSERT_EQ(r.status, "ok") << r.message;
     const double a = std::max(0.0, g * (std::sin(theta) - c.friction * std::cos(theta)));
-    const double t = sim.state().t;
-    const Vec3 mean_v = centroid(sim.state().v);
-    const Vec3 moved = centroid(sim.state().x) - centroid(sim.model().initial_positions());
+    const double t = sim.core().state().t;
+    const Vec3 mean_v = centroid(sim.core().state().v);
+    const Vec3 moved = centroid(sim.core().state().x) - centroid(sim.core().model().initial_positions());
     if (a == 0) {
       // It slides during the first step only (a contact starts sliding), by at most dt^2 g.
       EXPECT_LT(std::abs(moved.x()), s.integrator.dt * s.integrator.dt * g) << c.theta_deg << " deg, friction " << c.friction;
@@ -147,7 +147,7 @@ TEST(ContactResponse, FrictionlessContactWithAStaticSphereAddsNoEnergy) {
   Simulation sim(s);
   const RunResult r = run_simulation(sim);
   ASSERT_EQ(r.status, "ok") << r.message;
-  ASSERT_GT(sim.statistics().contacts, 0);
+  ASSERT_GT(sim.core().statistics().contacts, 0);
   const double scale = sim.energy_scale();
   for (const EnergyRow& e : r.energy) {
     EXPECT_LE(e.total(), 1e-6 * scale) << "t = " << e.time;
@@ -168,7 +168,7 @@ TEST(ContactResponse, ASpinningSphereCarriesTheClothOnItRoundByFriction) {
   std::vector<double> angle;  // of the patch's centroid about the axis, per frame
   RunCallbacks cb;
   cb.on_frame = [&](int, const Simulation& at) {
-    const Vec3 c = centroid(at.state().x);
+    const Vec3 c = centroid(at.core().state().x);
     angle.push_back(std::atan2(-c.z(), c.x()));
   };
   const RunResult r = run_simulation(sim, cb);
@@ -177,7 +177,7 @@ TEST(ContactResponse, ASpinningSphereCarriesTheClothOnItRoundByFriction) {
   // Once it has landed (it falls 2 cm onto the sphere's slope) and stuck, the patch turns with
   // the surface.
   EXPECT_NEAR((angle[4] - angle[2]) / 0.5, omega, 0.02 * omega);
-  EXPECT_GT(sim.statistics().contacts, 0);
+  EXPECT_GT(sim.core().statistics().contacts, 0);
 }
 
 TEST(RigidMotion, VelocityMovesTheCentreAndTurnsAboutIt) {
@@ -255,11 +255,11 @@ TEST(ClampedCloth, VerticesFollowTheirClampsAndTheEnergyBalanceCloses) {
     double worst = 0;
     RunCallbacks cb;
     cb.on_frame = [&](int, const Simulation& s) {
-      const double t = s.state().t;
+      const double t = s.core().state().t;
       const Eigen::Isometry3d T = scene.cloth.clamps[0].motion.at(t);
       for (int i : left) {
-        const Vec3 rest = node(s.model().initial_positions(), i);
-        worst = std::max(worst, (node(s.state().x, i) - T * rest).norm());
+        const Vec3 rest = node(s.core().model().initial_positions(), i);
+        worst = std::max(worst, (node(s.core().state().x, i) - T * rest).norm());
       }
     };
     const RunResult r = run_simulation(sim, cb);
@@ -378,9 +378,9 @@ TEST(MeshCollider, OpenPlateHoldsTheClothOnItsSideWhicheverWayItIsWound) {
     Simulation sim(s);
     const RunResult r = run_simulation(sim);
     ASSERT_EQ(r.status, "ok") << r.message;
-    for (int i = 0; i < sim.model().num_vertices(); ++i)
-      EXPECT_NEAR(sim.state().x[3 * i + 1], kThickness, 1e-6) << (up ? "up" : "down") << " node " << i;
-    EXPECT_EQ(sim.statistics().fail_safe_moves, 0) << (up ? "up" : "down");
+    for (int i = 0; i < sim.core().model().num_vertices(); ++i)
+      EXPECT_NEAR(sim.core().state().x[3 * i + 1], kThickness, 1e-6) << (up ? "up" : "down") << " node " << i;
+    EXPECT_EQ(sim.core().statistics().fail_safe_moves, 0) << (up ? "up" : "down");
   }
   std::remove(obj.c_str());
 }

@@ -2,7 +2,7 @@
 // others count; trees follow changed positions and changed triangles.
 #include <gtest/gtest.h>
 
-#include "collision/frame_check.hpp"
+#include "weft/frame_check.hpp"
 
 namespace weft {
 namespace {

@@ -8,7 +8,7 @@
 
 #include "collision/intersections.hpp"
 #include "collision/self_contact.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 #include "weft/threads.hpp"
 
 using namespace weft;
@@ -207,17 +207,17 @@ TEST(SelfContact, ASheetDrapedOverASphereNeverIntersectsItself) {
   floor.friction = 0.5;
   s.colliders.push_back(floor);
   Simulation sim(s);
-  ASSERT_NE(sim.self_contacts(), nullptr);
+  ASSERT_NE(sim.core().self_contacts(), nullptr);
   int frames = 0;
   RunCallbacks callbacks;
   callbacks.on_frame = [&](int frame, const Simulation& sm) {
     ++frames;
-    EXPECT_EQ(self_intersections(sm.state().x.data(), sm.model().mesh.triangles).count, 0u) << "frame " << frame;
+    EXPECT_EQ(self_intersections(sm.core().state().x.data(), sm.core().model().mesh.triangles).count, 0u) << "frame " << frame;
   };
   const RunResult r = run_simulation(sim, callbacks);
   ASSERT_EQ(r.status, "ok") << r.message;
   EXPECT_EQ(frames, 51);
-  EXPECT_GT(sim.self_contacts()->statistics().repulsions + sim.self_contacts()->statistics().collision_impulses, 0)
+  EXPECT_GT(sim.core().self_contacts()->statistics().repulsions + sim.core().self_contacts()->statistics().collision_impulses, 0)
       << "the folds should have met";
 }
 
@@ -230,11 +230,11 @@ TEST(SelfContact, StackedSheetsSceneLandsOnTheBoxWithNoSelfIntersectionInAnyFram
   Simulation sim(s);
   RunCallbacks callbacks;
   callbacks.on_frame = [&](int frame, const Simulation& sm) {
-    EXPECT_EQ(self_intersections(sm.state().x.data(), sm.model().mesh.triangles).count, 0u) << "frame " << frame;
+    EXPECT_EQ(self_intersections(sm.core().state().x.data(), sm.core().model().mesh.triangles).count, 0u) << "frame " << frame;
   };
   const RunResult r = run_simulation(sim, callbacks);
   ASSERT_EQ(r.status, "ok") << r.message;
-  EXPECT_GT(sim.self_contacts()->statistics().collision_impulses, 0) << "the layers should have met";
+  EXPECT_GT(sim.core().self_contacts()->statistics().collision_impulses, 0) << "the layers should have met";
 }
 
 TEST(SelfContact, TheSameBitsOnOneThreadAndOnTwo) {

@@ -9,8 +9,8 @@
 #include "damping/adaptive.hpp"
 #include "elements/membrane.hpp"
 #include "elements/spring.hpp"
-#include "experiments/stability_experiment.hpp"
-#include "weft/simulation.hpp"
+#include "weft/experiments/stability_experiment.hpp"
+#include "sim/simulation_core.hpp"
 
 namespace {
 
@@ -130,11 +130,11 @@ TEST(AdaptiveDamping, EveryElementReachesTheTargetRatio) {
     s.size_m = 0.3;
     s.resolution = 7;
     VecX x, v;
-    weft::stability_perturbation(s, sim.model().mesh, sim.model().mass, x, v);
+    weft::stability_perturbation(s, sim.core().model().mesh, sim.core().model().mass, x, v);
     const double dt = 0.01;
-    sim.system().begin_step(x, v, dt);
-    const auto& model = sim.model();
-    const auto& viscosity = sim.system().membrane_viscosity();
+    sim.core().system().begin_step(x, v, dt);
+    const auto& model = sim.core().model();
+    const auto& viscosity = sim.core().system().membrane_viscosity();
     const double eta0 = model.materials.front().viscosity_Ns_m;
     for (size_t t = 0; t < model.membranes.size(); ++t) {
       const auto& g = model.membranes[t];
@@ -157,7 +157,7 @@ TEST(AdaptiveDamping, EveryElementReachesTheTargetRatio) {
     }
     // Bending stencils (stiffness Q, damping gamma Q): kappa_b = dt^2 S, lambda_b = dt gamma S
     // with S = sum_m w_m sum_k c_mk^2 / m_k; lambda_b / (2 sqrt(kappa_b)) = zeta exactly.
-    const auto& gamma = sim.system().bending_damping();
+    const auto& gamma = sim.core().system().bending_damping();
     for (size_t e = 0; e < model.bending.size(); ++e) {
       const double S = model.bending[e].stiffness_mass_sum(model.inverse_mass);
       const double kappa = dt * dt * S;
@@ -169,8 +169,8 @@ TEST(AdaptiveDamping, EveryElementReachesTheTargetRatio) {
 
 Vec3 centre_of_mass_velocity(const weft::Simulation& sim) {
   Vec3 p = Vec3::Zero();
-  const VecX& m = sim.model().mass;
-  for (int i = 0; i < m.size(); ++i) p += m[i] * weft::node(sim.state().v, i);
+  const VecX& m = sim.core().model().mass;
+  for (int i = 0; i < m.size(); ++i) p += m[i] * weft::node(sim.core().state().v, i);
   return p / m.sum();
 }
 
@@ -183,16 +183,16 @@ TEST(AdaptiveDamping, FreeFallKeepsCentreOfMassVelocityWhenDeformedAndSpinning) 
     s.size_m = 0.3;
     s.resolution = 7;
     VecX x, v;
-    weft::stability_perturbation(s, sim.model().mesh, sim.model().mass, x, v);
+    weft::stability_perturbation(s, sim.core().model().mesh, sim.core().model().mass, x, v);
     // Add a fast spin about a tilted axis and a drift.
     const Vec3 w(3.0, -5.0, 8.0), drift(0.4, 1.0, -0.2);
-    for (int i = 0; i < sim.model().num_vertices(); ++i)
+    for (int i = 0; i < sim.core().model().num_vertices(); ++i)
       weft::node(v, i) += drift + w.cross(Vec3(weft::node(x, i)));
     sim.reset_state(x, v);
     const Vec3 v0 = centre_of_mass_velocity(sim);
     sim.advance_to(0.2);
     const Vec3 vc = centre_of_mass_velocity(sim);
-    EXPECT_EQ(sim.statistics().cg_failures, 0);
+    EXPECT_EQ(sim.core().statistics().cg_failures, 0);
     // Internal (strain-rate) forces sum to zero, so only gravity changes the momentum; the
     // linear solve's residual (tolerance 1e-12) is the only source of error.
     EXPECT_LT((vc - (v0 + 0.2 * gravity)).norm(), 1e-7 * (v0.norm() + 0.2 * gravity.norm())) << "zeta " << zeta;

@@ -13,7 +13,7 @@
 #include <sstream>
 #include <nlohmann/json.hpp>
 
-#include "experiments/drape.hpp"
+#include "weft/experiments/drape.hpp"
 #include "weft/error.hpp"
 #include "weft/material.hpp"
 

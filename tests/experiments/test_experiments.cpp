@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "experiments/convergence.hpp"
+#include "weft/experiments/convergence.hpp"
 
 namespace fs = std::filesystem;
 

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <random>
 
-#include "experiments/liveliness.hpp"
+#include "weft/experiments/liveliness.hpp"
 
 using namespace weft;
 

@@ -11,9 +11,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "experiments/stability_experiment.hpp"
+#include "weft/experiments/stability_experiment.hpp"
 #include "weft/error.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 namespace {
 
@@ -29,14 +29,14 @@ TEST(StabilityExperiment, PerturbationIsSeededAndCarriesNoRigidMotion) {
   StabilityExperimentSettings s;
   weft::Simulation sim(weft::stability_scene(s, method("backward-euler"), 0.01, 0.0));
   weft::VecX x1, v1, x2, v2, x3, v3;
-  weft::stability_perturbation(s, sim.model().mesh, sim.model().mass, x1, v1);
-  weft::stability_perturbation(s, sim.model().mesh, sim.model().mass, x2, v2);
+  weft::stability_perturbation(s, sim.core().model().mesh, sim.core().model().mass, x1, v1);
+  weft::stability_perturbation(s, sim.core().model().mesh, sim.core().model().mass, x2, v2);
   EXPECT_EQ(x1, x2);
   EXPECT_EQ(v1, v2);
   s.seed = 2;
-  weft::stability_perturbation(s, sim.model().mesh, sim.model().mass, x3, v3);
+  weft::stability_perturbation(s, sim.core().model().mesh, sim.core().model().mass, x3, v3);
   EXPECT_NE(x1, x3);
-  const weft::VecX& m = sim.model().mass;
+  const weft::VecX& m = sim.core().model().mass;
   weft::Vec3 p = weft::Vec3::Zero(), c = weft::Vec3::Zero(), L = weft::Vec3::Zero();
   for (int i = 0; i < m.size(); ++i) {
     p += m[i] * weft::node(v1, i);

@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "experiments/walk.hpp"
+#include "weft/experiments/walk.hpp"
 #include "weft/error.hpp"
 
 using namespace weft;

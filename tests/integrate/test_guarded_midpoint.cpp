@@ -10,7 +10,7 @@
 #include "integrate/integrator.hpp"
 #include "support/spinning_spring.hpp"
 #include "support/spring_system.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 using weft::test::Spring;

@@ -18,8 +18,8 @@ TEST(WarmStart, HistoryCutsTheIterationsOfASmoothClothSequence) {
     s.integrator.warm_start_history = histories[h];
     Simulation sim(s);
     sim.advance_to(0.3);
-    ASSERT_EQ(sim.statistics().cg_failures, 0) << "history " << histories[h];
-    iterations[h] = sim.statistics().cg_iterations;
+    ASSERT_EQ(sim.core().statistics().cg_failures, 0) << "history " << histories[h];
+    iterations[h] = sim.core().statistics().cg_iterations;
   }
   RecordProperty("iterations_with_history", std::to_string(iterations[0]));
   RecordProperty("iterations_without", std::to_string(iterations[1]));

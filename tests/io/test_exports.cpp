@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "io/exports.hpp"
+#include "weft/exports.hpp"
 #include "weft/error.hpp"
 
 namespace {

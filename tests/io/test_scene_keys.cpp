@@ -7,7 +7,7 @@
 
 #include "support/command.hpp"
 #include "weft/error.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 
@@ -45,16 +45,16 @@ TEST_F(SceneKeys, InitialVelocityGivesTheFreeVerticesThatVelocityAndTheClothThat
   {
     j["cloth"]["pins"] = {{"vertices", {0}}};
     Simulation sim(parse(j));
-    EXPECT_EQ(node(sim.state().v, 0), Vec3::Zero()) << "a pinned vertex does not move";
-    for (int i = 1; i < sim.model().num_vertices(); ++i) EXPECT_EQ(node(sim.state().v, i), v0) << "vertex " << i;
+    EXPECT_EQ(node(sim.core().state().v, 0), Vec3::Zero()) << "a pinned vertex does not move";
+    for (int i = 1; i < sim.core().model().num_vertices(); ++i) EXPECT_EQ(node(sim.core().state().v, i), v0) << "vertex " << i;
   }
   j["cloth"].erase("pins");
   Simulation sim(parse(j));
-  const double mass = sim.model().mass.sum();
+  const double mass = sim.core().model().mass.sum();
   EXPECT_NEAR(mass, 0.5 * sim.scene().cloth.material.surface_density_kg_m2, 1e-12);
   const auto momentum = [&] {
     Vec3 p = Vec3::Zero();
-    for (int i = 0; i < sim.model().num_vertices(); ++i) p += sim.model().mass[i] * node(sim.state().v, i);
+    for (int i = 0; i < sim.core().model().num_vertices(); ++i) p += sim.core().model().mass[i] * node(sim.core().state().v, i);
     return p;
   };
   EXPECT_LT((momentum() - mass * v0).norm(), 1e-12 * mass * v0.norm());
@@ -96,7 +96,7 @@ TEST_F(SceneKeys, UvScaleIsMetresPerTextureUnitOfTheRestPattern) {
   for (double scale : {1.0, 0.4, 2.5}) {
     if (scale != 1.0) j["cloth"]["mesh"]["uv_scale"] = scale;
     Simulation sim(parse(j, folder_.string()));
-    const ClothModel& m = sim.model();
+    const ClothModel& m = sim.core().model();
     const Vec2 uv[4] = {Vec2(0, 0), Vec2(1, 0), Vec2(1, 1), Vec2(0, 1)};
     for (int i = 0; i < 4; ++i) EXPECT_LT((m.mesh.pattern[i] - scale * uv[i]).norm(), 1e-15) << "scale " << scale;
     // The rest area, hence the mass, follows the pattern; the cloth is unstrained only when
@@ -198,15 +198,15 @@ TEST_F(SceneKeys, IntegratorKeysReachTheIntegrator) {
   j["integrator"] = {{"method", "bdf2-alpha"}, {"alpha", 0.7},           {"dt", 0.005},
                      {"tolerance", 1e-7},      {"max_iterations", 321}, {"preconditioner", "block-jacobi"}};
   Simulation sim(parse(j));
-  const IntegratorSettings& st = sim.integrator().settings();
+  const IntegratorSettings& st = sim.core().integrator().settings();
   EXPECT_EQ(sim.scene().description, "keys");
-  EXPECT_EQ(sim.model().gravity, Vec3(1.0, -3.0, 0.5));
+  EXPECT_EQ(sim.core().model().gravity, Vec3(1.0, -3.0, 0.5));
   EXPECT_EQ(st.method, Method::Bdf2);
   EXPECT_EQ(st.alpha, 0.7);
   EXPECT_EQ(st.dt, 0.005);
   EXPECT_EQ(st.cg_tolerance, 1e-7);
   EXPECT_EQ(st.cg_max_iterations, 321);
-  EXPECT_EQ(sim.integrator().preconditioner(), Preconditioner::kBlockJacobi);
+  EXPECT_EQ(sim.core().integrator().preconditioner(), Preconditioner::kBlockJacobi);
   // RK45's tolerance is its local error tolerance, not the linear solve's (it has none).
   j["integrator"] = {{"method", "rk45"}, {"dt", 0.01}, {"tolerance", 1e-5}};
   const Scene rk45 = parse(j);
@@ -229,7 +229,7 @@ TEST_F(SceneKeys, ClothKeysChooseTheGridPatternAndTheBendingElement) {
   const auto stencils = [&](const char* model) {
     j["cloth"]["bending_model"] = model;
     Simulation sim(parse(j));
-    return sim.model().bending;
+    return sim.core().model().bending;
   };
   const auto hinges = stencils("hinge"), plates = stencils("plate");
   // 4 x 2 cells, two triangles each: 30 edges (12 along u, 10 along v, 8 diagonals), 12 of

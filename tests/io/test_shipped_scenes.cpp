@@ -5,7 +5,7 @@
 #include <filesystem>
 
 #include "weft/scene.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 
@@ -19,7 +19,7 @@ TEST(ShippedScenes, EverySceneFileLoadsAndBuildsAModel) {
     ASSERT_NO_THROW(scene = load_scene(entry.path().string()));
     EXPECT_GT(scene.duration, 0.0);
     Simulation sim(scene);
-    EXPECT_GT(sim.model().num_vertices(), 0);
+    EXPECT_GT(sim.core().model().num_vertices(), 0);
   }
   EXPECT_GE(count, 2) << "scenes/ should hold the default scene and the benchmark's sheet";
 }

@@ -265,7 +265,7 @@ TEST(Ssor, OperatorsMatchDenseOnAnIrregularMesh) {
   const Scene scene = irregular_cloth_scene(24, 11);
   test::make_cloth_step_problem(scene, 0.02, p);
   std::filesystem::remove(scene.cloth.obj_path);  // read when the simulation was built
-  const std::vector<int>* order = p.sim->system().solver_order();
+  const std::vector<int>* order = p.sim->core().system().solver_order();
   ASSERT_NE(order, nullptr);
   expect_operators_match_dense_on<double>(p, p.fixed(), order, false, 1e-12);
   expect_operators_match_dense_on<float>(p, p.fixed(), order, false, 2e-5);
@@ -355,14 +355,14 @@ TEST(Ssor, ConstantBlocksAreReadAgainWhenTheirVersionChanges) {
   EXPECT_LE(relative_product_error(S, A, fixed, rng), 1e-12);
   // The cloth's assembly with another ck and cd gives a new version, and the copy follows.
   const long version = p.step.matrix.constant_version;
-  State& st = p.sim->state();
+  State& st = p.sim->core().state();
   const VecX w = 0.005 * st.v;
-  p.sim->system().assemble_step(st.x, st.v, w, p.step);
+  p.sim->core().system().assemble_step(st.x, st.v, w, p.step);
   EXPECT_EQ(p.step.matrix.constant_version, version) << "same ck and cd";
   S.assign(p.step.matrix, fixed, 1.2);
   p.step.ck *= 1.5;
   p.step.cd *= 1.2;
-  p.sim->system().assemble_step(st.x, st.v, w, p.step);
+  p.sim->core().system().assemble_step(st.x, st.v, w, p.step);
   EXPECT_NE(p.step.matrix.constant_version, version);
   S.assign(p.step.matrix, fixed, 1.2);
   EXPECT_LE(relative_product_error(S, p.step.matrix, fixed, rng), 1e-12);
@@ -509,7 +509,7 @@ TEST(Ssor, SinglePrecisionSolvesToTheTrueResidual) {
     PcgSettings s;
     s.relative_tolerance = tol;
     s.preconditioner = Preconditioner::kSsor;
-    s.node_order = p.sim->system().solver_order();
+    s.node_order = p.sim->core().system().solver_order();
     PcgWorkspace ws, ws_double;
     VecX x_double = p.guess;
     const PcgResult d = solve_pcg(A, p.rhs, fixed, s, x_double, ws_double);
@@ -548,7 +548,7 @@ TEST(Ssor, SinglePrecisionFallsBackToDoubleWithinTheIterationCap) {
   s.relative_tolerance = 1e-17;
   s.max_iterations = 150;
   s.preconditioner = Preconditioner::kSsor;
-  s.node_order = p.sim->system().solver_order();
+  s.node_order = p.sim->core().system().solver_order();
   s.ssor_single_precision = true;
   PcgWorkspace ws;
   VecX x = p.guess;

@@ -25,7 +25,7 @@ TEST(SsorRestart, StalledSinglePrecisionRestartsHandOverToDoubleWhateverTheScale
     s.relative_tolerance = 1e-17;
     s.max_iterations = 150;
     s.preconditioner = Preconditioner::kSsor;
-    s.node_order = p.sim->system().solver_order();
+    s.node_order = p.sim->core().system().solver_order();
     s.ssor_single_precision = true;
     PcgWorkspace ws;
     VecX x = scale * p.guess;

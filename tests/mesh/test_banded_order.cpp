@@ -8,7 +8,7 @@
 #include <random>
 
 #include "mesh/mesh.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 namespace weft {
 namespace {
@@ -107,7 +107,7 @@ TEST(BandedOrder, ScrambledObjNumberingSolvesInTheSameIterations) {
     s.integrator.preconditioner = Preconditioner::kSsor;
     Simulation sim(s);
     sim.advance_to(0.1);
-    iterations[k] = static_cast<double>(sim.statistics().cg_iterations) / sim.statistics().cg_solves;
+    iterations[k] = static_cast<double>(sim.core().statistics().cg_iterations) / sim.core().statistics().cg_solves;
   }
   EXPECT_LE(iterations[1], 1.1 * iterations[0]) << "natural " << iterations[0] << ", scrambled " << iterations[1];
   EXPECT_GE(iterations[1], 0.9 * iterations[0]) << "natural " << iterations[0] << ", scrambled " << iterations[1];

@@ -7,7 +7,7 @@
 
 #include "sim/checkpoint.hpp"
 #include "weft/error.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 
@@ -43,11 +43,11 @@ TEST(CheckpointState, RestoredSimulationStepsToTheSameBits) {
     EXPECT_EQ(std::memcmp(&restored.energy[0], &so_far.energy[0], sizeof(EnergyRow)), 0);
     a.advance_to(0.2);
     b.advance_to(0.2);
-    EXPECT_TRUE(same_bits(a.state().x, b.state().x));
-    EXPECT_TRUE(same_bits(a.state().v, b.state().v));
-    EXPECT_EQ(a.statistics().cg_iterations, b.statistics().cg_iterations);
-    EXPECT_EQ(a.system().statistics().membrane_kappa.count(), b.system().statistics().membrane_kappa.count());
-    EXPECT_EQ(a.system().statistics().membrane_lambda.median(), b.system().statistics().membrane_lambda.median());
+    EXPECT_TRUE(same_bits(a.core().state().x, b.core().state().x));
+    EXPECT_TRUE(same_bits(a.core().state().v, b.core().state().v));
+    EXPECT_EQ(a.core().statistics().cg_iterations, b.core().statistics().cg_iterations);
+    EXPECT_EQ(a.core().system().statistics().membrane_kappa.count(), b.core().system().statistics().membrane_kappa.count());
+    EXPECT_EQ(a.core().system().statistics().membrane_lambda.median(), b.core().system().statistics().membrane_lambda.median());
   }
 }
 
@@ -91,17 +91,17 @@ TEST(CheckpointState, RestoredSimulationWithContactsStepsToTheSameBits) {
   scene.colliders = {sphere, floor};
   Simulation a(scene);
   a.advance_to(0.3);
-  ASSERT_GT(a.statistics().contacts, 0);
+  ASSERT_GT(a.core().statistics().contacts, 0);
   const std::string bytes = checkpoint_bytes({}, a, RunResult{});
   Simulation b(scene);
   restore_checkpoint(bytes, "mem", b);
   a.advance_to(0.4);
   b.advance_to(0.4);
-  EXPECT_TRUE(same_bits(a.state().x, b.state().x));
-  EXPECT_TRUE(same_bits(a.state().v, b.state().v));
-  EXPECT_EQ(a.state().contact_work, b.state().contact_work);
-  EXPECT_EQ(a.statistics().contacts, b.statistics().contacts);
-  EXPECT_EQ(a.statistics().released_contacts, b.statistics().released_contacts);
+  EXPECT_TRUE(same_bits(a.core().state().x, b.core().state().x));
+  EXPECT_TRUE(same_bits(a.core().state().v, b.core().state().v));
+  EXPECT_EQ(a.core().state().contact_work, b.core().state().contact_work);
+  EXPECT_EQ(a.core().statistics().contacts, b.core().statistics().contacts);
+  EXPECT_EQ(a.core().statistics().released_contacts, b.core().statistics().released_contacts);
 }
 
 TEST(CheckpointState, GuardedStepsResumeToTheSameBitsWhileTheGuardActs) {
@@ -118,7 +118,7 @@ TEST(CheckpointState, GuardedStepsResumeToTheSameBitsWhileTheGuardActs) {
     Simulation a(scene);
     double t = 0;
     for (;;) {
-      const Integrator::DynamicState at = a.integrator().dynamic_state();
+      const Integrator::DynamicState at = a.core().integrator().dynamic_state();
       if (at.guard_depth + at.guard_rung > 0) break;
       ASSERT_LT(t, 1.0) << "the guard never acted";
       t += scene.frame_interval;
@@ -129,11 +129,11 @@ TEST(CheckpointState, GuardedStepsResumeToTheSameBitsWhileTheGuardActs) {
     restore_checkpoint(bytes, "mem", b);
     a.advance_to(t + 0.4);
     b.advance_to(t + 0.4);
-    EXPECT_TRUE(same_bits(a.state().x, b.state().x));
-    EXPECT_TRUE(same_bits(a.state().v, b.state().v));
-    EXPECT_EQ(a.statistics().guard_split_steps, b.statistics().guard_split_steps);
-    EXPECT_EQ(a.statistics().guard_redone_steps, b.statistics().guard_redone_steps);
-    EXPECT_EQ(a.statistics().guard_parts, b.statistics().guard_parts);
+    EXPECT_TRUE(same_bits(a.core().state().x, b.core().state().x));
+    EXPECT_TRUE(same_bits(a.core().state().v, b.core().state().v));
+    EXPECT_EQ(a.core().statistics().guard_split_steps, b.core().statistics().guard_split_steps);
+    EXPECT_EQ(a.core().statistics().guard_redone_steps, b.core().statistics().guard_redone_steps);
+    EXPECT_EQ(a.core().statistics().guard_parts, b.core().statistics().guard_parts);
     // The plain step's checkpoint is another method's.
     set_method(scene, plain_name, std::nullopt, "test");
     Simulation plain(scene);

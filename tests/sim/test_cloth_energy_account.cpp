@@ -7,7 +7,7 @@
 
 #include <cmath>
 
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 
@@ -40,8 +40,8 @@ struct Account {
 };
 
 Account account(const Simulation& sim, const VecX& x0) {
-  const ClothModel& m = sim.model();
-  const State& s = sim.state();
+  const ClothModel& m = sim.core().model();
+  const State& s = sim.core().state();
   Account a;
   for (int i = 0; i < m.num_vertices(); ++i) {
     a.kinetic += 0.5 * m.mass[i] * node(s.v, i).squaredNorm();
@@ -58,14 +58,14 @@ Account account(const Simulation& sim, const VecX& x0) {
 
 /// Work done against the stencils' damping forces -gamma Q u while the nodes move by dx.
 double bending_viscous_work(const Simulation& sim, const VecX& dx, const VecX& u) {
-  const ClothModel& m = sim.model();
+  const ClothModel& m = sim.core().model();
   double w = 0;
   for (size_t e = 0; e < m.bending.size(); ++e) {
     const auto& st = m.bending[e];
     const auto k = static_cast<Eigen::Index>(st.vertices.size());
     for (Eigen::Index p = 0; p < k; ++p)
       for (Eigen::Index q = 0; q < k; ++q)
-        w += sim.system().bending_damping()[e] * st.Q(p, q) * node(dx, st.vertices[p]).dot(node(u, st.vertices[q]));
+        w += sim.core().system().bending_damping()[e] * st.Q(p, q) * node(dx, st.vertices[p]).dot(node(u, st.vertices[q]));
   }
   return w;
 }
@@ -74,15 +74,15 @@ double bending_viscous_work(const Simulation& sim, const VecX& dx, const VecX& u
 
 TEST(EnergyAccount, ImplicitMidpointClosesTheBalanceOfALinearCloth) {
   Simulation sim(hanging_sheet());
-  const VecX x0 = sim.state().x;
+  const VecX x0 = sim.core().state().x;
   const Account a0 = account(sim, x0);
   double work = 0, worst_step = 0;
   const double dt = sim.scene().integrator.dt;
   for (int k = 1; k <= 40; ++k) {
-    const State before = sim.state();
+    const State before = sim.core().state();
     const Account e_before = account(sim, x0);
     sim.advance_to(k * dt);
-    const State& s = sim.state();
+    const State& s = sim.core().state();
     const double w = bending_viscous_work(sim, s.x - before.x, 0.5 * (before.v + s.v));
     work += w;
     const Account e = account(sim, x0);
@@ -94,13 +94,13 @@ TEST(EnergyAccount, ImplicitMidpointClosesTheBalanceOfALinearCloth) {
     EXPECT_NEAR(r.elastic, e.bending, 1e-12 * scale) << "step " << k;
     EXPECT_NEAR(r.gravity, e.gravity, 1e-12 * scale) << "step " << k;
   }
-  ASSERT_EQ(sim.statistics().cg_failures, 0);
+  ASSERT_EQ(sim.core().statistics().cg_failures, 0);
   const Account a = account(sim, x0);
   RecordProperty("viscous_work_J", testing::PrintToString(work));
   RecordProperty("bending_J", testing::PrintToString(a.bending));
   ASSERT_GT(a.bending, 0);
   ASSERT_GT(work, 0.1 * a.bending) << "the bending damping should matter here";
-  EXPECT_NEAR(sim.state().viscous_dissipated, work, 1e-9 * work);
+  EXPECT_NEAR(sim.core().state().viscous_dissipated, work, 1e-9 * work);
   EXPECT_LT(worst_step, 1e-8 * work);
   EXPECT_LT(std::abs(a.total() - a0.total() + work), 1e-7 * work);
 }

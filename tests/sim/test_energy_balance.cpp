@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 

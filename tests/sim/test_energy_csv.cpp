@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 

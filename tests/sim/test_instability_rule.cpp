@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 
@@ -26,15 +26,15 @@ Scene sheet(const std::string& method, double dt) {
 
 /// Gives every free vertex the velocity u along z.
 void set_velocity(Simulation& sim, double u) {
-  for (int i = 0; i < sim.model().num_vertices(); ++i)
-    if (!sim.model().fixed[i]) node(sim.state().v, i) = Vec3(0, 0, u);
+  for (int i = 0; i < sim.core().model().num_vertices(); ++i)
+    if (!sim.core().model().fixed[i]) node(sim.core().state().v, i) = Vec3(0, 0, u);
 }
 
 /// The speed that gives the free vertices kinetic energy `e`.
 double speed_for(const Simulation& sim, double e) {
   double free_mass = 0;
-  for (int i = 0; i < sim.model().num_vertices(); ++i)
-    if (!sim.model().fixed[i]) free_mass += sim.model().mass[i];
+  for (int i = 0; i < sim.core().model().num_vertices(); ++i)
+    if (!sim.core().model().fixed[i]) free_mass += sim.core().model().mass[i];
   return std::sqrt(2 * e / free_mass);
 }
 
@@ -52,8 +52,8 @@ TEST(InstabilityRule, EnergyScaleIsInitialEnergyPlusWeightTimesSize) {
   s.cloth.initial_velocity = Vec3(0.5, 0, 0);
   Simulation sim(s);
   double free_mass = 0;
-  for (int i = 0; i < sim.model().num_vertices(); ++i)
-    if (!sim.model().fixed[i]) free_mass += sim.model().mass[i];
+  for (int i = 0; i < sim.core().model().num_vertices(); ++i)
+    if (!sim.core().model().fixed[i]) free_mass += sim.core().model().mass[i];
   const double kinetic = 0.5 * free_mass * 0.25;
   EXPECT_NEAR(sim.energy_scale(), weight * size + kinetic, 1e-9 * weight * size);
 }

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "weft/error.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 using namespace weft;
 
@@ -45,41 +45,41 @@ TEST(ScriptedMotion, MovedPinsArriveOnTheirTargetsAndStop) {
     scene.cloth.self_collision = self;
     Simulation sim(scene);
     std::vector<int> pins;
-    for (int i = 0; i < sim.model().num_vertices(); ++i)
-      if (sim.model().fixed[i]) pins.push_back(i);
+    for (int i = 0; i < sim.core().model().num_vertices(); ++i)
+      if (sim.core().model().fixed[i]) pins.push_back(i);
     ASSERT_EQ(pins.size(), 2u);
     sim.advance_to(0.03);  // BDF-2 has a history by now
-    const Vec3 start = node(sim.state().x, pins[0]), other = node(sim.state().x, pins[1]);
+    const Vec3 start = node(sim.core().state().x, pins[0]), other = node(sim.core().state().x, pins[1]);
     const Vec3 target = start + Vec3(0.05, 0.02, -0.01);
     sim.move_pins({pins[0]}, {target}, 0.07);  // four steps
     EXPECT_EQ(sim.moving_pins(), 1u);
     sim.advance_to(0.05);
-    if (!self) EXPECT_LT((node(sim.state().x, pins[0]) - (start + 0.5 * (target - start))).norm(), 1e-12);
+    if (!self) EXPECT_LT((node(sim.core().state().x, pins[0]) - (start + 0.5 * (target - start))).norm(), 1e-12);
     sim.advance_to(0.07);
-    EXPECT_EQ(node(sim.state().x, pins[0]), target);
+    EXPECT_EQ(node(sim.core().state().x, pins[0]), target);
     EXPECT_EQ(sim.moving_pins(), 0u);
     sim.advance_to(0.1);
-    EXPECT_EQ(node(sim.state().x, pins[0]), target);
-    EXPECT_EQ(node(sim.state().v, pins[0]), Vec3::Zero());
-    EXPECT_EQ(node(sim.state().x, pins[1]), other);
+    EXPECT_EQ(node(sim.core().state().x, pins[0]), target);
+    EXPECT_EQ(node(sim.core().state().v, pins[0]), Vec3::Zero());
+    EXPECT_EQ(node(sim.core().state().x, pins[1]), other);
   }
 }
 
 // An arrival between steps is rounded to whole steps: the pin arrives at a step's end.
 TEST(ScriptedMotion, PinArrivalIsRoundedToWholeSteps) {
   Simulation sim(sheet("implicit-midpoint"));
-  const int pin = sim.model().fixed[0] ? 0 : 4;
-  ASSERT_TRUE(sim.model().fixed[pin]);
-  const Vec3 target = node(sim.state().x, pin) + Vec3(0, 0.03, 0);
+  const int pin = sim.core().model().fixed[0] ? 0 : 4;
+  ASSERT_TRUE(sim.core().model().fixed[pin]);
+  const Vec3 target = node(sim.core().state().x, pin) + Vec3(0, 0.03, 0);
   sim.move_pins({pin}, {target}, 0.0212);  // two steps
   sim.advance_to(0.02);
-  EXPECT_EQ(node(sim.state().x, pin), target);
+  EXPECT_EQ(node(sim.core().state().x, pin), target);
 }
 
 TEST(ScriptedMotion, MovingAVertexThatIsNotPinnedIsRefused) {
   Simulation sim(sheet("implicit-midpoint"));
   int free_vertex = 0;
-  while (sim.model().fixed[free_vertex]) ++free_vertex;
+  while (sim.core().model().fixed[free_vertex]) ++free_vertex;
   try {
     sim.move_pins({free_vertex}, {Vec3::Zero()}, 0.01);
     FAIL() << "no error";
@@ -87,7 +87,7 @@ TEST(ScriptedMotion, MovingAVertexThatIsNotPinnedIsRefused) {
     EXPECT_EQ(std::string(e.what()), "move_pins: vertex " + std::to_string(free_vertex) + " is not pinned");
   }
   int pin = 0;
-  while (!sim.model().fixed[pin]) ++pin;
+  while (!sim.core().model().fixed[pin]) ++pin;
   EXPECT_THROW(sim.move_pins({pin}, {Vec3::Zero()}, 0.0), InputError);  // arrival not after now
   EXPECT_THROW(sim.move_collider(0, Eigen::Isometry3d::Identity(), 0.01), InputError);  // no collider
 }
@@ -116,8 +116,8 @@ TEST(ScriptedMotion, MovedColliderMatchesTheSceneKeyframes) {
     a.advance_to(t);
     b.advance_to(t);
   }
-  EXPECT_GT(a.statistics().contacts, 0);
-  EXPECT_EQ(a.state().x, b.state().x);
+  EXPECT_GT(a.core().statistics().contacts, 0);
+  EXPECT_EQ(a.core().state().x, b.core().state().x);
   EXPECT_LT((b.collider_pose(0, 0.06).translation() - lift).norm(), 1e-15);
 }
 
@@ -126,12 +126,12 @@ TEST(ScriptedMotion, StepsKeepTheStorageOfPositionsAndVelocities) {
   for (const char* method : {"implicit-midpoint", "bdf2", "rk45"}) {
     SCOPED_TRACE(method);
     Simulation sim(sheet(method));
-    const double* x = sim.state().x.data();
-    const double* v = sim.state().v.data();
-    const VecX before = sim.state().x;
+    const double* x = sim.core().state().x.data();
+    const double* v = sim.core().state().v.data();
+    const VecX before = sim.core().state().x;
     sim.advance_to(0.05);
-    EXPECT_NE(sim.state().x, before);
-    EXPECT_EQ(sim.state().x.data(), x);
-    EXPECT_EQ(sim.state().v.data(), v);
+    EXPECT_NE(sim.core().state().x, before);
+    EXPECT_EQ(sim.core().state().x.data(), x);
+    EXPECT_EQ(sim.core().state().v.data(), v);
   }
 }

@@ -5,7 +5,7 @@
 // A = M - cd D - ck K and b are assembled as the integrator does (METHOD.md 1-2).
 #include <memory>
 
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 namespace weft::test {
 
@@ -14,7 +14,7 @@ struct ClothStepProblem {
   StepAssembly step;  ///< step.matrix is A
   VecX rhs;           ///< b
   VecX guess;         ///< the integrator's warm start (previous dv, or zero)
-  const std::vector<char>& fixed() const { return sim->system().fixed(); }
+  const std::vector<char>& fixed() const { return sim->core().system().fixed(); }
   const BlockMatrix& matrix() const { return step.matrix; }
 };
 
@@ -41,8 +41,8 @@ inline Scene cloth_step_scene(int n) {
 inline void make_cloth_step_problem(const Scene& scene, double settle_time, ClothStepProblem& p) {
   p.sim = std::make_unique<Simulation>(scene);
   if (settle_time > 0) p.sim->advance_to(settle_time);
-  State& st = p.sim->state();
-  System& sys = p.sim->system();
+  State& st = p.sim->core().state();
+  System& sys = p.sim->core().system();
   const double dt = p.sim->scene().integrator.dt, alpha = 0.5;
   sys.begin_step(st.x, st.v, dt);
   p.step.ck = alpha * alpha * dt * dt;

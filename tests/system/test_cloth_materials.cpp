@@ -14,7 +14,7 @@
 #include "system/cloth.hpp"
 #include "weft/error.hpp"
 #include "weft/scene.hpp"
-#include "weft/simulation.hpp"
+#include "sim/simulation_core.hpp"
 
 namespace weft {
 namespace {
@@ -349,9 +349,9 @@ TEST(ClothMaterials, AGarmentScenesPanelsAreMadeOfTheirOwnMaterials) {
   };
   const Simulation cotton(parse_scene_text(scene(""), "s.json", "."));
   const Simulation mixed(parse_scene_text(scene(R"("left_sleeve_f": {"material": "denim"})"), "s.json", "."));
-  EXPECT_EQ(cotton.model().materials.size(), 1u);
-  ASSERT_EQ(mixed.model().materials.size(), 2u);
-  ASSERT_EQ(mixed.model().mesh.triangles.size(), cotton.model().mesh.triangles.size());
+  EXPECT_EQ(cotton.core().model().materials.size(), 1u);
+  ASSERT_EQ(mixed.core().model().materials.size(), 2u);
+  ASSERT_EQ(mixed.core().model().mesh.triangles.size(), cotton.core().model().mesh.triangles.size());
   GarmentMeshOptions o;
   o.target_edge_m = 0.04;
   const Pattern pattern = load_pattern(shirt);
@@ -362,8 +362,8 @@ TEST(ClothMaterials, AGarmentScenesPanelsAreMadeOfTheirOwnMaterials) {
   ASSERT_GT(sleeve_area, 0);
   const double extra = (material_preset("denim").surface_density_kg_m2 - material_preset("cotton").surface_density_kg_m2) *
                        sleeve_area;
-  EXPECT_NEAR(mixed.model().mass.sum() - cotton.model().mass.sum(), extra, 1e-9 * cotton.model().mass.sum());
-  EXPECT_GT(std::abs(extra), 1e-3 * cotton.model().mass.sum());
+  EXPECT_NEAR(mixed.core().model().mass.sum() - cotton.core().model().mass.sum(), extra, 1e-9 * cotton.core().model().mass.sum());
+  EXPECT_GT(std::abs(extra), 1e-3 * cotton.core().model().mass.sum());
 }
 
 }  // namespace

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "experiments/energy_injection.hpp"
-#include "experiments/trajectory.hpp"
+#include "weft/experiments/energy_injection.hpp"
+#include "weft/experiments/trajectory.hpp"
 
 namespace weft {
 

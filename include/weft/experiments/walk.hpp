@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "experiments/trajectory.hpp"
+#include "weft/experiments/trajectory.hpp"
 
 namespace weft {
 

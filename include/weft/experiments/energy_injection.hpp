@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "experiments/trajectory.hpp"
+#include "weft/experiments/trajectory.hpp"
 
 namespace weft {
 

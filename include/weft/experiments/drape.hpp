@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "mesh/mesh.hpp"
+#include "weft/mesh.hpp"
 #include "weft/material.hpp"
 
 namespace weft {

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "io/run_frames.hpp"
+#include "weft/run_frames.hpp"
 
 namespace weft {
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "experiments/energy.hpp"
+#include "weft/experiments/energy.hpp"
 
 namespace weft {
 

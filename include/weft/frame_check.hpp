@@ -4,11 +4,16 @@
 // between frames and only refitted while the triangles stay the same.
 #include <array>
 #include <cstddef>
+#include <memory>
 #include <vector>
 
-#include "collision/intersections.hpp"
-
 namespace weft {
+
+/// Intersecting triangle pairs: how many, and the first few.
+struct IntersectionCount {
+  size_t count = 0;                          ///< intersecting pairs
+  std::vector<std::array<int, 2>> examples;  ///< the first pairs found (up to the limit asked)
+};
 
 /// A mesh of one frame: 3 doubles per vertex and the vertex triples of its triangles.
 struct FrameMesh {
@@ -33,15 +38,16 @@ struct FrameIntersections {
 class FrameChecker {
  public:
   /// `examples`: how many pairs of each kind to keep in the counts.
-  explicit FrameChecker(size_t examples = 8) : examples_(examples) {}
+  explicit FrameChecker(size_t examples = 8);
+  ~FrameChecker();
+  FrameChecker(FrameChecker&&) noexcept;
+  FrameChecker& operator=(FrameChecker&&) noexcept;
   FrameIntersections check(const FrameMesh& cloth, const std::vector<FrameMesh>& bodies);
 
  private:
-  /// A tree for `mesh`, refitted; rebuilt when its triangles differ from the last ones.
-  const AabbTree& tree_for(size_t slot, const FrameMesh& mesh);
-
+  struct Trees;  ///< the bounding-volume trees, slot 0 the cloth, then the bodies
   size_t examples_;
-  std::vector<AabbTree> trees_;  ///< slot 0 the cloth, then the bodies
+  std::unique_ptr<Trees> trees_;
 };
 
 }  // namespace weft

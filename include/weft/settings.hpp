@@ -1,0 +1,80 @@
+#pragma once
+// How a scene is integrated (docs/scene-format.md, "integrator"): the method, its
+// implicitness, the step and the linear solves.
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace weft {
+
+enum class Preconditioner {
+  kBlockJacobi,  ///< inverse 3x3 diagonal blocks
+  kMultigrid,    ///< one V-cycle of aggregation multigrid (linalg/multigrid.hpp)
+  /// Symmetric block successive over-relaxation, M = (D/w + L) (D/w)^-1 (D/w + L^T), applied
+  /// with Eisenstat's trick: an iteration costs two triangular solves over the lower half of A
+  /// instead of a product plus the preconditioner.
+  kSsor,
+};
+
+enum class Method { ForwardEuler, AlphaFamily, Bdf2, Rk4, Rk45 };
+
+/// Free nodes from which the automatic choice is multigrid rather than SSOR: below, SSOR's
+/// iterations (two triangular solves each) win over the V-cycle's and the per-step coarse
+/// operators; above, its iteration count keeps growing with the mesh while multigrid's
+/// barely does (docs/performance.md).
+constexpr int kMultigridMinFreeNodes = 30000;
+
+struct IntegratorSettings {
+  Method method = Method::AlphaFamily;
+  double alpha = 0.5;               ///< implicitness (alpha family and BDF-2)
+  double dt = 0.02;                 ///< step (s); for RK45 the largest step
+  double cg_tolerance = 1e-6;       ///< relative residual of the linear solve
+  int cg_max_iterations = 1000;
+  /// Preconditioner of the conjugate-gradient solve; unset: chosen by the number of free nodes
+  /// (docs/performance.md).
+  std::optional<Preconditioner> preconditioner;
+  double error_tolerance = 1e-6;    ///< RK45 local error tolerance (relative and absolute)
+  /// SSOR relaxation in (0, 2); 0 chooses it from the mesh size (ssor_relaxation_for).
+  double ssor_relaxation = 0.0;
+  /// SSOR iterations in single precision (PcgSettings::ssor_single_precision): the same
+  /// stopping rule on the true residual, 0.8-0.9 of the step time on the benchmark cloth.
+  bool ssor_single_precision = true;
+  /// Steps whose right-hand sides and solutions the linear solves' warm start combines
+  /// (SolutionHistory); 0 starts each solve from the previous step's dv.
+  int warm_start_history = 3;
+  /// The energy guard (docs/guarded-midpoint.md): an alpha-family step that puts energy into
+  /// the cloth is taken again from its start as two halves (kGuardMaxSplits times at most),
+  /// then with a larger alpha (kGuardAlphas), which relaxes back to `alpha`. A BDF-2 step is
+  /// taken again with a larger alpha (up to standard BDF-2, alpha = 1), then as a backward
+  /// Euler step.
+  bool guard = false;
+  /// Newton iterations a semi-implicit step (alpha family, BDF-2) may add to its linearised
+  /// solve (Integrator::newton_iterate): the step's nonlinear equations re-linearised at the
+  /// iterate, with a backtracking line search. 0: one linearisation per step, as the paper's
+  /// equations write the step. Steps that hold contacts in their solve stay linearised.
+  int newton_iterations = 0;
+  /// The iterations stop when the residual of the step's equations, as a change of velocity
+  /// (|M^-1/2 r|), is below this fraction of the step's (|M^1/2 dv|, or of its right-hand
+  /// side's |M^-1/2 b| where larger).
+  double newton_tolerance = 1e-3;
+};
+
+/// "auto", "block-jacobi", "ssor" or "multigrid"; nullopt for an unknown name.
+std::optional<std::optional<Preconditioner>> parse_preconditioner(const std::string& name);
+std::string preconditioner_name(Preconditioner p);
+
+/// Method names accepted on the command line and in scenes, and their meaning.
+struct MethodInfo {
+  std::string name;
+  Method method;
+  std::optional<double> fixed_alpha;  ///< alpha implied by the name, if any
+  double default_alpha;
+  std::string description;
+  bool guard = false;  ///< IntegratorSettings::guard
+};
+const std::vector<MethodInfo>& method_table();
+/// Looks a method up by name; nullptr when unknown.
+const MethodInfo* find_method(const std::string& name);
+std::string method_names();  ///< "forward-euler, backward-euler, ..."
+
+}  // namespace weft
