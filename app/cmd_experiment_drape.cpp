@@ -13,7 +13,7 @@
 #include "experiment_common.hpp"
 #include "weft/experiments/drape.hpp"
 #include "fabric_common.hpp"
-#include "render/picture.hpp"
+#include "weft/render/picture.hpp"
 #include "weft/atomic_file.hpp"
 #include "weft/gray_image.hpp"
 

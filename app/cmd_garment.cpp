@@ -19,9 +19,9 @@
 
 #include "command.hpp"
 #include "experiment_common.hpp"
-#include "garment/garment_mesh.hpp"
-#include "garment/placement.hpp"
-#include "garment/sewing.hpp"
+#include "weft/garment/garment_mesh.hpp"
+#include "weft/garment/placement.hpp"
+#include "weft/garment/sewing.hpp"
 #include "weft/material.hpp"
 #include "weft/atomic_file.hpp"
 #include "weft/error.hpp"

@@ -19,7 +19,7 @@
 #include "command.hpp"
 #include "weft/run_frames.hpp"
 #include "progress.hpp"
-#include "render/picture.hpp"
+#include "weft/render/picture.hpp"
 #include "weft/atomic_file.hpp"
 #include "weft/error.hpp"
 

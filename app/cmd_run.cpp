@@ -90,18 +90,16 @@ weft::Scene build_scene(const RunArgs& a) {
   using namespace weft;
   Scene scene = load_scene(a.scene);
   const std::string where = "command line";
-  if (!a.method.empty() || a.alpha) set_method(scene, a.method.empty() ? scene.method_name : a.method, a.alpha, where);
-  if (a.dt) scene.integrator.dt = *a.dt;
-  if (a.duration) scene.duration = *a.duration;
-  if (a.tolerance) (scene.integrator.method == Method::Rk45 ? scene.integrator.error_tolerance : scene.integrator.cg_tolerance) = *a.tolerance;
-  if (a.damping_ratio) scene.damping_ratio = *a.damping_ratio;
-  if (a.newton) {
-    if (!(*a.newton >= 0 && *a.newton <= 100 && *a.newton == std::floor(*a.newton)))
-      throw InputError(where + ": --newton " + nlohmann::json(*a.newton).dump() + ": expected an integer from 0 to 100");
-    scene.integrator.newton_iterations = static_cast<int>(*a.newton);
-  }
-  if (!a.preconditioner.empty()) scene.integrator.preconditioner = *parse_preconditioner(a.preconditioner);
-  validate_timing(scene, where);
+  SceneOverrides o;
+  o.method = a.method;
+  o.alpha = a.alpha;
+  o.dt = a.dt;
+  o.duration = a.duration;
+  o.tolerance = a.tolerance;
+  o.damping_ratio = a.damping_ratio;
+  o.newton = a.newton;
+  o.preconditioner = a.preconditioner;
+  apply_overrides(scene, o, where);
   if (a.frame_format && a.format_list)
     throw InputError(where + ": --frame-format cannot be combined with --format (--frame-format " + *a.frame_format +
                      " is the per-frame format within --format's list)");

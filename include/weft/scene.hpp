@@ -132,6 +132,23 @@ void set_method(Scene& scene, const std::string& name, std::optional<double> alp
 /// Re-checks the timing fields after overrides (dt > 0, frame interval a multiple of dt...).
 void validate_timing(const Scene& scene, const std::string& where);
 
+/// Settings that replace a scene's (`weft run`'s options); unset ones leave the scene's.
+struct SceneOverrides {
+  std::string method;                    ///< a name of method_table(); "" keeps the scene's
+  std::optional<double> alpha;           ///< where the method takes one
+  std::optional<double> dt, duration;    ///< s
+  /// The linear solves' relative residual, or RK45's local error tolerance for rk45.
+  std::optional<double> tolerance;
+  std::optional<double> damping_ratio;   ///< adaptive damping target, [0, 10]
+  std::optional<double> newton;          ///< Newton iterations per step, an integer in [0, 100]
+  std::string preconditioner;            ///< auto, block-jacobi, ssor or multigrid; "" keeps the scene's
+};
+/// Applies `overrides` to `scene` and validates the result (set_method, validate_timing); throws
+/// InputError naming `where`, the override (as weft run's option) and the value for an unknown
+/// method or preconditioner, a Newton count that is not an integer from 0 to 100, and whatever
+/// validate_timing refuses.
+void apply_overrides(Scene& scene, const SceneOverrides& overrides, const std::string& where);
+
 /// Bytes a run of a mesh with this many vertices needs (estimate).
 double estimated_run_bytes(long vertices);
 /// Throws InputError "WHAT (N vertices) needs about X GB to simulate, more than ..." when the

@@ -1,4 +1,4 @@
-#include "garment/garment_mesh.hpp"
+#include "weft/garment/garment_mesh.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,6 @@
 // The pattern reader: GarmentCode and Garment-Pattern-Generator JSON specifications
 // (docs/garments.md, "Pattern files").
-#include "garment/pattern.hpp"
+#include "weft/garment/pattern.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -5,7 +5,7 @@
 #include <numeric>
 #include <stdexcept>
 
-#include "garment/pattern.hpp"
+#include "weft/garment/pattern.hpp"
 
 namespace weft {
 

@@ -1,4 +1,4 @@
-#include "garment/placement.hpp"
+#include "weft/garment/placement.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "garment/sewing.hpp"
+#include "weft/garment/sewing.hpp"
 
 #include <algorithm>
 #include <map>

@@ -1,6 +1,6 @@
 #include "weft/scene.hpp"
 
-#include "garment/pattern.hpp"
+#include "weft/garment/pattern.hpp"
 
 #include <unistd.h>
 
@@ -81,6 +81,28 @@ void validate_timing(const Scene& s, const std::string& where) {
     throw InputError(where + ": duration / dt is absurdly large (" + nlohmann::json(s.duration / s.integrator.dt).dump() + " steps)");
   if (s.damping_ratio && !(*s.damping_ratio >= 0 && *s.damping_ratio <= 10))
     throw InputError(where + ": damping ratio must be in [0, 10], got " + nlohmann::json(*s.damping_ratio).dump());
+}
+
+void apply_overrides(Scene& scene, const SceneOverrides& o, const std::string& where) {
+  if (!o.method.empty() || o.alpha) set_method(scene, o.method.empty() ? scene.method_name : o.method, o.alpha, where);
+  if (o.dt) scene.integrator.dt = *o.dt;
+  if (o.duration) scene.duration = *o.duration;
+  if (o.tolerance)
+    (scene.integrator.method == Method::Rk45 ? scene.integrator.error_tolerance : scene.integrator.cg_tolerance) = *o.tolerance;
+  if (o.damping_ratio) scene.damping_ratio = *o.damping_ratio;
+  if (o.newton) {
+    if (!(*o.newton >= 0 && *o.newton <= 100 && *o.newton == std::floor(*o.newton)))
+      throw InputError(where + ": --newton " + nlohmann::json(*o.newton).dump() + ": expected an integer from 0 to 100");
+    scene.integrator.newton_iterations = static_cast<int>(*o.newton);
+  }
+  if (!o.preconditioner.empty()) {
+    const auto p = parse_preconditioner(o.preconditioner);
+    if (!p)
+      throw InputError(where + ": --preconditioner '" + o.preconditioner +
+                       "': expected auto, block-jacobi, ssor or multigrid");
+    scene.integrator.preconditioner = *p;
+  }
+  validate_timing(scene, where);
 }
 
 namespace {

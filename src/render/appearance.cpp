@@ -1,4 +1,4 @@
-#include "render/appearance.hpp"
+#include "weft/render/appearance.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "render/picture.hpp"
+#include "weft/render/picture.hpp"
 
 #include <algorithm>
 #include <cmath>

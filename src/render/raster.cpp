@@ -1,4 +1,4 @@
-#include "render/raster.hpp"
+#include "weft/render/raster.hpp"
 
 #include <cmath>
 #include <stdexcept>

@@ -3,7 +3,7 @@
 #include "collision/colliders.hpp"
 #include "collision/clamps.hpp"
 #include "collision/self_contact.hpp"
-#include "garment/sewing.hpp"
+#include "weft/garment/sewing.hpp"
 #include "sim/checkpoint.hpp"
 #include "weft/error.hpp"
 

@@ -3,7 +3,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "garment/pattern.hpp"
+#include "weft/garment/pattern.hpp"
 #include "garment/sample_patterns.hpp"
 #include "io/obj_file.hpp"
 #include "mesh/mesh.hpp"

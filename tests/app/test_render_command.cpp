@@ -7,7 +7,7 @@
 #include <set>
 
 #include "weft/run_folder.hpp"
-#include "render/appearance.hpp"
+#include "weft/render/appearance.hpp"
 #include "support/command.hpp"
 #include "support/png.hpp"
 #include "weft/types.hpp"

@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "garment/garment_mesh.hpp"
+#include "weft/garment/garment_mesh.hpp"
 #include "garment/sample_patterns.hpp"
 #include "weft/error.hpp"
 

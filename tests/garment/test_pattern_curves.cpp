@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "garment/pattern.hpp"
+#include "weft/garment/pattern.hpp"
 
 namespace weft {
 namespace {

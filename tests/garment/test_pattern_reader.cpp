@@ -4,7 +4,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "garment/pattern.hpp"
+#include "weft/garment/pattern.hpp"
 #include "weft/error.hpp"
 
 namespace weft {

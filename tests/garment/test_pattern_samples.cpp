@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "garment/pattern.hpp"
+#include "weft/garment/pattern.hpp"
 #include "garment/sample_patterns.hpp"
 
 namespace weft {

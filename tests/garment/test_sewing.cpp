@@ -8,8 +8,8 @@
 #include <random>
 
 #include "collision/intersections.hpp"
-#include "garment/placement.hpp"
-#include "garment/sewing.hpp"
+#include "weft/garment/placement.hpp"
+#include "weft/garment/sewing.hpp"
 #include "system/cloth.hpp"
 #include "weft/error.hpp"
 

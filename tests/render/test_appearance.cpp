@@ -13,7 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "render/appearance.hpp"
+#include "weft/render/appearance.hpp"
 
 namespace weft::render {
 namespace {

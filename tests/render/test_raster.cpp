@@ -5,8 +5,8 @@
 
 #include <cmath>
 
-#include "render/picture.hpp"
-#include "render/raster.hpp"
+#include "weft/render/picture.hpp"
+#include "weft/render/raster.hpp"
 
 using weft::Vec2;
 using weft::RgbImage;

@@ -8,9 +8,9 @@
 #include <cmath>
 #include <random>
 
-#include "garment/garment_mesh.hpp"
-#include "garment/placement.hpp"
-#include "garment/sewing.hpp"
+#include "weft/garment/garment_mesh.hpp"
+#include "weft/garment/placement.hpp"
+#include "weft/garment/sewing.hpp"
 #include "system/cloth.hpp"
 #include "weft/error.hpp"
 #include "weft/scene.hpp"

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "garment/garment_mesh.hpp"
-#include "mesh/mesh.hpp"
+#include "weft/garment/garment_mesh.hpp"
+#include "weft/mesh.hpp"
 #include "weft/body.hpp"
 #include "weft/garment.hpp"
 

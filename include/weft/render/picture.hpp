@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "render/appearance.hpp"
-#include "render/raster.hpp"
+#include "weft/render/appearance.hpp"
+#include "weft/render/raster.hpp"
 
 namespace weft::render {
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "render/raster.hpp"
+#include "weft/render/raster.hpp"
 
 namespace weft::render {
 

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "garment/pattern.hpp"
+#include "weft/garment/pattern.hpp"
 #include "weft/types.hpp"
 
 namespace weft {

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "weft/frame_check.hpp"
-#include "garment/placement.hpp"
+#include "weft/garment/placement.hpp"
 #include "weft/material.hpp"
 
 namespace weft {
