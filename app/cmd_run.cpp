@@ -18,6 +18,7 @@
 #include "weft/frame_check.hpp"
 #include "command.hpp"
 #include "weft/exports.hpp"
+#include "weft/recording.hpp"
 #include "progress.hpp"
 #include "weft/atomic_file.hpp"
 #include "weft/error.hpp"
@@ -398,30 +399,19 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   const TriMesh& cloth_mesh = sim.mesh();
   const std::vector<float> cloth_texcoords = pattern_texcoords(cloth_mesh.pattern, scene.cloth.uv_scale);
   // The animations (glb, pc2, usda) are written at the end from the frames recorded here.
-  AnimatedMesh cloth_animation;
-  cloth_animation.name = "cloth";
-  cloth_animation.triangles = cloth_mesh.triangles;
-  cloth_animation.texcoords = cloth_texcoords;
-  cloth_animation.vertex_count = cloth_mesh.num_vertices();
-  std::vector<AnimatedMesh> collider_animations(write_glb || write_usda ? collider_count : 0);
-  std::vector<double> frame_times;
-  std::vector<const AnimatedMesh*> animations{&cloth_animation};
-  for (const auto& c : collider_animations) animations.push_back(&c);
+  std::optional<FrameRecording> recording;
+  if (animate) recording.emplace(sim, write_glb || write_usda, write_glb);
   if (resume && animate) {
     const fs::path file = out.recorded_frames();
     if (!fs::exists(file))
       throw InputError(file.string() + ": missing; the animations (glb, pc2, usda) of a resumed run need the frames "
                                        "recorded before its checkpoint");
-    std::vector<AnimatedMesh*> meshes{&cloth_animation};
-    for (auto& c : collider_animations) meshes.push_back(&c);
-    read_recorded_frames(read_bytes(file), file.string(), meshes, frame_times, static_cast<size_t>(first_frame));
+    recording->read_frames(read_bytes(file), file.string(), static_cast<size_t>(first_frame));
   }
   std::vector<double> export_seconds;  // per frame: writing its files and recording it
   auto write_checkpoint = [&](const RunResult& r) {
     checkpoint_header_out["intersections"] = tally.state();
-    if (animate && !out.write(out.recorded_frames(), [&](std::ostream& o) {
-          write_recorded_frames(o, animations, frame_times);
-        }))
+    if (animate && !out.write(out.recorded_frames(), [&](std::ostream& o) { recording->write_frames(o); }))
       return;
     if (out.write_bytes(out.checkpoint(), checkpoint_bytes(checkpoint_header_out, sim, r)))
       checkpoint_frame = static_cast<long>(r.energy.size()) - 1;
@@ -438,20 +428,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     tally.seconds += std::chrono::duration<double>(Clock::now() - check_start).count();
     if (!out.failures.empty()) return;
     const auto export_start = Clock::now();
-    if (animate) {
-      const VecX eta = write_glb ? s.added_viscosity_per_vertex() : VecX();
-      cloth_animation.add_frame(s.positions().data(), s.vertex_count(), write_glb ? eta.data() : nullptr);
-      frame_times.push_back(s.time());
-      for (size_t k = 0; k < collider_animations.size(); ++k) {
-        AnimatedMesh& c = collider_animations[k];
-        if (c.triangles.empty()) {
-          const ColliderSpec& spec = s.collider(k);
-          c.name = spec.shape == ColliderShape::kBody ? "body" + std::to_string(spec.body) : "collider" + std::to_string(k);
-          c.triangles = collider_triangle_lists[k];
-        }
-        c.add_frame(collider_positions[k].data(), static_cast<int>(collider_positions[k].rows()));
-      }
-    }
+    if (animate) recording->add_frame(s, &collider_positions);
     if (!frame_files) {
       export_seconds.push_back(std::chrono::duration<double>(Clock::now() - export_start).count());
       return;
@@ -472,12 +449,7 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     // The colliders' surfaces: body<k> for the k-th walking body, collider<k> for the k-th
     // collider of another kind.
     for (size_t k = 0; ok && k < collider_count; ++k) {
-      const ColliderSpec& spec = s.collider(k);
-      if (spec.shape == ColliderShape::kBody) {
-        std::snprintf(name, sizeof name, "body%d_%05d.obj", spec.body, f);
-      } else {
-        std::snprintf(name, sizeof name, "collider%zu_%05d.obj", k, f);
-      }
+      std::snprintf(name, sizeof name, "%s_%05d.obj", collider_output_name(s.collider(k), k).c_str(), f);
       const fs::path collider_path = out.frames() / name;
       ok = out.attempt(collider_path,
                        [&] { write_obj(collider_path.string(), collider_positions[k], collider_triangles[k]); });
@@ -511,17 +483,13 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
   // The animations hold the frames of a finished (or unstable) run; an interrupted one writes
   // them when resumed to the end.
   double animation_seconds = 0;
-  if (!failed && !interrupted && cloth_animation.frame_count() > 0) {
+  if (!failed && !interrupted && recording && recording->frame_count() > 0) {
     const auto start = Clock::now();
-    if (write_glb) {
-      out.write(out.dir() / "animation.glb", [&](std::ostream& o) { weft::write_glb(o, animations, frame_times); });
-    }
-    if (write_usda) {
-      out.write(out.dir() / "animation.usda", [&](std::ostream& o) { weft::write_usda(o, animations, frame_times); });
-    }
+    if (write_glb) out.write(out.dir() / "animation.glb", [&](std::ostream& o) { recording->write_glb(o); });
+    if (write_usda) out.write(out.dir() / "animation.usda", [&](std::ostream& o) { recording->write_usda(o); });
     if (write_pc2) {
-      out.write(out.dir() / "animation.pc2", [&](std::ostream& o) { weft::write_pc2(o, cloth_animation); });
-      out.write(out.dir() / "animation_rest.obj", [&](std::ostream& o) { write_rest_obj(o, cloth_animation); });
+      out.write(out.dir() / "animation.pc2", [&](std::ostream& o) { recording->write_pc2(o); });
+      out.write(out.dir() / "animation_rest.obj", [&](std::ostream& o) { recording->write_rest_obj(o); });
     }
     animation_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   }

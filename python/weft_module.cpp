@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "weft/exports.hpp"
+#include "weft/recording.hpp"
 #include "weft/atomic_file.hpp"
 #include "weft/body.hpp"
 #include "weft/error.hpp"
@@ -81,14 +82,7 @@ weft::Scene load(const py::object& scene, const std::optional<std::string>& base
 class PySimulation {
  public:
   PySimulation(const py::object& scene, const std::optional<std::string>& base_dir)
-      : sim_(std::make_unique<Simulation>(load(scene, base_dir))) {
-    const weft::TriMesh& mesh = sim_->mesh();
-    cloth_.name = "cloth";
-    cloth_.triangles = mesh.triangles;
-    cloth_.texcoords = weft::pattern_texcoords(mesh.pattern, sim_->scene().cloth.uv_scale);
-    cloth_.vertex_count = mesh.num_vertices();
-    colliders_.resize(sim_->collider_count());
-  }
+      : sim_(std::make_unique<Simulation>(load(scene, base_dir))), recording_(*sim_, true, true) {}
 
   Simulation& sim() { return *sim_; }
   const Simulation& sim() const { return *sim_; }
@@ -210,13 +204,14 @@ class PySimulation {
     const int n = vertex_count();
     const double* x = sim_->positions().data();
     write_file(path, [&](std::ostream& o) {
-      weft::write_textured_obj(o, x, n, cloth_.texcoords, weft::vertex_normals(x, n, cloth_.triangles), cloth_.triangles);
+      const weft::AnimatedMesh& cloth = recording_.cloth();
+      weft::write_textured_obj(o, x, n, cloth.texcoords, weft::vertex_normals(x, n, cloth.triangles), cloth.triangles);
     });
   }
   void write_ply(const std::string& path) const {
     const weft::VecX eta = sim_->added_viscosity_per_vertex();
     write_file(path, [&](std::ostream& o) {
-      weft::write_ply_frame(o, sim_->positions().data(), vertex_count(), eta.data(), cloth_.triangles);
+      weft::write_ply_frame(o, sim_->positions().data(), vertex_count(), eta.data(), recording_.cloth().triangles);
     });
   }
   void write_collider_obj(long k, const std::string& path) const {
@@ -233,48 +228,28 @@ class PySimulation {
   // The recorded frames and what is written from them.
   void record_frame() {
     energy_.push_back(sim_->energies());
-    const weft::VecX eta = sim_->added_viscosity_per_vertex();
-    cloth_.add_frame(sim_->positions().data(), vertex_count(), eta.data());
-    for (size_t k = 0; k < colliders_.size(); ++k) {
-      weft::AnimatedMesh& c = colliders_[k];
-      weft::Points positions;
-      weft::Triangles triangles;
-      sim_->collider_surface(k, sim_->time(), positions, triangles);
-      if (c.triangles.empty()) {
-        const weft::ColliderSpec& spec = sim_->collider(k);
-        c.name = spec.shape == weft::ColliderShape::kBody ? "body" + std::to_string(spec.body) : "collider" + std::to_string(k);
-        c.triangles = weft::triangle_list(triangles);
-      }
-      c.add_frame(positions.data(), static_cast<int>(positions.rows()));
-    }
-    frame_times_.push_back(sim_->time());
+    recording_.add_frame(*sim_);
   }
-  size_t frames_recorded() const { return frame_times_.size(); }
+  size_t frames_recorded() const { return recording_.frame_count(); }
   py::list recorded_energies() const {
     py::list l;
     for (const weft::EnergyRow& e : energy_) l.append(energy_dict(e));
     return l;
   }
   void require_frames(const char* what) const {
-    if (frame_times_.empty())
+    if (recording_.frame_count() == 0)
       throw weft::InputError(std::string(what) + ": no frames recorded (call record_frame() at the frames to keep)");
   }
   void write_energy_csv(const std::string& path) const {
     write_file(path, [&](std::ostream& o) { o << weft::energy_csv(energy_); });
   }
-  /// The cloth, then the colliders, as recorded.
-  std::vector<const weft::AnimatedMesh*> animated_meshes() const {
-    std::vector<const weft::AnimatedMesh*> meshes{&cloth_};
-    for (const weft::AnimatedMesh& c : colliders_) meshes.push_back(&c);
-    return meshes;
-  }
   void write_glb(const std::string& path) const {
     require_frames("write_glb");
-    write_file(path, [&](std::ostream& o) { weft::write_glb(o, animated_meshes(), frame_times_); });
+    write_file(path, [&](std::ostream& o) { recording_.write_glb(o); });
   }
   void write_usda(const std::string& path) const {
     require_frames("write_usda");
-    write_file(path, [&](std::ostream& o) { weft::write_usda(o, animated_meshes(), frame_times_); });
+    write_file(path, [&](std::ostream& o) { recording_.write_usda(o); });
   }
   void write_pc2(const std::string& path, std::optional<std::string> rest_path) const {
     require_frames("write_pc2");
@@ -282,8 +257,8 @@ class PySimulation {
       const fs::path p(path);
       rest_path = (p.parent_path() / (p.stem().string() + "_rest.obj")).string();
     }
-    write_file(path, [&](std::ostream& o) { weft::write_pc2(o, cloth_); });
-    write_file(*rest_path, [&](std::ostream& o) { weft::write_rest_obj(o, cloth_); });
+    write_file(path, [&](std::ostream& o) { recording_.write_pc2(o); });
+    write_file(*rest_path, [&](std::ostream& o) { recording_.write_rest_obj(o); });
   }
   /// summary.json's fields for the run so far, its energies those of the recorded frames.
   nlohmann::json summary() const {
@@ -304,10 +279,9 @@ class PySimulation {
 
  private:
   std::unique_ptr<Simulation> sim_;
-  weft::AnimatedMesh cloth_;
-  std::vector<weft::AnimatedMesh> colliders_;
+  /// The frames recorded for the animations, the cloth's texture coordinates and triangles.
+  weft::FrameRecording recording_;
   std::vector<weft::EnergyRow> energy_;
-  std::vector<double> frame_times_;
   double wall_seconds_ = 0;
 
   double arrival(std::optional<double> over) const {
