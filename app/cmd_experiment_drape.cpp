@@ -1,4 +1,4 @@
-// `weft experiment drape`: the Cusick drape test (experiments/drape.hpp,
+// `weft experiment drape`: the Cusick drape test (weft/experiments/drape.hpp,
 // docs/fabric-validation.md): drape coefficient, nodes and pictures of a draped specimen.
 #include <cmath>
 #include <cstdio>

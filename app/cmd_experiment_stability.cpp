@@ -1,5 +1,5 @@
 // `weft experiment stability --out DIR`: the stability experiment of the paper's figure 5
-// (src/experiments/stability_experiment.hpp, docs/stability-experiment.md).
+// (include/weft/experiments/stability_experiment.hpp, docs/stability-experiment.md).
 #include <cstdio>
 #include <filesystem>
 #include <fstream>

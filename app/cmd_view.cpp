@@ -1,5 +1,5 @@
 // `weft view DIR`: serves a run's output folder and the viewer's page on localhost
-// (docs/viewer.md). The folder is read once at start (io/run_folder.hpp) into one binary the
+// (docs/viewer.md). The folder is read once at start (weft/run_folder.hpp) into one binary the
 // page fetches whole; the page itself (viewer/, bundled at build time) is read from the
 // viewer's folder.
 #include <httplib.h>

@@ -77,12 +77,19 @@ weft::Scene load(const py::object& scene, const std::optional<std::string>& base
   return weft::load_scene(path_text(scene));
 }
 
+// The scene with the keyword arguments' settings in place of its own, checked by the library as
+// `weft run` checks its options.
+weft::Scene overridden(weft::Scene scene, const weft::SceneOverrides& overrides) {
+  weft::apply_overrides(scene, overrides, "Simulation()");
+  return scene;
+}
+
 /// The Python object `weft.Simulation`: the library's Simulation and the frames recorded for
 /// the outputs that cover a whole run (energy.csv, summary.json, glb, pc2).
 class PySimulation {
  public:
-  PySimulation(const py::object& scene, const std::optional<std::string>& base_dir)
-      : sim_(std::make_unique<Simulation>(load(scene, base_dir))), recording_(*sim_, true, true) {}
+  PySimulation(const py::object& scene, const std::optional<std::string>& base_dir, const weft::SceneOverrides& overrides)
+      : sim_(std::make_unique<Simulation>(overridden(load(scene, base_dir), overrides))), recording_(*sim_, true, true) {}
 
   Simulation& sim() { return *sim_; }
   const Simulation& sim() const { return *sim_; }
@@ -320,12 +327,29 @@ PYBIND11_MODULE(weft, m) {
                            "A scene ready to step: Simulation(path) reads a scene file, Simulation(dict, base_dir=...) "
                            "a dict in the scene file's layout (relative paths in it against base_dir, default the "
                            "current folder). Bad input raises weft.InputError (a ValueError) with the message "
-                           "`weft run` prints.")
-      .def(py::init([](const py::object& scene, const py::object& base_dir) {
+                           "`weft run` prints. The keyword arguments replace the scene's settings as `weft run`'s "
+                           "options of the same names do: method, alpha, dt, duration, tolerance, damping_ratio, "
+                           "newton, preconditioner.")
+      .def(py::init([](const py::object& scene, const py::object& base_dir, const std::optional<std::string>& method,
+                       std::optional<double> alpha, std::optional<double> dt, std::optional<double> duration,
+                       std::optional<double> tolerance, std::optional<double> damping_ratio,
+                       std::optional<double> newton, const std::optional<std::string>& preconditioner) {
+             weft::SceneOverrides o;
+             o.method = method.value_or("");
+             o.alpha = alpha;
+             o.dt = dt;
+             o.duration = duration;
+             o.tolerance = tolerance;
+             o.damping_ratio = damping_ratio;
+             o.newton = newton;
+             o.preconditioner = preconditioner.value_or("");
              return std::make_unique<PySimulation>(
-                 scene, base_dir.is_none() ? std::nullopt : std::optional<std::string>(path_text(base_dir)));
+                 scene, base_dir.is_none() ? std::nullopt : std::optional<std::string>(path_text(base_dir)), o);
            }),
-           py::arg("scene"), py::arg("base_dir") = py::none())
+           py::arg("scene"), py::arg("base_dir") = py::none(), py::kw_only(), py::arg("method") = py::none(),
+           py::arg("alpha") = py::none(), py::arg("dt") = py::none(), py::arg("duration") = py::none(),
+           py::arg("tolerance") = py::none(), py::arg("damping_ratio") = py::none(), py::arg("newton") = py::none(),
+           py::arg("preconditioner") = py::none())
       .def_property_readonly("time", [](const PySimulation& s) { return s.sim().time(); }, "Simulated time (s)")
       .def_property_readonly("dt", [](const PySimulation& s) { return s.sim().scene().integrator.dt; },
                              "The scene's time step (s; for rk45 the largest step)")

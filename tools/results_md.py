@@ -360,7 +360,7 @@ def paper_section(md, args, paper, runs, rows, newton, newton_runs, newton_rows)
               "from one output frame to the next, largest and summed. To see where it comes from, "
               "`weft experiment energy` steps Implicit Midpoint (damped) once more and splits each step's energy "
               "balance among the triangles: a triangle's term is its elastic energy change plus the work of the "
-              "forces the step applied to it, E(x1) - E(x0) + f_step . dx (src/experiments/energy_injection.hpp "
+              "forces the step applied to it, E(x1) - E(x0) + f_step . dx (include/weft/experiments/energy_injection.hpp "
               "derives why these terms, less (alpha - 1/2) dv^T M dv, add up to the energy the step created). A "
               "linear element's term is exactly zero at alpha = 1/2; the terms come from the stiffening curve and "
               "from the elements' turning within the step, which the start's Jacobian does not follow.\n")

@@ -107,7 +107,7 @@ struct Scene {
   std::vector<ColliderSpec> colliders;
   /// The body colliders' descriptions: the walking mannequin (docs/body.md).
   std::vector<BodyColliderSpec> bodies;
-  /// output.formats: what `weft run` writes (checked_output_formats, io/exports.hpp); empty
+  /// output.formats: what `weft run` writes (checked_output_formats, weft/exports.hpp); empty
   /// when the scene does not say (then OBJ frames).
   std::vector<std::string> output_formats;
 

@@ -138,6 +138,28 @@ def test_a_bad_scene_dict_names_the_key(sheet):
         weft.Simulation(sheet)
 
 
+# The keyword arguments are weft run's options: the same scene run both ways gives the same bytes,
+# and a bad value gets the library's message.
+def test_keyword_settings_are_weft_runs_options(tmp_path, sheet):
+    scene = write_scene(tmp_path / "scene.json", sheet)
+    status, err = run_weft("run", scene, "--out", tmp_path / "cli", "--method", "backward-euler", "--dt", "0.01",
+                           "--duration", "0.04", "--quiet")
+    assert status == 0, err
+    sim = weft.Simulation(scene, method="backward-euler", dt=0.01, duration=0.04)
+    assert (sim.method, sim.dt, sim.duration) == ("backward-euler", 0.01, 0.04)
+    step_like_weft_run(sim, tmp_path / "py")
+    frames = sorted((tmp_path / "cli" / "frames").glob("frame_*.obj"))
+    assert len(frames) == len(sim.frame_times) == 3
+    for cli_frame in frames:
+        assert (tmp_path / "py" / cli_frame.name).read_bytes() == cli_frame.read_bytes(), cli_frame.name
+    with pytest.raises(weft.InputError, match=r"^Simulation\(\): --newton 1\.5: expected an integer from 0 to 100$"):
+        weft.Simulation(scene, newton=1.5)
+    with pytest.raises(weft.InputError, match=r"^Simulation\(\): unknown method 'leapfrog'"):
+        weft.Simulation(scene, method="leapfrog")
+    with pytest.raises(TypeError):
+        weft.Simulation(scene, None, "backward-euler")  # the settings are keywords only
+
+
 def test_a_bad_scene_file_raises_the_message_of_weft_run(tmp_path, sheet):
     sheet["cloth"]["material"]["weft"] = -5
     scene = write_scene(tmp_path / "bad.json", sheet)

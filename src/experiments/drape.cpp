@@ -1,4 +1,4 @@
-// The drape test (experiments/drape.hpp, docs/fabric-validation.md).
+// The drape test (weft/experiments/drape.hpp, docs/fabric-validation.md).
 #include "weft/experiments/drape.hpp"
 
 #include <algorithm>

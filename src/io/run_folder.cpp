@@ -210,7 +210,7 @@ RunMesh read_mesh_frames(const std::string& name, const std::vector<fs::path>& p
   return mesh;
 }
 
-// The glb that `weft run --format glb` writes (io/exports.hpp, write_glb): each node's mesh,
+// The glb that `weft run --format glb` writes (weft/exports.hpp, write_glb): each node's mesh,
 // its first frame as vertices and each later frame as a morph target, keyed by one animation.
 class GlbReader {
  public:

@@ -34,7 +34,7 @@ RunFrameMesh read_obj_frame(const fs::path& path) {
 }
 
 // The ASCII PLY frames of `weft run --frame-format ply`.
-/// A PLY frame through the run-folder reader (io/run_folder.hpp), which the viewer uses too.
+/// A PLY frame through the run-folder reader (weft/run_folder.hpp), which the viewer uses too.
 RunFrameMesh read_ply_mesh(const fs::path& path) {
   PlyFrame ply = read_ply_frame(path);
   RunFrameMesh m;

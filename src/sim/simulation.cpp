@@ -21,7 +21,7 @@ namespace {
 // Shares of the set-up time by stage (the integrator and the energy reference take the rest).
 constexpr double kSetupShareMesh = 0.2, kSetupShareModel = 0.6, kSetupShareSystem = 0.1;
 /// The scene's garment: its pattern meshed, placed around the first body in its bind pose and
-/// sewn (garment/sewing.hpp), each panel in its material (the scene's cloth material unless
+/// sewn (weft/garment/sewing.hpp), each panel in its material (the scene's cloth material unless
 /// cloth.mesh.pattern.panels.NAME.material gives one); `materials` receives them per triangle.
 TriMesh sew_scene_garment(const Scene& scene, const SetupProgress& on_setup, TriangleMaterials& materials) {
   const GarmentSpec& g = *scene.cloth.garment;

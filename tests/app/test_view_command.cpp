@@ -1,4 +1,4 @@
-// `weft view`: the run folder read back (io/run_folder.hpp) gives the same run from the glb as
+// `weft view`: the run folder read back (weft/run_folder.hpp) gives the same run from the glb as
 // from the OBJ frames, the PLY frames' added viscosity frame by frame, and the command's bad
 // input (a missing folder, a folder that is not a run's, a port in use) exits 2 with a message
 // naming it. The page itself is tested in a browser: viewer/test/browser_test.mjs.

@@ -1,4 +1,4 @@
-// The drape test (experiments/drape.hpp, docs/fabric-validation.md): its shadow area and node
+// The drape test (weft/experiments/drape.hpp, docs/fabric-validation.md): its shadow area and node
 // count on known shapes, and the drape of a very stiff, a very limp and a balanced fabric on a
 // coarse specimen.
 #include <gtest/gtest.h>

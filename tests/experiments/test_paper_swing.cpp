@@ -108,7 +108,7 @@ TEST_F(PaperSwing, EnergyBalanceClosesAndEnergyCreatedIsWhatTheColumnsImply) {
     EXPECT_GE(created["total_J"].get<double>(), 0.0);
   }
   ASSERT_GT(released, 0.0);
-  // The split of Implicit Midpoint's steps among the triangles (src/experiments/energy_injection.hpp):
+  // The split of Implicit Midpoint's steps among the triangles (include/weft/experiments/energy_injection.hpp):
   // at alpha = 1/2 without contacts the membranes' terms add up to the energy each step created
   // (the linear bending elements' terms vanish, up to the linear solve's tolerance), and every
   // triangle of the 11 x 11 grid has its row.

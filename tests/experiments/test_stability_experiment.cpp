@@ -1,4 +1,4 @@
-// The stability experiment (src/experiments/stability_experiment.hpp): reproducibility,
+// The stability experiment (include/weft/experiments/stability_experiment.hpp): reproducibility,
 // physical sanity of a cell, and the command's output and input checks.
 #include <gtest/gtest.h>
 

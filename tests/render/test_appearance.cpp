@@ -1,4 +1,4 @@
-// The look `weft render` shares with the viewer (src/render/appearance.hpp): the ramps' shape
+// The look `weft render` shares with the viewer (include/weft/render/appearance.hpp): the ramps' shape
 // (lightness monotonic away from their light end), the strain field and its percentile scale,
 // and the same colours, strain and scale from the viewer's JavaScript (run in node on the same
 // inputs) as from weft's C++.

@@ -3,7 +3,7 @@
 // with Implicit Midpoint (5% adaptive damping) at 5 ms and 2 ms, backward Euler at 2 ms and
 // 5 ms, BDF-2 and the alpha = 1/sqrt(3) BDF-2 at 2 ms. Per run: wall time split into its parts,
 // steps, CG iterations, intersections per frame, energies, and how lively the garment moves
-// (experiments/liveliness.hpp), including its distance from the Implicit Midpoint 2 ms run.
+// (weft/experiments/liveliness.hpp), including its distance from the Implicit Midpoint 2 ms run.
 #include <filesystem>
 #include <functional>
 #include <optional>
