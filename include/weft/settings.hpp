@@ -43,13 +43,13 @@ struct IntegratorSettings {
   /// (SolutionHistory); 0 starts each solve from the previous step's dv.
   int warm_start_history = 3;
   /// The energy guard (docs/guarded-midpoint.md): an alpha-family step that puts energy into
-  /// the cloth is taken again from its start as two halves (kGuardMaxSplits times at most),
-  /// then with a larger alpha (kGuardAlphas), which relaxes back to `alpha`. A BDF-2 step is
+  /// the cloth is taken again from its start as two halves (4 times at most),
+  /// then with a larger alpha (0.6, 0.75, then 1), which relaxes back to `alpha`. A BDF-2 step is
   /// taken again with a larger alpha (up to standard BDF-2, alpha = 1), then as a backward
   /// Euler step.
   bool guard = false;
   /// Newton iterations a semi-implicit step (alpha family, BDF-2) may add to its linearised
-  /// solve (Integrator::newton_iterate): the step's nonlinear equations re-linearised at the
+  /// solve: the step's nonlinear equations re-linearised at the
   /// iterate, with a backtracking line search. 0: one linearisation per step, as the paper's
   /// equations write the step. Steps that hold contacts in their solve stay linearised.
   int newton_iterations = 0;
