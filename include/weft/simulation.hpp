@@ -70,7 +70,7 @@ class Simulation {
   const VecX& velocities() const;
   VecX& positions();
   VecX& velocities();
-  const VecX& masses() const;  ///< per vertex, 3 entries each (kg)
+  const VecX& masses() const;  ///< one per vertex (kg)
   /// Per vertex: 1 where the scene pins it, 0 elsewhere (clamped vertices move with their clamps).
   const std::vector<char>& pinned() const;
   /// The viscosity adaptive damping added at the last step, per vertex (N s/m; the area-weighted

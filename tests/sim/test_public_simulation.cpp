@@ -1,0 +1,95 @@
+// weft::Simulation through the public API only (include/weft/, docs/api.md): what it reports
+// agrees with the scene it was built from, bad collider indices are refused with a message, and
+// the frames recorded for the animations are the states the simulation passed through.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "weft/error.hpp"
+#include "weft/recording.hpp"
+#include "weft/scene.hpp"
+#include "weft/simulation.hpp"
+
+using namespace weft;
+
+namespace {
+
+// A 7 x 7 sheet pinned at two corners above a sphere and a floor.
+Scene sheet_over_sphere() {
+  return parse_scene_text(R"({"weft_scene": 1, "duration": 0.06, "frame_interval": 0.02,
+    "integrator": {"method": "backward-euler", "dt": 0.01},
+    "cloth": {"mesh": {"grid": {"size": [0.3, 0.3], "vertices": [7, 7]}},
+              "placement": {"rotation_deg": [-90, 0, 0], "translation": [-0.15, 0.5, 0.15]},
+              "material": "cotton", "pins": {"grid": [[0, 0], [-1, 0]]}},
+    "colliders": [{"type": "sphere", "centre": [0, 0.2, 0], "radius": 0.2},
+                  {"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0]}]})",
+                          "sheet.json", ".");
+}
+
+}  // namespace
+
+TEST(PublicSimulation, ReportsTheSceneItWasBuiltFrom) {
+  Simulation sim(sheet_over_sphere());
+  EXPECT_EQ(sim.vertex_count(), 49);
+  EXPECT_EQ(sim.mesh().num_vertices(), 49);
+  EXPECT_EQ(sim.mesh().triangles.size(), 72u);  // 6 x 6 cells, two triangles each
+  EXPECT_EQ(sim.positions().size(), 3 * 49);
+  EXPECT_EQ(sim.velocities().size(), 3 * 49);
+  EXPECT_EQ(sim.masses().size(), 49);  // one per vertex
+  int pinned = 0;
+  for (char p : sim.pinned()) pinned += p ? 1 : 0;
+  EXPECT_EQ(pinned, 2);
+  EXPECT_EQ(sim.collider_count(), 2u);
+  EXPECT_EQ(sim.collider(0).shape, ColliderShape::kSphere);
+  EXPECT_EQ(sim.collider(1).shape, ColliderShape::kPlane);
+  EXPECT_EQ(sim.time(), 0.0);
+  sim.advance_to(0.03);
+  EXPECT_NEAR(sim.time(), 0.03, 1e-12);
+  EXPECT_EQ(sim.step_statistics().steps, 3);
+  EXPECT_GT(sim.damping_statistics().element_steps, 0);
+}
+
+TEST(PublicSimulation, ACollidersIndexOutOfRangeIsRefused) {
+  Simulation sim(sheet_over_sphere());
+  try {
+    sim.collider(2);
+    FAIL() << "no error for collider 2";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "collider 2 does not exist: the scene has 2 colliders");
+  }
+}
+
+TEST(FrameRecording, HoldsTheStatesItWasGivenAndTheCollidersAsked) {
+  Simulation sim(sheet_over_sphere());
+  FrameRecording with(sim, true, true), without(sim, false, false);
+  for (double t : {0.0, 0.02, 0.04}) {
+    if (t > 0) sim.advance_to(t);
+    with.add_frame(sim);
+    without.add_frame(sim);
+  }
+  ASSERT_EQ(with.frame_count(), 3u);
+  EXPECT_EQ(with.times().back(), sim.time());
+  const auto meshes = with.meshes();
+  ASSERT_EQ(meshes.size(), 3u);  // the cloth, then both colliders
+  EXPECT_EQ(meshes[0]->name, "cloth");
+  EXPECT_EQ(meshes[1]->name, "collider0");
+  EXPECT_EQ(meshes[2]->name, "collider1");
+  EXPECT_EQ(without.meshes().size(), 1u);
+  // The last frame is the state now, in single precision.
+  const AnimatedMesh& cloth = with.cloth();
+  ASSERT_EQ(cloth.frame_count(), 3);
+  for (int i = 0; i < 3 * sim.vertex_count(); ++i)
+    EXPECT_EQ(cloth.positions[3 * 2 * sim.vertex_count() + i], static_cast<float>(sim.positions()[i]));
+  EXPECT_EQ(cloth.viscosity.size(), 3u * sim.vertex_count());
+  EXPECT_TRUE(without.cloth().viscosity.empty());
+}
+
+TEST(FrameRecording, NamesABodyAfterItsBodyAndOtherCollidersAfterTheirPlace) {
+  ColliderSpec body;
+  body.shape = ColliderShape::kBody;
+  body.body = 1;
+  ColliderSpec box;
+  box.shape = ColliderShape::kBox;
+  EXPECT_EQ(collider_output_name(body, 4), "body1");
+  EXPECT_EQ(collider_output_name(box, 4), "collider4");
+}
