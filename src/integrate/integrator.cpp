@@ -51,26 +51,44 @@ std::string method_names() {
   return s;
 }
 
-Integrator::Integrator(System& system, IntegratorSettings settings)
-    : system_(system), settings_(settings), history_(settings.warm_start_history) {
-  step_.matrix.reset(system_.pattern());
-  const int n = system_.num_nodes();
-  mass3_.resize(3 * n);
-  for (int i = 0; i < n; ++i) mass3_.segment<3>(3 * i).setConstant(system_.node_mass()[i]);
+Integrator::Constants Integrator::make_constants(const System& system, IntegratorSettings settings) {
+  Constants c;
+  c.settings = settings;
+  const int n = system.num_nodes();
+  c.mass3.resize(3 * n);
+  for (int i = 0; i < n; ++i) c.mass3.segment<3>(3 * i).setConstant(system.node_mass()[i]);
   int free_nodes = 0;
-  for (char f : system_.fixed()) free_nodes += f ? 0 : 1;
-  preconditioner_ = choose_preconditioner(settings_, free_nodes);
-  if (settings_.newton_iterations > 0) newton_step_.matrix.reset(system_.pattern());
-  guard_alphas_ = {settings_.alpha};
+  for (char f : system.fixed()) free_nodes += f ? 0 : 1;
+  c.preconditioner = choose_preconditioner(settings, free_nodes);
+  c.guard_alphas = {settings.alpha};
   for (double a : kGuardAlphas)
-    if (a > settings_.alpha) guard_alphas_.push_back(a);
+    if (a > settings.alpha) c.guard_alphas.push_back(a);
   // BDF-2's guard climbs to alpha = 1 (standard BDF-2), then to backward Euler; a BDF-2 at
   // alpha = 1 already goes straight to backward Euler.
-  if (settings_.method == Method::Bdf2 && guard_alphas_.back() < 1.0) guard_alphas_.push_back(1.0);
+  if (settings.method == Method::Bdf2 && c.guard_alphas.back() < 1.0) c.guard_alphas.push_back(1.0);
+  return c;
 }
 
+Integrator::Data Integrator::make_data(const System& system, const Constants& constants) {
+  Data d;
+  d.history = SolutionHistory(constants.settings.warm_start_history);
+  d.step.matrix.reset(system.pattern());
+  if (constants.settings.newton_iterations > 0) d.newton_step.matrix.reset(system.pattern());
+  return d;
+}
+
+Integrator::Integrator(System& system, IntegratorSettings settings)
+    : own_constants_(std::make_unique<Constants>(make_constants(system, settings))),
+      own_data_(std::make_unique<Data>(make_data(system, *own_constants_))),
+      system_(system),
+      c_(*own_constants_),
+      d_(*own_data_) {}
+
+Integrator::Integrator(System& system, const Constants& constants, Data& data)
+    : system_(system), c_(constants), d_(data) {}
+
 double Integrator::ssor_relaxation() const {
-  if (settings_.ssor_relaxation > 0) return settings_.ssor_relaxation;
+  if (c_.settings.ssor_relaxation > 0) return c_.settings.ssor_relaxation;
   int free_nodes = 0;
   for (char f : system_.fixed()) free_nodes += f ? 0 : 1;
   return ssor_relaxation_for(free_nodes);
@@ -102,69 +120,50 @@ std::string preconditioner_name(Preconditioner p) {
 }
 
 PcgSettings Integrator::pcg_settings() const {
-  PcgSettings ps{settings_.cg_tolerance, settings_.cg_max_iterations, preconditioner_};
+  PcgSettings ps{c_.settings.cg_tolerance, c_.settings.cg_max_iterations, c_.preconditioner};
   ps.node_order = system_.solver_order();
-  ps.ssor_omega = settings_.ssor_relaxation;
-  ps.ssor_single_precision = settings_.ssor_single_precision;
-  ps.ssor_whole_blocks = !handlers_.empty();
+  ps.ssor_omega = c_.settings.ssor_relaxation;
+  ps.ssor_single_precision = c_.settings.ssor_single_precision;
+  ps.ssor_whole_blocks = !d_.handlers.empty();
   return ps;
 }
 
-Integrator::DynamicState Integrator::dynamic_state() const {
-  return {history_.snapshot(), history_alpha_,           history_beta_,          history_dt_b_,
-          history_t_,          pcg_.ssor_residual_ratio, pcg_.ssor_single_fallbacks, multigrid_setup_blocks_,
-          pulling_, stuck_, guard_rung_, guard_calm_steps_, guard_depth_, guard_depth_calm_steps_};
-}
-
-void Integrator::restore(const DynamicState& d) {
+void Integrator::restored() {
   const BlockPattern& P = system_.pattern();
-  if (!d.multigrid_setup_blocks.empty()) {
-    if (preconditioner_ != Preconditioner::kMultigrid || d.multigrid_setup_blocks.size() != static_cast<size_t>(P.num_blocks()))
+  if (!d_.multigrid_setup_blocks.empty()) {
+    if (c_.preconditioner != Preconditioner::kMultigrid ||
+        d_.multigrid_setup_blocks.size() != static_cast<size_t>(P.num_blocks()))
       throw std::invalid_argument("the multigrid matrix does not fit this system and preconditioner");
     BlockMatrix m;
     m.reset(P);
-    m.block = d.multigrid_setup_blocks;
-    pcg_.multigrid.setup(m, system_.fixed(), pcg_settings().multigrid);
+    m.block = d_.multigrid_setup_blocks;
+    d_.pcg.multigrid.setup(m, system_.fixed(), pcg_settings().multigrid);
   }
-  history_.restore(d.history);
-  history_alpha_ = d.history_alpha;
-  history_beta_ = d.history_beta;
-  history_dt_b_ = d.history_dt_b;
-  history_t_ = d.history_t;
-  pcg_.ssor_residual_ratio = d.ssor_residual_ratio;
-  pcg_.ssor_single_fallbacks = d.ssor_single_fallbacks;
-  multigrid_setup_blocks_ = d.multigrid_setup_blocks;
-  if (!d.contact_pulling.empty() && d.contact_pulling.size() != static_cast<size_t>(system_.num_nodes()))
+  if (!d_.pulling.empty() && d_.pulling.size() != static_cast<size_t>(system_.num_nodes()))
     throw std::invalid_argument("the contact flags do not fit this system");
-  if (!d.contact_stuck.empty() && d.contact_stuck.size() != static_cast<size_t>(system_.num_nodes()))
+  if (!d_.stuck.empty() && d_.stuck.size() != static_cast<size_t>(system_.num_nodes()))
     throw std::invalid_argument("the contact flags do not fit this system");
-  pulling_ = d.contact_pulling;
-  stuck_ = d.contact_stuck;
   // BDF-2's guard has one rung past its alphas (backward Euler).
-  const int rungs = static_cast<int>(guard_alphas_.size()) + (settings_.method == Method::Bdf2 ? 1 : 0);
-  if (d.guard_rung < 0 || d.guard_rung >= rungs || d.guard_calm_steps < 0)
+  const int rungs = static_cast<int>(c_.guard_alphas.size()) + (c_.settings.method == Method::Bdf2 ? 1 : 0);
+  if (d_.guard_rung < 0 || d_.guard_rung >= rungs || d_.guard_calm_steps < 0)
     throw std::invalid_argument("the guard's alpha does not fit these settings");
-  if (d.guard_depth < 0 || d.guard_depth > kGuardMaxSplits || d.guard_depth_calm_steps < 0)
+  if (d_.guard_depth < 0 || d_.guard_depth > kGuardMaxSplits || d_.guard_depth_calm_steps < 0)
     throw std::invalid_argument("the guard's step depth does not fit these settings");
-  guard_rung_ = d.guard_rung;
-  guard_calm_steps_ = d.guard_calm_steps;
-  guard_depth_ = d.guard_depth;
-  guard_depth_calm_steps_ = d.guard_depth_calm_steps;
 }
 
 double Integrator::guard_alpha() const {
-  return guard_rung_ < static_cast<int>(guard_alphas_.size()) ? guard_alphas_[guard_rung_] : 1.0;
+  return d_.guard_rung < static_cast<int>(c_.guard_alphas.size()) ? c_.guard_alphas[d_.guard_rung] : 1.0;
 }
 
 void Integrator::advance(State& s, double t_end, StepStatistics& stats) {
-  const double dt = settings_.dt;
-  energy_x_.resize(0);  // the system may have changed between calls
-  if (settings_.method != Method::Rk45) {
+  const double dt = c_.settings.dt;
+  d_.energy_x.resize(0);  // the system may have changed between calls
+  if (c_.settings.method != Method::Rk45) {
     const long steps = std::lround((t_end - s.t) / dt);
     for (long k = 0; k < steps; ++k) step(s, dt, stats);
     // No drift from summing dt. The warm-start history stays valid across the snap: it was
     // recorded at this very state, only its time is rounded differently.
-    if (history_t_ == s.t) history_t_ = t_end;
+    if (d_.history_t == s.t) d_.history_t = t_end;
     s.t = t_end;
     return;
   }
@@ -196,44 +195,44 @@ void Integrator::advance(State& s, double t_end, StepStatistics& stats) {
 }
 
 void Integrator::step(State& s, double dt, StepStatistics& stats) {
-  if (handlers_.empty()) {
+  if (d_.handlers.empty()) {
     single_step(s, dt, stats);
     return;
   }
   // A step the contact handlers could not make valid is taken again as two of half the size
   // (a few times at most; the last result stands).
   State start = s;
-  const std::vector<char> pulling = pulling_, stuck = stuck_;
-  last_step_ok_ = true;
+  const std::vector<char> pulling = d_.pulling, stuck = d_.stuck;
+  d_.last_step_ok = true;
   single_step(s, dt, stats);
-  if (last_step_ok_ || retry_depth_ >= kMaxStepHalvings) return;
+  if (d_.last_step_ok || d_.retry_depth >= kMaxStepHalvings) return;
   s = start;  // copied into s's own storage (State: x and v keep theirs)
-  pulling_ = pulling;
-  stuck_ = stuck;
-  history_.clear();
+  d_.pulling = pulling;
+  d_.stuck = stuck;
+  d_.history.clear();
   ++stats.halved_steps;
-  ++retry_depth_;
+  ++d_.retry_depth;
   step(s, 0.5 * dt, stats);
   step(s, 0.5 * dt, stats);
-  --retry_depth_;
+  --d_.retry_depth;
   --stats.steps;  // the attempt that was taken again is not an accepted step
 }
 
 void Integrator::single_step(State& s, double dt, StepStatistics& stats) {
-  const double alpha = settings_.alpha;
-  switch (settings_.method) {
+  const double alpha = c_.settings.alpha;
+  switch (c_.settings.method) {
     case Method::ForwardEuler:
       linear_step(s, dt, 0.0, 0.0, dt, stats);
       break;
     case Method::AlphaFamily:
-      if (settings_.guard) {
+      if (c_.settings.guard) {
         guarded_parts(s, dt, stats);
       } else {
         linear_step(s, dt, alpha, 0.0, dt, stats);
       }
       break;
     case Method::Bdf2:
-      if (settings_.guard) {
+      if (c_.settings.guard) {
         guarded_bdf2_step(s, dt, stats);
       } else {
         bdf2_step(s, dt, alpha, stats);
@@ -254,12 +253,12 @@ void Integrator::single_step(State& s, double dt, StepStatistics& stats) {
 void Integrator::potential_energy(const VecX& x, double& elastic, double& gravity) {
   // The guard asks for the energy at the very positions the contacts' fail-safe has just
   // measured: the last answer is kept with its positions.
-  if (!(energy_x_.size() == x.size() && energy_x_ == x)) {
-    system_.potential_energy(x, energy_elastic_, energy_gravity_);
-    energy_x_ = x;
+  if (!(d_.energy_x.size() == x.size() && d_.energy_x == x)) {
+    system_.potential_energy(x, d_.energy_elastic, d_.energy_gravity);
+    d_.energy_x = x;
   }
-  elastic = energy_elastic_;
-  gravity = energy_gravity_;
+  elastic = d_.energy_elastic;
+  gravity = d_.energy_gravity;
 }
 
 void Integrator::bdf2_step(State& s, double dt, double alpha, StepStatistics& stats) {
@@ -272,7 +271,7 @@ void Integrator::bdf2_step(State& s, double dt, double alpha, StepStatistics& st
 }
 
 double Integrator::kinetic_energy(const VecX& v) const {
-  return 0.5 * mass3_.dot(v.cwiseAbs2());
+  return 0.5 * c_.mass3.dot(v.cwiseAbs2());
 }
 
 // The energy balance of one step: with static pins, gravity the only external force and the
@@ -287,26 +286,26 @@ void Integrator::guarded_parts(State& s, double dt, StepStatistics& stats) {
   // A step the last steps had to halve starts halved as often (no attempt at the full step to
   // discard); the depth goes back up one halving after every kGuardRelaxSteps steps that needed
   // no deeper one.
-  guard_raised_now_ = false;
-  const int depth = guard_depth_;
+  d_.guard_raised_now = false;
+  const int depth = d_.guard_depth;
   const int parts = 1 << depth;
   for (int k = 0; k < parts; ++k) guarded_step(s, dt / parts, stats, depth);
-  if (guard_raised_now_) ++stats.guard_raised_steps;
-  if (guard_depth_ > depth) {
-    guard_depth_calm_steps_ = 0;
-  } else if (guard_depth_ > 0 && ++guard_depth_calm_steps_ >= kGuardRelaxSteps) {
-    --guard_depth_;
-    guard_depth_calm_steps_ = 0;
+  if (d_.guard_raised_now) ++stats.guard_raised_steps;
+  if (d_.guard_depth > depth) {
+    d_.guard_depth_calm_steps = 0;
+  } else if (d_.guard_depth > 0 && ++d_.guard_depth_calm_steps >= kGuardRelaxSteps) {
+    --d_.guard_depth;
+    d_.guard_depth_calm_steps = 0;
   }
 }
 
 void Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int splits) {
   auto tg = Clock::now();
-  guard_start_ = s;
-  const std::vector<char> pulling = pulling_, stuck = stuck_;
-  const int top = static_cast<int>(guard_alphas_.size()) - 1;
+  d_.guard_start = s;
+  const std::vector<char> pulling = d_.pulling, stuck = d_.stuck;
+  const int top = static_cast<int>(c_.guard_alphas.size()) - 1;
   for (;;) {
-    const double alpha = guard_alphas_[guard_rung_];
+    const double alpha = c_.guard_alphas[d_.guard_rung];
     stats.guard_seconds += seconds_since(tg);
     linear_step(s, dt, alpha, 0.0, dt, stats);
     tg = Clock::now();
@@ -317,50 +316,50 @@ void Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
       // Halving the step divides kappa by 4 and the elements' turn within the step by 2 while
       // keeping the step second order: on the stiff swing it dissipates a third of what
       // raising alpha does (docs/guarded-midpoint.md).
-      s = guard_start_;
-      pulling_ = pulling;
-      stuck_ = stuck;
+      s = d_.guard_start;
+      d_.pulling = pulling;
+      d_.stuck = stuck;
       ++stats.guard_split_steps;
-      guard_depth_ = std::max(guard_depth_, splits + 1);
+      d_.guard_depth = std::max(d_.guard_depth, splits + 1);
       guarded_step(s, 0.5 * dt, stats, splits + 1);
       guarded_step(s, 0.5 * dt, stats, splits + 1);
       return;
     }
-    if (guard_rung_ == top) break;
+    if (d_.guard_rung == top) break;
     // Still putting energy in at a sixteenth of the step: a larger alpha, which stays raised
     // for a few steps.
-    s = guard_start_;
-    pulling_ = pulling;
-    stuck_ = stuck;
-    ++guard_rung_;
-    guard_calm_steps_ = 0;
+    s = d_.guard_start;
+    d_.pulling = pulling;
+    d_.stuck = stuck;
+    ++d_.guard_rung;
+    d_.guard_calm_steps = 0;
     ++stats.guard_redone_steps;
   }
   stats.guard_seconds += seconds_since(tg);
-  accept_guarded(guard_alphas_[guard_rung_], stats);
+  accept_guarded(c_.guard_alphas[d_.guard_rung], stats);
 }
 
 bool Integrator::puts_energy_in(const State& s) {
-  const double kinetic0 = kinetic_energy(guard_start_.v);
-  const double e0 = kinetic0 + step_.elastic_energy + step_.gravity_energy;
-  const double scale = std::max(energy_scale_, kinetic0 + step_.elastic_energy);
+  const double kinetic0 = kinetic_energy(d_.guard_start.v);
+  const double e0 = kinetic0 + d_.step.elastic_energy + d_.step.gravity_energy;
+  const double scale = std::max(d_.energy_scale, kinetic0 + d_.step.elastic_energy);
   double elastic1, gravity1;
   potential_energy(s.x, elastic1, gravity1);
   const double e1 = kinetic_energy(s.v) + elastic1 + gravity1;
-  const double gain = (e1 - e0) + (s.viscous_dissipated - guard_start_.viscous_dissipated) -
-                      (s.contact_work - guard_start_.contact_work);
+  const double gain = (e1 - e0) + (s.viscous_dissipated - d_.guard_start.viscous_dissipated) -
+                      (s.contact_work - d_.guard_start.contact_work);
   // A non-finite end is a step that put energy in too.
   return !(gain <= kGuardTolerance * scale);
 }
 
 void Integrator::accept_guarded(double alpha, StepStatistics& stats, int parts) {
   stats.guard_parts += parts;
-  if (guard_rung_ > 0) {
-    guard_raised_now_ = true;
+  if (d_.guard_rung > 0) {
+    d_.guard_raised_now = true;
     stats.guard_max_alpha = std::max(stats.guard_max_alpha, alpha);
-    if (++guard_calm_steps_ >= kGuardRelaxSteps) {
-      --guard_rung_;
-      guard_calm_steps_ = 0;
+    if (++d_.guard_calm_steps >= kGuardRelaxSteps) {
+      --d_.guard_rung;
+      d_.guard_calm_steps = 0;
     }
   }
 }
@@ -374,23 +373,23 @@ void Integrator::accept_guarded(double alpha, StepStatistics& stats, int parts) 
 // size. The rung reached stays for the next steps and relaxes as in guarded_step.
 void Integrator::guarded_bdf2_step(State& s, double dt, StepStatistics& stats) {
   auto tg = Clock::now();
-  guard_start_ = s;
-  const std::vector<char> pulling = pulling_, stuck = stuck_;
-  const int backward_euler = static_cast<int>(guard_alphas_.size());  // the rung past the alphas
-  guard_raised_now_ = false;
+  d_.guard_start = s;
+  const std::vector<char> pulling = d_.pulling, stuck = d_.stuck;
+  const int backward_euler = static_cast<int>(c_.guard_alphas.size());  // the rung past the alphas
+  d_.guard_raised_now = false;
   for (;;) {
     stats.guard_seconds += seconds_since(tg);
-    if (guard_rung_ == backward_euler) {
+    if (d_.guard_rung == backward_euler) {
       linear_step(s, dt, 1.0, 0.0, dt, stats);
     } else {
-      bdf2_step(s, dt, guard_alphas_[guard_rung_], stats);
+      bdf2_step(s, dt, c_.guard_alphas[d_.guard_rung], stats);
     }
     tg = Clock::now();
     if (!puts_energy_in(s)) break;
-    s = guard_start_;
-    pulling_ = pulling;
-    stuck_ = stuck;
-    if (guard_rung_ == backward_euler) {
+    s = d_.guard_start;
+    d_.pulling = pulling;
+    d_.stuck = stuck;
+    if (d_.guard_rung == backward_euler) {
       // Backward Euler still puts energy in (an element turning fast): its halves, each
       // checked and halved again the same way (kGuardMaxSplits times at most).
       ++stats.guard_split_steps;
@@ -399,22 +398,22 @@ void Integrator::guarded_bdf2_step(State& s, double dt, StepStatistics& stats) {
       backward_euler_parts(s, 0.5 * dt, stats, 1, parts);
       backward_euler_parts(s, 0.5 * dt, stats, 1, parts);
       accept_guarded(1.0, stats, parts);
-      if (guard_raised_now_) ++stats.guard_raised_steps;
+      if (d_.guard_raised_now) ++stats.guard_raised_steps;
       return;
     }
-    ++guard_rung_;
-    guard_calm_steps_ = 0;
+    ++d_.guard_rung;
+    d_.guard_calm_steps = 0;
     ++stats.guard_redone_steps;
   }
   stats.guard_seconds += seconds_since(tg);
-  accept_guarded(guard_rung_ == backward_euler ? 1.0 : guard_alphas_[guard_rung_], stats);
-  if (guard_raised_now_) ++stats.guard_raised_steps;
+  accept_guarded(d_.guard_rung == backward_euler ? 1.0 : c_.guard_alphas[d_.guard_rung], stats);
+  if (d_.guard_raised_now) ++stats.guard_raised_steps;
 }
 
 void Integrator::backward_euler_parts(State& s, double dt, StepStatistics& stats, int splits, int& parts) {
   auto tg = Clock::now();
-  guard_start_ = s;
-  const std::vector<char> pulling = pulling_, stuck = stuck_;
+  d_.guard_start = s;
+  const std::vector<char> pulling = d_.pulling, stuck = d_.stuck;
   stats.guard_seconds += seconds_since(tg);
   linear_step(s, dt, 1.0, 0.0, dt, stats);
   tg = Clock::now();
@@ -423,9 +422,9 @@ void Integrator::backward_euler_parts(State& s, double dt, StepStatistics& stats
     stats.guard_seconds += seconds_since(tg);
     return;
   }
-  s = guard_start_;
-  pulling_ = pulling;
-  stuck_ = stuck;
+  s = d_.guard_start;
+  d_.pulling = pulling;
+  d_.stuck = stuck;
   ++stats.guard_split_steps;
   stats.guard_seconds += seconds_since(tg);
   backward_euler_parts(s, 0.5 * dt, stats, splits + 1, parts);
@@ -442,192 +441,192 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   // w = beta dx_p + dt_b v, so that the right-hand side is
   //   beta M dv_p + dt_b f + alpha dt_b K w
   // and the matrix M - alpha dt_b D - alpha^2 dt_b^2 K (METHOD.md 1-2).
-  tmp_ = dt_b * s.v;
-  if (beta != 0.0) tmp_ += beta * s.dx_prev;
-  step_.ck = alpha * alpha * dt_b * dt_b;
-  step_.cd = alpha * dt_b;
-  system_.assemble_step(s.x, s.v, tmp_, step_);
-  rhs_ = dt_b * step_.force;
-  if (beta != 0.0) rhs_ += beta * mass3_.cwiseProduct(s.dv_prev);
-  if (alpha > 0.0) rhs_ += alpha * dt_b * step_.stiffness_times_w;
-  for (int i = 0; i < n; ++i) step_.matrix.block[P.diagonal_slot(i)].diagonal().array() += m[i];
+  d_.tmp = dt_b * s.v;
+  if (beta != 0.0) d_.tmp += beta * s.dx_prev;
+  d_.step.ck = alpha * alpha * dt_b * dt_b;
+  d_.step.cd = alpha * dt_b;
+  system_.assemble_step(s.x, s.v, d_.tmp, d_.step);
+  d_.rhs = dt_b * d_.step.force;
+  if (beta != 0.0) d_.rhs += beta * c_.mass3.cwiseProduct(s.dv_prev);
+  if (alpha > 0.0) d_.rhs += alpha * dt_b * d_.step.stiffness_times_w;
+  for (int i = 0; i < n; ++i) d_.step.matrix.block[P.diagonal_slot(i)].diagonal().array() += m[i];
   stats.assembly_seconds += seconds_since(t0);
 
   const auto t1 = Clock::now();
   // Warm start: the combination of the last steps' solutions whose right-hand sides best fit
   // this one (SolutionHistory), else the previous change in velocity.
-  if (alpha != history_alpha_ || beta != history_beta_ || dt_b != history_dt_b_ ||
-      s.t != history_t_) {
-    history_.clear();
-    history_alpha_ = alpha;
-    history_beta_ = beta;
-    history_dt_b_ = dt_b;
+  if (alpha != d_.history_alpha || beta != d_.history_beta || dt_b != d_.history_dt_b ||
+      s.t != d_.history_t) {
+    d_.history.clear();
+    d_.history_alpha = alpha;
+    d_.history_beta = beta;
+    d_.history_dt_b = dt_b;
   }
-  if (!history_.guess(rhs_, dv_)) {
-    if (s.dv_prev.size() == 3 * n) dv_ = s.dv_prev; else dv_ = VecX::Zero(3 * n);
+  if (!d_.history.guess(d_.rhs, d_.dv)) {
+    if (s.dv_prev.size() == 3 * n) d_.dv = s.dv_prev; else d_.dv = VecX::Zero(3 * n);
   }
   // Contacts (semi-implicit steps that depend on dv): detected at the step's start, held by
   // the solve as constraints.
-  contacts_.clear();
-  if (!handlers_.empty()) {
+  d_.contacts.clear();
+  if (!d_.handlers.empty()) {
     const auto td = Clock::now();
-    for (ContactHandler* h : handlers_) h->detect(s.x, s.v, s.t, dt, contacts_);
-    if (pulling_.size() != static_cast<size_t>(n)) pulling_.assign(n, 0);
+    for (ContactHandler* h : d_.handlers) h->detect(s.x, s.v, s.t, dt, d_.contacts);
+    if (d_.pulling.size() != static_cast<size_t>(n)) d_.pulling.assign(n, 0);
     size_t kept = 0;
-    for (const NodeContact& c : contacts_) {
-      if (pulling_[c.node] && !c.penetrating && !c.kinematic) {
+    for (const NodeContact& c : d_.contacts) {
+      if (d_.pulling[c.node] && !c.penetrating && !c.kinematic) {
         ++stats.released_contacts;
         continue;
       }
-      contacts_[kept++] = c;
+      d_.contacts[kept++] = c;
     }
-    contacts_.resize(kept);
-    std::fill(pulling_.begin(), pulling_.end(), 0);
+    d_.contacts.resize(kept);
+    std::fill(d_.pulling.begin(), d_.pulling.end(), 0);
     stats.detection_seconds += seconds_since(td);
   }
-  if (alpha == 0.0) contacts_.clear();  // dx does not depend on dv: the fail-safe alone acts
-  if (!handlers_.empty()) {
+  if (alpha == 0.0) d_.contacts.clear();  // dx does not depend on dv: the fail-safe alone acts
+  if (!d_.handlers.empty()) {
     // A node that ended the last step stuck to a surface starts this one stuck.
-    if (stuck_.size() != static_cast<size_t>(n)) stuck_.assign(n, 0);
-    contact_stuck_.resize(contacts_.size());
-    for (size_t k = 0; k < contacts_.size(); ++k)
-      contact_stuck_[k] = contacts_[k].kinematic || (stuck_[contacts_[k].node] && contacts_[k].friction > 0);
-    std::fill(stuck_.begin(), stuck_.end(), 0);
+    if (d_.stuck.size() != static_cast<size_t>(n)) d_.stuck.assign(n, 0);
+    d_.contact_stuck.resize(d_.contacts.size());
+    for (size_t k = 0; k < d_.contacts.size(); ++k)
+      d_.contact_stuck[k] = d_.contacts[k].kinematic || (d_.stuck[d_.contacts[k].node] && d_.contacts[k].friction > 0);
+    std::fill(d_.stuck.begin(), d_.stuck.end(), 0);
   }
 
   const PcgSettings ps = pcg_settings();
-  if (preconditioner_ == Preconditioner::kMultigrid && !pcg_.multigrid.matches(P, system_.fixed(), ps.multigrid)) {
+  if (c_.preconditioner == Preconditioner::kMultigrid && !d_.pcg.multigrid.matches(P, system_.fixed(), ps.multigrid)) {
     // Built here rather than inside the solve, to keep the matrix it was built from.
-    pcg_.multigrid.setup(step_.matrix, system_.fixed(), ps.multigrid);
-    multigrid_setup_blocks_ = step_.matrix.block;
+    d_.pcg.multigrid.setup(d_.step.matrix, system_.fixed(), ps.multigrid);
+    d_.multigrid_setup_blocks = d_.step.matrix.block;
   }
   // With contacts, an active set: the solve holds the detected contacts; nodes it would leave
   // inside a collider's thickness at the step's end join them and the step is solved again
   // (a few times at most; the handler's fail-safe catches what remains).
-  if (!contacts_.empty() || (!handlers_.empty() && alpha > 0.0)) rhs_unconstrained_ = rhs_;
+  if (!d_.contacts.empty() || (!d_.handlers.empty() && alpha > 0.0)) d_.rhs_unconstrained = d_.rhs;
   PcgResult r;
   for (int pass = 0;; ++pass) {
-    if (!contacts_.empty()) {
+    if (!d_.contacts.empty()) {
       const auto tr = Clock::now();
       constrain(s, dt, alpha, beta, dt_b);
       stats.response_seconds += seconds_since(tr);
     }
-    r = solve_pcg(step_.matrix, rhs_, system_.fixed(), ps, dv_, pcg_);
+    r = solve_pcg(d_.step.matrix, d_.rhs, system_.fixed(), ps, d_.dv, d_.pcg);
     stats.cg_iterations += r.iterations;
     ++stats.cg_solves;
     if (!r.converged) ++stats.cg_failures;
-    if (contacts_.empty() && pass == 0) {
-      if (r.converged) history_.record(rhs_, system_.fixed(), dv_);
+    if (d_.contacts.empty() && pass == 0) {
+      if (r.converged) d_.history.record(d_.rhs, system_.fixed(), d_.dv);
     }
-    if (!contacts_.empty()) {
+    if (!d_.contacts.empty()) {
       const auto tr = Clock::now();
       unconstrain(dt, dt_b);
-      rhs_ = rhs_unconstrained_;
+      d_.rhs = d_.rhs_unconstrained;
       stats.response_seconds += seconds_since(tr);
     }
-    if (handlers_.empty() || alpha == 0.0 || pass + 1 >= kMaxContactPasses) break;
+    if (d_.handlers.empty() || alpha == 0.0 || pass + 1 >= kMaxContactPasses) break;
     // Contacts that pull are let go (a node stays held when it was let go before in this step
     // and came back, or starts inside the collider); nodes that would end inside join.
     const auto td = Clock::now();
     if (pass == 0) {
-      released_now_.assign(n, 0);
-      keep_held_.assign(n, 0);
+      d_.released_now.assign(n, 0);
+      d_.keep_held.assign(n, 0);
     }
     bool changed = false;
     size_t kept = 0;
     const VecX& mass = system_.node_mass();
-    for (size_t k = 0; k < contacts_.size(); ++k) {
-      const NodeContact& c = contacts_[k];
-      const Vec3& J = contact_impulse_[k];
+    for (size_t k = 0; k < d_.contacts.size(); ++k) {
+      const NodeContact& c = d_.contacts[k];
+      const Vec3& J = d_.contact_impulse[k];
       const double normal_impulse = c.normal.dot(J);
       // A stuck contact whose impulse left the friction cone slides.
-      if (contact_stuck_[k] && !c.kinematic &&
+      if (d_.contact_stuck[k] && !c.kinematic &&
           (J - c.normal * normal_impulse).norm() > c.friction * std::max(normal_impulse, 0.0)) {
-        contact_stuck_[k] = 0;
+        d_.contact_stuck[k] = 0;
         changed = true;
       }
-      if (normal_impulse < -kReleaseSpeed * mass[c.node] && !c.penetrating && !c.kinematic && !keep_held_[c.node]) {
-        released_now_[c.node] = 1;
+      if (normal_impulse < -kReleaseSpeed * mass[c.node] && !c.penetrating && !c.kinematic && !d_.keep_held[c.node]) {
+        d_.released_now[c.node] = 1;
         ++stats.released_contacts;
         changed = true;
         continue;
       }
-      contact_stuck_[kept] = contact_stuck_[k];
-      contacts_[kept++] = c;
+      d_.contact_stuck[kept] = d_.contact_stuck[k];
+      d_.contacts[kept++] = c;
     }
-    contacts_.resize(kept);
-    contact_stuck_.resize(kept);
-    tmp2_ = s.x + dt_b * (s.v + alpha * dv_);
-    if (beta != 0.0) tmp2_ += beta * s.dx_prev;
-    held_.assign(n, 0);
-    for (const NodeContact& c : contacts_) held_[c.node] = 1;
-    const size_t before = contacts_.size();
-    for (ContactHandler* h : handlers_) h->detect_end(s.x, tmp2_, s.t, dt, held_, contacts_);
-    contact_stuck_.resize(contacts_.size(), 0);  // those that join slide
-    for (size_t k = before; k < contacts_.size(); ++k)
-      if (released_now_[contacts_[k].node]) keep_held_[contacts_[k].node] = 1;
+    d_.contacts.resize(kept);
+    d_.contact_stuck.resize(kept);
+    d_.tmp2 = s.x + dt_b * (s.v + alpha * d_.dv);
+    if (beta != 0.0) d_.tmp2 += beta * s.dx_prev;
+    d_.held.assign(n, 0);
+    for (const NodeContact& c : d_.contacts) d_.held[c.node] = 1;
+    const size_t before = d_.contacts.size();
+    for (ContactHandler* h : d_.handlers) h->detect_end(s.x, d_.tmp2, s.t, dt, d_.held, d_.contacts);
+    d_.contact_stuck.resize(d_.contacts.size(), 0);  // those that join slide
+    for (size_t k = before; k < d_.contacts.size(); ++k)
+      if (d_.released_now[d_.contacts[k].node]) d_.keep_held[d_.contacts[k].node] = 1;
     stats.detection_seconds += seconds_since(td);
-    if (contacts_.size() != before) changed = true;
+    if (d_.contacts.size() != before) changed = true;
     if (!changed) break;
     ++stats.contact_passes;
   }
-  if (!contacts_.empty()) {
-    stats.contacts += static_cast<long>(contacts_.size());
-    stats.max_contacts = std::max(stats.max_contacts, static_cast<long>(contacts_.size()));
-    if (r.converged) history_.record(rhs_, system_.fixed(), dv_);
+  if (!d_.contacts.empty()) {
+    stats.contacts += static_cast<long>(d_.contacts.size());
+    stats.max_contacts = std::max(stats.max_contacts, static_cast<long>(d_.contacts.size()));
+    if (r.converged) d_.history.record(d_.rhs, system_.fixed(), d_.dv);
   }
   stats.solve_seconds += seconds_since(t1);
-  const int newton_iterations = settings_.newton_iterations > 0 && alpha > 0.0 && contacts_.empty()
+  const int newton_iterations = c_.settings.newton_iterations > 0 && alpha > 0.0 && d_.contacts.empty()
                                     ? newton_iterate(s, alpha, beta, dt_b, stats)
                                     : 0;
-  if (!handlers_.empty()) x_start_ = s.x;
+  if (!d_.handlers.empty()) d_.x_start = s.x;
 
   // dx = beta dx_p + dt_b (v + alpha dv), built in dx_prev's storage (no allocation per step);
-  // tmp_ holds the mean velocity dx/dt.
+  // d_.tmp holds the mean velocity dx/dt.
   if (beta != 0.0) {
-    s.dx_prev = beta * s.dx_prev + dt_b * (s.v + alpha * dv_);
+    s.dx_prev = beta * s.dx_prev + dt_b * (s.v + alpha * d_.dv);
   } else {
-    s.dx_prev = dt_b * (s.v + alpha * dv_);
+    s.dx_prev = dt_b * (s.v + alpha * d_.dv);
   }
   // Viscous work over the step, at the start's positions with the step's mean velocity
   // dx/dt (METHOD.md 6); for forward Euler the start's velocity. A step Newton iterated
   // evaluated its forces at x_a = x + alpha dx: its viscous force does its work there.
   if (newton_iterations > 0) {
-    tmp_ = s.dx_prev / dt;
-    tmp2_ = s.x + alpha * s.dx_prev;
-    s.viscous_dissipated -= dt * system_.viscous_power(tmp2_, tmp_);
+    d_.tmp = s.dx_prev / dt;
+    d_.tmp2 = s.x + alpha * s.dx_prev;
+    s.viscous_dissipated -= dt * system_.viscous_power(d_.tmp2, d_.tmp);
   } else if (alpha > 0.0) {
-    tmp_ = s.dx_prev / dt;
-    s.viscous_dissipated -= dt * system_.step_viscous_power(s.x, tmp_, step_);
+    d_.tmp = s.dx_prev / dt;
+    s.viscous_dissipated -= dt * system_.step_viscous_power(s.x, d_.tmp, d_.step);
   } else {
-    s.viscous_dissipated -= dt * step_.viscous_power;
+    s.viscous_dissipated -= dt * d_.step.viscous_power;
   }
   s.x += s.dx_prev;
-  s.v += dv_;
-  s.dv_prev = dv_;
+  s.v += d_.dv;
+  s.dv_prev = d_.dv;
   s.has_history = true;
-  if (!handlers_.empty()) {
+  if (!d_.handlers.empty()) {
     const auto tr = Clock::now();
     contact_velocities(s, dt, dt_b);
     stats.response_seconds += seconds_since(tr);
     finish_contacts(s, s.t, dt, stats);
   }
   s.t += dt;
-  history_t_ = s.t;
+  d_.history_t = s.t;
 }
 
 double Integrator::newton_residual(const State& s, double alpha, double beta, double dt_b, const VecX& dv,
                                    VecX& r) {
-  newton_v_ = s.v + alpha * dv;
-  newton_x_ = s.x + (alpha * dt_b) * newton_v_;
-  if (beta != 0.0) newton_x_ += (alpha * beta) * s.dx_prev;
-  system_.evaluate(newton_x_, newton_v_, false, eval_);
-  r = dt_b * eval_.force - mass3_.cwiseProduct(dv);
-  if (beta != 0.0) r += beta * mass3_.cwiseProduct(s.dv_prev);
+  d_.newton_v = s.v + alpha * dv;
+  d_.newton_x = s.x + (alpha * dt_b) * d_.newton_v;
+  if (beta != 0.0) d_.newton_x += (alpha * beta) * s.dx_prev;
+  system_.evaluate(d_.newton_x, d_.newton_v, false, d_.eval);
+  r = dt_b * d_.eval.force - c_.mass3.cwiseProduct(dv);
+  if (beta != 0.0) r += beta * c_.mass3.cwiseProduct(s.dv_prev);
   const auto& fixed = system_.fixed();
   for (size_t i = 0; i < fixed.size(); ++i)
     if (fixed[i]) r.segment<3>(3 * i).setZero();
-  return std::sqrt(r.cwiseAbs2().cwiseQuotient(mass3_).sum());
+  return std::sqrt(r.cwiseAbs2().cwiseQuotient(c_.mass3).sum());
 }
 
 // Newton's method on the step's equations before linearisation (METHOD.md 1-2): the step
@@ -646,22 +645,22 @@ int Integrator::newton_iterate(const State& s, double alpha, double beta, double
   const VecX& m = system_.node_mass();
   const BlockPattern& P = system_.pattern();
   const int n = system_.num_nodes();
-  const double rhs_norm = std::sqrt(rhs_.cwiseAbs2().cwiseQuotient(mass3_).sum());
-  double residual = newton_residual(s, alpha, beta, dt_b, dv_, newton_r_);
+  const double rhs_norm = std::sqrt(d_.rhs.cwiseAbs2().cwiseQuotient(c_.mass3).sum());
+  double residual = newton_residual(s, alpha, beta, dt_b, d_.dv, d_.newton_r);
   auto converged = [&] {
-    const double dv_norm = std::sqrt(mass3_.dot(dv_.cwiseAbs2()));
-    return residual <= settings_.newton_tolerance * std::max(dv_norm, rhs_norm);
+    const double dv_norm = std::sqrt(c_.mass3.dot(d_.dv.cwiseAbs2()));
+    return residual <= c_.settings.newton_tolerance * std::max(dv_norm, rhs_norm);
   };
   int taken = 0, moved = 0;
   bool stuck = false;
-  while (std::isfinite(residual) && !converged() && taken < settings_.newton_iterations) {
-    newton_step_.ck = alpha * alpha * dt_b * dt_b;
-    newton_step_.cd = alpha * dt_b;
-    newton_w_.setZero(3 * n);
-    system_.assemble_step(newton_x_, newton_v_, newton_w_, newton_step_);
-    for (int i = 0; i < n; ++i) newton_step_.matrix.block[P.diagonal_slot(i)].diagonal().array() += m[i];
-    newton_delta_.setZero(3 * n);
-    const PcgResult r = solve_pcg(newton_step_.matrix, newton_r_, system_.fixed(), pcg_settings(), newton_delta_, pcg_);
+  while (std::isfinite(residual) && !converged() && taken < c_.settings.newton_iterations) {
+    d_.newton_step.ck = alpha * alpha * dt_b * dt_b;
+    d_.newton_step.cd = alpha * dt_b;
+    d_.newton_w.setZero(3 * n);
+    system_.assemble_step(d_.newton_x, d_.newton_v, d_.newton_w, d_.newton_step);
+    for (int i = 0; i < n; ++i) d_.newton_step.matrix.block[P.diagonal_slot(i)].diagonal().array() += m[i];
+    d_.newton_delta.setZero(3 * n);
+    const PcgResult r = solve_pcg(d_.newton_step.matrix, d_.newton_r, system_.fixed(), pcg_settings(), d_.newton_delta, d_.pcg);
     stats.cg_iterations += r.iterations;
     ++stats.cg_solves;
     if (!r.converged) ++stats.cg_failures;
@@ -669,11 +668,11 @@ int Integrator::newton_iterate(const State& s, double alpha, double beta, double
     double fraction = 1.0;
     bool accepted = false;
     for (int halving = 0; halving <= kNewtonMaxHalvings; ++halving) {
-      newton_dv_trial_ = dv_ + fraction * newton_delta_;
-      const double trial = newton_residual(s, alpha, beta, dt_b, newton_dv_trial_, newton_r_trial_);
+      d_.newton_dv_trial = d_.dv + fraction * d_.newton_delta;
+      const double trial = newton_residual(s, alpha, beta, dt_b, d_.newton_dv_trial, d_.newton_r_trial);
       if (trial <= (1.0 - 1e-4 * fraction) * residual) {
-        dv_.swap(newton_dv_trial_);
-        newton_r_.swap(newton_r_trial_);
+        d_.dv.swap(d_.newton_dv_trial);
+        d_.newton_r.swap(d_.newton_r_trial);
         residual = trial;
         accepted = true;
         ++moved;
@@ -708,57 +707,57 @@ int Integrator::newton_iterate(const State& s, double alpha, double beta, double
 // back after the solve. z is chosen so that the step's displacement beta dx_p + dt_b (v +
 // alpha dv) has the prescribed part.
 Mat3 Integrator::contact_filter(size_t k) const {
-  const Vec3& n = contacts_[k].normal;
-  return contact_stuck_[k] ? Mat3(Mat3::Zero()) : Mat3(Mat3::Identity() - n * n.transpose());
+  const Vec3& n = d_.contacts[k].normal;
+  return d_.contact_stuck[k] ? Mat3(Mat3::Zero()) : Mat3(Mat3::Identity() - n * n.transpose());
 }
 
 void Integrator::constrain(const State& s, double dt, double alpha, double beta, double dt_b) {
   const BlockPattern& P = system_.pattern();
   const auto& row_start = P.row_start();
   const auto& column = P.column();
-  std::vector<Mat3>& blocks = step_.matrix.block;
-  const size_t count = contacts_.size();
-  contact_dv_.resize(count);
-  contact_rhs_.resize(count);
-  if (slot_saved_.size() != blocks.size()) slot_saved_.assign(blocks.size(), 0);
-  saved_blocks_.clear();
+  std::vector<Mat3>& blocks = d_.step.matrix.block;
+  const size_t count = d_.contacts.size();
+  d_.contact_dv.resize(count);
+  d_.contact_rhs.resize(count);
+  if (d_.slot_saved.size() != blocks.size()) d_.slot_saved.assign(blocks.size(), 0);
+  d_.saved_blocks.clear();
   auto save = [&](int slot) {
-    if (slot_saved_[slot]) return;
-    slot_saved_[slot] = 1;
-    saved_blocks_.emplace_back(slot, blocks[slot]);
+    if (d_.slot_saved[slot]) return;
+    d_.slot_saved[slot] = 1;
+    d_.saved_blocks.emplace_back(slot, blocks[slot]);
   };
   // z, and b - A z with the original blocks.
   for (size_t k = 0; k < count; ++k) {
-    const NodeContact& c = contacts_[k];
+    const NodeContact& c = d_.contacts[k];
     const int i = c.node;
     const Mat3 S = contact_filter(k);
     // The prescribed displacement: along the normal, and when stuck the surface's tangential one.
     Vec3 target = c.normal * c.normal_displacement;
     if (c.kinematic) {
       target = c.displacement;
-    } else if (contact_stuck_[k]) {
+    } else if (d_.contact_stuck[k]) {
       target += dt * (c.surface_velocity - c.normal * c.normal.dot(c.surface_velocity));
     }
     if (beta != 0.0) target -= beta * node(s.dx_prev, i);
-    contact_dv_[k] = (Mat3::Identity() - S) * ((target / dt_b - node(s.v, i)) / alpha);
-    contact_rhs_[k] = node(rhs_, i);
+    d_.contact_dv[k] = (Mat3::Identity() - S) * ((target / dt_b - node(s.v, i)) / alpha);
+    d_.contact_rhs[k] = node(d_.rhs, i);
   }
   for (size_t k = 0; k < count; ++k) {
-    const int i = contacts_[k].node;
-    const Vec3& z = contact_dv_[k];
+    const int i = d_.contacts[k].node;
+    const Vec3& z = d_.contact_dv[k];
     for (int e = row_start[i]; e < row_start[i + 1]; ++e)
-      node(rhs_, column[e]) -= blocks[e].transpose() * z;  // A_ji = A_ij^T
+      node(d_.rhs, column[e]) -= blocks[e].transpose() * z;  // A_ji = A_ij^T
   }
   // S (b - A z) and the warm start's y in the free directions.
   for (size_t k = 0; k < count; ++k) {
-    const int i = contacts_[k].node;
+    const int i = d_.contacts[k].node;
     const Mat3 S = contact_filter(k);
-    node(rhs_, i) = S * node(rhs_, i);
-    node(dv_, i) = S * node(dv_, i);
+    node(d_.rhs, i) = S * node(d_.rhs, i);
+    node(d_.dv, i) = S * node(d_.dv, i);
   }
   // S_i A_ij and A_ji S_i for every contact i (both: S_i A_ij S_j), the diagonal blocks last.
   for (size_t k = 0; k < count; ++k) {
-    const int i = contacts_[k].node;
+    const int i = d_.contacts[k].node;
     const Mat3 S = contact_filter(k);
     for (int e = row_start[i]; e < row_start[i + 1]; ++e) {
       const int j = column[e];
@@ -771,7 +770,7 @@ void Integrator::constrain(const State& s, double dt, double alpha, double beta,
     }
   }
   for (size_t k = 0; k < count; ++k) {
-    const int i = contacts_[k].node;
+    const int i = d_.contacts[k].node;
     const Mat3 S = contact_filter(k);
     const int d = P.diagonal_slot(i);
     save(d);
@@ -779,53 +778,53 @@ void Integrator::constrain(const State& s, double dt, double alpha, double beta,
     const double c = a.trace() / 3;
     a = S * a * S + c * (Mat3::Identity() - S);
   }
-  step_.matrix.constants_changed();
+  d_.step.matrix.constants_changed();
 }
 
 void Integrator::unconstrain(double dt, double dt_b) {
   const BlockPattern& P = system_.pattern();
   const auto& row_start = P.row_start();
   const auto& column = P.column();
-  std::vector<Mat3>& blocks = step_.matrix.block;
-  for (const auto& [slot, value] : saved_blocks_) {
+  std::vector<Mat3>& blocks = d_.step.matrix.block;
+  for (const auto& [slot, value] : d_.saved_blocks) {
     blocks[slot] = value;
-    slot_saved_[slot] = 0;
+    d_.slot_saved[slot] = 0;
   }
-  saved_blocks_.clear();
-  step_.matrix.constants_changed();
-  const size_t count = contacts_.size();
-  contact_impulse_.resize(count);
+  d_.saved_blocks.clear();
+  d_.step.matrix.constants_changed();
+  const size_t count = d_.contacts.size();
+  d_.contact_impulse.resize(count);
   for (size_t k = 0; k < count; ++k) {
-    const int i = contacts_[k].node;
-    node(dv_, i) = contact_filter(k) * node(dv_, i) + contact_dv_[k];
+    const int i = d_.contacts[k].node;
+    node(d_.dv, i) = contact_filter(k) * node(d_.dv, i) + d_.contact_dv[k];
   }
   // The constraint's impulse: what A dv - b leaves at the node, dt_b times the contact force.
   for (size_t k = 0; k < count; ++k) {
-    const int i = contacts_[k].node;
+    const int i = d_.contacts[k].node;
     Vec3 a_dv = Vec3::Zero();
-    for (int e = row_start[i]; e < row_start[i + 1]; ++e) a_dv += blocks[e] * node(dv_, column[e]);
-    contact_impulse_[k] = (dt / dt_b) * (a_dv - contact_rhs_[k]);
+    for (int e = row_start[i]; e < row_start[i + 1]; ++e) a_dv += blocks[e] * node(d_.dv, column[e]);
+    d_.contact_impulse[k] = (dt / dt_b) * (a_dv - d_.contact_rhs[k]);
   }
 }
 
 void Integrator::contact_velocities(State& s, double dt, double dt_b) {
   const VecX& m = system_.node_mass();
-  for (size_t k = 0; k < contacts_.size(); ++k) {
-    const NodeContact& c = contacts_[k];
+  for (size_t k = 0; k < d_.contacts.size(); ++k) {
+    const NodeContact& c = d_.contacts[k];
     const int i = c.node;
-    const Vec3& J = contact_impulse_[k];
+    const Vec3& J = d_.contact_impulse[k];
     const double normal_impulse = c.normal.dot(J);
-    if (normal_impulse < -kReleaseSpeed * m[i] && !c.kinematic) pulling_[i] = 1;
+    if (normal_impulse < -kReleaseSpeed * m[i] && !c.kinematic) d_.pulling[i] = 1;
     // The work of the constraint's impulse over the step's displacement.
-    s.contact_work += J.dot(node(s.x, i) - node(x_start_, i)) / dt;
+    s.contact_work += J.dot(node(s.x, i) - node(d_.x_start, i)) / dt;
     const Vec3 v_old = node(s.v, i);
     Vec3 v_new;
     if (c.kinematic) {
       v_new = c.surface_velocity;
-    } else if (contact_stuck_[k]) {
+    } else if (d_.contact_stuck[k]) {
       // Stuck: the node leaves the step moving with the surface, and stays stuck.
       v_new = c.surface_velocity;
-      stuck_[i] = 1;
+      d_.stuck[i] = 1;
     } else {
       // Sliding: Coulomb friction takes up to friction * impulse / m off the sliding speed (a
       // change of velocity after the step, which only takes kinetic energy out); a node it
@@ -840,7 +839,7 @@ void Integrator::contact_velocities(State& s, double dt, double dt_b) {
       const double stop = (dt_b / dt) * c.friction * std::max(normal_impulse, 0.0) / m[i];
       const bool stops = c.friction > 0 && slide <= stop;
       v_new = c.surface_velocity + (stops ? 0.0 : 1 - stop / slide) * ut;
-      stuck_[i] = stops ? 1 : 0;
+      d_.stuck[i] = stops ? 1 : 0;
     }
     node(s.v, i) = v_new;
     // BDF-2's history as if the node had moved at its new velocity: the change of velocity as
@@ -854,7 +853,7 @@ void Integrator::contact_velocities(State& s, double dt, double dt_b) {
 
 void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics& stats) {
   const auto tr = Clock::now();
-  v_before_fail_safe_ = s.v;
+  d_.v_before_fail_safe = s.v;
   // The fail-safes first, then the handlers that prescribe motions (clamps), which have the
   // last word on their vertices. Each group's work is the whole change of mechanical energy it
   // made: besides the kinetic energy of its changes of velocity (report.work), moving a vertex
@@ -863,14 +862,14 @@ void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics&
   ContactReport all;
   for (bool prescribed : {false, true}) {
     ContactReport report;
-    x_before_fail_safe_ = s.x;
-    VecX& v_before = v_before_group_;
+    d_.x_before_fail_safe = s.x;
+    VecX& v_before = d_.v_before_group;
     v_before = s.v;
-    for (ContactHandler* h : handlers_)
-      if (h->prescribes_motion() == prescribed) h->finish_step(x_start_, s.x, s.v, t0, dt, report);
+    for (ContactHandler* h : d_.handlers)
+      if (h->prescribes_motion() == prescribed) h->finish_step(d_.x_start, s.x, s.v, t0, dt, report);
     if (report.fail_safe_moves > 0) {
       double elastic, gravity;
-      potential_energy(x_before_fail_safe_, elastic, gravity);
+      potential_energy(d_.x_before_fail_safe, elastic, gravity);
       const double before = kinetic_energy(v_before) + elastic + gravity;
       potential_energy(s.x, elastic, gravity);
       report.work = kinetic_energy(s.v) + elastic + gravity - before;
@@ -884,28 +883,28 @@ void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics&
     // BDF-2's last displacement as if the nodes had moved at their corrected velocities, or it
     // would repeat a third of an approach the fail-safe stopped; its last change of velocity
     // is left alone, or it would repeat a third of the fail-safe's impulse.
-    v_before_fail_safe_ = s.v - v_before_fail_safe_;
-    s.dx_prev += dt * v_before_fail_safe_;
+    d_.v_before_fail_safe = s.v - d_.v_before_fail_safe;
+    s.dx_prev += dt * d_.v_before_fail_safe;
   }
   if (!all.ok) ++stats.failed_contact_steps;
-  last_step_ok_ = all.ok;
+  d_.last_step_ok = all.ok;
   stats.fail_safe_moves += all.fail_safe_moves;
   stats.response_seconds += seconds_since(tr);
 }
 
 void Integrator::derivative(const VecX& x, const VecX& v, VecX& a, double& viscous_power) {
-  system_.evaluate(x, v, false, eval_);
-  a = eval_.force.cwiseQuotient(mass3_);
+  system_.evaluate(x, v, false, d_.eval);
+  a = d_.eval.force.cwiseQuotient(c_.mass3);
   const auto& fixed = system_.fixed();
   for (size_t i = 0; i < fixed.size(); ++i)
     if (fixed[i]) a.segment<3>(3 * i).setZero();
-  viscous_power = eval_.viscous_power;
+  viscous_power = d_.eval.viscous_power;
 }
 
 void Integrator::rk4_step(State& s, double dt, StepStatistics& stats) {
   const auto t0 = Clock::now();
   system_.begin_step(s.x, s.v, dt);
-  if (!handlers_.empty()) x_start_ = s.x;
+  if (!d_.handlers.empty()) d_.x_start = s.x;
   VecX a1, a2, a3, a4;
   double p1, p2, p3, p4;
   derivative(s.x, s.v, a1, p1);
@@ -925,7 +924,7 @@ void Integrator::rk4_step(State& s, double dt, StepStatistics& stats) {
   s.dv_prev = std::move(dv);
   s.has_history = true;
   stats.assembly_seconds += seconds_since(t0);
-  if (!handlers_.empty()) finish_contacts(s, s.t, dt, stats);
+  if (!d_.handlers.empty()) finish_contacts(s, s.t, dt, stats);
   s.t += dt;
 }
 
@@ -968,7 +967,7 @@ bool Integrator::rk45_try(State& s, double h, double& error_norm, StepStatistics
     dissipated -= h * b5[st] * power[st];
   }
   stats.assembly_seconds += seconds_since(t0);
-  const double tol = settings_.error_tolerance;
+  const double tol = c_.settings.error_tolerance;
   double sum = 0;
   for (Eigen::Index i = 0; i < ex.size(); ++i) {
     const double sx = tol * (1 + std::max(std::abs(s.x[i]), std::abs(x5[i])));
@@ -977,14 +976,14 @@ bool Integrator::rk45_try(State& s, double h, double& error_norm, StepStatistics
   }
   error_norm = std::sqrt(sum / (2.0 * ex.size()));
   if (!(error_norm <= 1.0)) return false;
-  if (!handlers_.empty()) x_start_ = s.x;
+  if (!d_.handlers.empty()) d_.x_start = s.x;
   s.dx_prev = x5 - s.x;
   s.dv_prev = v5 - s.v;
   s.x = x5;  // copied: x and v keep their storage (State)
   s.v = v5;
   s.viscous_dissipated += dissipated;
   s.has_history = true;
-  if (!handlers_.empty()) finish_contacts(s, s.t, h, stats);
+  if (!d_.handlers.empty()) finish_contacts(s, s.t, h, stats);
   s.t += h;
   return true;
 }

@@ -17,257 +17,76 @@
 
 namespace weft {
 
-namespace {
-// Shares of the set-up time by stage (the integrator and the energy reference take the rest).
-constexpr double kSetupShareMesh = 0.2, kSetupShareModel = 0.6, kSetupShareSystem = 0.1;
-/// The scene's garment: its pattern meshed, placed around the first body in its bind pose and
-/// sewn (weft/garment/sewing.hpp), each panel in its material (the scene's cloth material unless
-/// cloth.mesh.pattern.panels.NAME.material gives one); `materials` receives them per triangle.
-TriMesh sew_scene_garment(const Scene& scene, const SetupProgress& on_setup, TriangleMaterials& materials) {
-  const GarmentSpec& g = *scene.cloth.garment;
-  const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": cloth.mesh.pattern";
-  if (on_setup) on_setup("garment: meshing " + g.pattern_file, 0.0);
-  const Pattern pattern = load_pattern(g.pattern_file);
-  GarmentMeshOptions mesh_options;
-  mesh_options.target_edge_m = g.edge_length_m;
-  for (const auto& [name, degrees] : g.panel_grain_deg) mesh_options.grain_angle_rad[name] = degrees * M_PI / 180;
-  const GarmentMesh garment = mesh_garment(pattern, mesh_options);
-  const BindBody body = load_bind_body(scene.bodies.front(), 1.0);
-  PlacementOptions placement;
-  placement.clearance_m = g.clearance_m;
-  placement.overrides = g.panels;
-  const PlacedGarment placed = place_garment(pattern, garment, body, placement);
-  SewingOptions sewing;
-  sewing.material = scene.cloth.material;
-  for (const Panel& panel : pattern.panels) {
-    const auto own = g.panel_materials.find(panel.name);
-    sewing.panel_materials.push_back(own == g.panel_materials.end() ? scene.cloth.material : own->second);
-  }
-  sewing.seam_stiffness_N_m = g.seam_stiffness_N_m;
-  sewing.max_time_s = g.sewing_time_s;
-  if (on_setup) on_setup("garment: sewing", 0.0);
-  SewnGarment sewn = sew_garment(placed, body, sewing);
-  if (sewn.intersections.count() > 0)
-    std::fprintf(stderr, "weft: warning: %s: the sewn garment starts with %zu intersecting triangle pairs\n",
-                 where.c_str(), sewn.intersections.count());
-  materials = {std::move(sewing.panel_materials), std::move(sewn.panel_of_triangle)};
-  return std::move(sewn.mesh);
-}
 
-}  // namespace
-
-SimulationCore::SimulationCore(const Scene& scene, const SetupProgress& on_setup) : scene_(scene) {
-  // The fractions are roughly the stages' shares of a large grid's set-up (a 601x601 grid).
-  auto stage = [&](const char* name, double fraction) {
-    if (on_setup) on_setup(name, fraction);
-  };
-  stage("cloth mesh", 0.0);
-  // One material for the whole cloth, unless a garment's panels or a mesh made in code give
-  // one per triangle.
-  TriangleMaterials materials{{scene.cloth.material}, {}};
-  if (!scene.cloth.garment && !scene.cloth.triangle_materials.materials.empty())
-    materials = scene.cloth.triangle_materials;
-  TriMesh mesh =
-      scene.cloth.garment ? sew_scene_garment(scene, on_setup, materials) : build_cloth_mesh(scene.cloth);
-  // Problems found while building the model (a degenerate triangle, a bad pin) name the
-  // scene and the mesh they come from.
-  const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": cloth" +
-                            (scene.cloth.obj_path.empty() ? std::string(" grid") : " mesh " + scene.cloth.obj_path);
-  std::vector<std::vector<int>> clamp_groups;
-  try {
-    const std::vector<int> pins = resolve_pins(scene.cloth, mesh);
-    clamp_groups = resolve_clamps(scene.cloth, mesh, pins);
-    stage("model", kSetupShareMesh);
-    model_ = std::make_unique<ClothModel>(build_cloth_model(std::move(mesh), materials, scene.gravity, pins,
-                                                            parse_bending_model(scene.cloth.bending_model, "cloth.bending_model"),
-                                                            scene.cloth.seams));
-  } catch (const InputError& e) {
-    throw InputError(where + ": " + e.what());
-  }
-  // RK45 steps adaptively: report its stiffness factors at the scene's (largest) step.
-  DampingSettings damping{scene.effective_damping_ratio()};
-  if (scene.integrator.method == Method::Rk45) damping.reference_dt = scene.integrator.dt;
-  stage("element system", kSetupShareMesh + kSetupShareModel);
-  system_ = std::make_unique<ClothSystem>(*model_, damping);
-  stage("integrator", kSetupShareMesh + kSetupShareModel + kSetupShareSystem);
-  integrator_ = std::make_unique<Integrator>(*system_, scene.integrator);
-  for (size_t k = 0; k < scene.bodies.size(); ++k) {
-    stage(("body " + std::to_string(k) + " (rig, motion, skinning)").c_str(), kSetupShareMesh + kSetupShareModel + kSetupShareSystem);
-    bodies_.push_back(std::make_unique<WalkingBody>(scene.bodies[k]));
-  }
-  for (const ColliderSpec& c : scene.colliders) {
-    if (c.shape == ColliderShape::kBody) {
-      const WalkingBody* body = bodies_[c.body].get();
-      colliders_.push_back(make_mesh_collider(
-          c, body->triangles(), [body](double t, Points& out) { body->positions(t, out); }, true));
-    } else if (c.shape == ColliderShape::kMesh) {
-      const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": " + c.name;
-      ObjMesh obj;
-      try {
-        obj = read_obj(c.obj_path);
-      } catch (const InputError& e) {
-        throw InputError(where + ": " + e.what());
-      }
-      if (obj.triangles.rows() == 0) throw InputError(where + ": " + c.obj_path + ": no faces (a mesh collider needs triangles)");
-      const Mat3 R = rotation_from_degrees(c.rotation_deg);
-      for (Eigen::Index v = 0; v < obj.positions.rows(); ++v)
-        obj.positions.row(v) = (R * (c.scale * obj.positions.row(v).transpose()) + c.translation).transpose();
-      // The motion as scene_ holds it: move_collider may replace it between steps.
-      const RigidMotion* motion = &scene_.colliders[colliders_.size()].motion;
-      colliders_.push_back(make_mesh_collider(
-          c, obj.triangles,
-          [placed = std::move(obj.positions), motion](double t, Points& out) {
-            const Eigen::Isometry3d T = motion->at(t);
-            out.resize(placed.rows(), 3);
-            for (Eigen::Index v = 0; v < placed.rows(); ++v) out.row(v) = (T * Vec3(placed.row(v))).transpose();
-          },
-          c.closed));
-    } else {
-      colliders_.push_back(make_analytic_collider(c));
-    }
-  }
-  // Clamped vertices follow their clamps whatever touches them: the colliders' and the
-  // cloth's contact handling take them as pinned.
-  std::vector<char> held_still = model_->fixed;
-  if (!clamp_groups.empty()) {
-    std::vector<RigidMotion> motions;
-    for (const ClampSpec& c : scene.cloth.clamps) motions.push_back(c.motion);
-    clamps_ = std::make_unique<Clamps>(clamp_groups, std::move(motions), model_->initial_positions(), model_->mass);
-    for (size_t i = 0; i < held_still.size(); ++i) held_still[i] = held_still[i] || clamps_->clamped()[i];
-  }
-  if (!colliders_.empty()) {
-    std::vector<Collider*> list;
-    for (const auto& c : colliders_) list.push_back(c.get());
-    contacts_ = std::make_unique<ColliderContacts>(std::move(list), model_->mass, held_still,
-                                                   model_->mesh.triangles);
-    integrator_->add_contact_handler(contacts_.get());
-  }
-  // Cloth-cloth contact after the colliders': its fail-safe sees their corrections.
-  if (scene.cloth.self_collision) {
-    self_contacts_ = std::make_unique<SelfContacts>(model_->mesh.triangles, model_->initial_positions(), model_->mass,
-                                                    held_still, scene.cloth.thickness, scene.cloth.friction);
-    if (contacts_) self_contacts_->set_held_nodes(&contacts_->touching());
-    if (!scene.cloth.seams.empty()) {
-      // The two sides of a seam are one point of the cloth to come: they do not push apart.
-      std::vector<int> group(model_->num_vertices());
-      std::iota(group.begin(), group.end(), 0);
-      auto find = [&group](int i) {
-        while (group[i] != i) i = group[i] = group[group[i]];
-        return i;
-      };
-      for (const Seam& seam : scene.cloth.seams) group[std::max(find(seam.a), find(seam.b))] = std::min(find(seam.a), find(seam.b));
-      for (int i = 0; i < model_->num_vertices(); ++i) group[i] = find(i);
-      self_contacts_->set_vertex_groups(std::move(group));
-    }
-    integrator_->add_contact_handler(self_contacts_.get());
-  }
-  // The clamps last: their contacts join the others', and they put their vertices on their
-  // paths after every other correction.
-  if (clamps_) integrator_->add_contact_handler(clamps_.get());
-  state_.x = model_->initial_positions();
-  state_.v = VecX::Zero(state_.x.size());
-  for (int i = 0; i < model_->num_vertices(); ++i)
-    if (!model_->fixed[i]) node(state_.v, i) = scene.cloth.initial_velocity;
-  for (size_t k = 0; k < clamp_groups.size(); ++k)
-    for (int i : clamp_groups[k]) {
-      node(state_.x, i) = clamps_->position(k, i, 0);
-      node(state_.v, i) = clamps_->velocity(k, i, 0);
-    }
-  state_.t = 0;
-  set_energy_reference();
-  stage("done", 1.0);
+SimulationCore::SimulationCore(const Scene& scene, const SetupProgress& on_setup)
+    : model_(build_model(scene, on_setup)), data_(make_data(*model_)) {
+  system_ = std::make_unique<ClothSystem>(*model_->cloth, model_->system, data_->system);
+  integrator_ = std::make_unique<Integrator>(*system_, model_->integrator, data_->integrator);
 }
 
 SimulationCore::~SimulationCore() = default;
 
-void SimulationCore::advance_to(double t) {
-  // While pins move: a step at a time (each arrival is on the step grid), each moving pin's
-  // velocity set again after every step to reach its target at its arrival, so that a pin the
-  // self-collision fail-safe held still for a step (an impact zone holding a pin stops) catches
-  // up; pins that arrived are put on their targets and stopped.
-  const double slack = 1e-9 * scene_.integrator.dt;
-  while (!pin_moves_.empty() && state_.t < t - slack) {
-    double next = std::min(t, state_.t + scene_.integrator.dt);
-    for (const PinMove& m : pin_moves_) next = std::min(next, m.arrival);
-    integrator_->advance(state_, next, stats_);
-    std::erase_if(pin_moves_, [&](const PinMove& m) {
-      if (m.arrival > state_.t + slack) {
-        set_pin_velocity(m.node, (m.target - node(state_.x, m.node)) / (m.arrival - state_.t));
-        return false;
-      }
-      node(state_.x, m.node) = m.target;
-      set_pin_velocity(m.node, Vec3::Zero());
-      return true;
-    });
-  }
-  integrator_->advance(state_, t, stats_);
-}
+void SimulationCore::advance_to(double t) { advance(*model_, *data_, t); }
 
 double SimulationCore::arrival_time(double arrival, const std::string& what) const {
-  const double now = state_.t, dt = scene_.integrator.dt;
+  const double now = data_->state.t, dt = model_->scene.integrator.dt;
   if (!(arrival > now) || !std::isfinite(arrival))
     throw InputError(what + ": the arrival time " + std::to_string(arrival) + " s must be after the current time " +
                      std::to_string(now) + " s");
-  if (scene_.integrator.method == Method::Rk45) return arrival;
+  if (model_->scene.integrator.method == Method::Rk45) return arrival;
   return now + std::max(1L, std::lround((arrival - now) / dt)) * dt;
-}
-
-void SimulationCore::set_pin_velocity(int i, const Vec3& v) {
-  node(state_.v, i) = v;
-  // BDF-2 moves a node by beta dx_prev + dt_b v (with dv = 0 on a pin): a previous change of
-  // dt v, beta dt + dt_b = dt, makes that dt v from the next step on.
-  if (state_.has_history) {
-    node(state_.dx_prev, i) = scene_.integrator.dt * v;
-    node(state_.dv_prev, i).setZero();
-  }
 }
 
 void SimulationCore::move_pins(const std::vector<int>& nodes, const std::vector<Vec3>& targets, double arrival) {
   const std::string what = "move_pins";
+  const ClothModel& cloth = model();
   if (nodes.size() != targets.size())
     throw InputError(what + ": " + std::to_string(nodes.size()) + " vertices but " + std::to_string(targets.size()) +
                      " targets (one target per vertex)");
   for (size_t k = 0; k < nodes.size(); ++k) {
     const int i = nodes[k];
-    if (i < 0 || i >= model_->num_vertices())
+    if (i < 0 || i >= cloth.num_vertices())
       throw InputError(what + ": vertex " + std::to_string(i) + " does not exist (the cloth has " +
-                       std::to_string(model_->num_vertices()) + " vertices)");
-    if (!model_->fixed[i]) throw InputError(what + ": vertex " + std::to_string(i) + " is not pinned");
+                       std::to_string(cloth.num_vertices()) + " vertices)");
+    if (!cloth.fixed[i]) throw InputError(what + ": vertex " + std::to_string(i) + " is not pinned");
     if (!targets[k].allFinite())
       throw InputError(what + ": the target of vertex " + std::to_string(i) + " is not finite");
   }
   const double when = arrival_time(arrival, what);
+  State& s = data_->state;
   for (size_t k = 0; k < nodes.size(); ++k) {
     const int i = nodes[k];
-    std::erase_if(pin_moves_, [i](const PinMove& m) { return m.node == i; });
-    pin_moves_.push_back({i, targets[k], when});
-    set_pin_velocity(i, (targets[k] - node(state_.x, i)) / (when - state_.t));
+    std::erase_if(data_->pin_moves, [i](const PinMove& m) { return m.node == i; });
+    data_->pin_moves.push_back({i, targets[k], when});
+    set_pin_velocity(*model_, *data_, i, (targets[k] - node(s.x, i)) / (when - s.t));
   }
 }
 
 void SimulationCore::move_collider(size_t k, const Eigen::Isometry3d& target, double arrival) {
   const std::string what = "move_collider";
-  if (k >= colliders_.size())
+  const size_t count = data_->colliders.size();
+  if (k >= count)
     throw InputError(what + ": collider " + std::to_string(k) + " does not exist (the scene has " +
-                     std::to_string(colliders_.size()) + " colliders)");
-  ColliderSpec& spec = scene_.colliders[k];
+                     std::to_string(count) + " colliders)");
+  const ColliderSpec& spec = model_->scene.colliders[k];
   if (spec.shape == ColliderShape::kBody)
     throw InputError(what + ": " + spec.name + " is a walking body, moved by its motion file, not rigidly");
   if (!target.matrix().allFinite()) throw InputError(what + ": the target pose of " + spec.name + " is not finite");
   const double when = arrival_time(arrival, what);
-  const Eigen::Isometry3d now = spec.motion.at(state_.t);
+  const double now_t = data_->state.t;
+  const Eigen::Isometry3d now = data_->collider_motions[k].at(now_t);
   RigidMotion motion;
   motion.kind = RigidMotion::Kind::kKeyframes;
-  motion.keys = {{state_.t, now.translation(), degrees_from_rotation(now.linear())},
+  motion.keys = {{now_t, now.translation(), degrees_from_rotation(now.linear())},
                  {when, target.translation(), degrees_from_rotation(target.linear())}};
-  spec.motion = motion;
-  colliders_[k]->set_motion(motion);
+  data_->collider_motions[k] = motion;
+  data_->colliders[k]->set_motion(motion);
 }
 
 void SimulationCore::collider_surface(size_t k, double t, Points& positions, Triangles& triangles) const {
-  const Collider& c = *colliders_.at(k);
+  const Collider& c = *data_->colliders.at(k);
   if (c.spec().shape == ColliderShape::kBody) {
-    const WalkingBody& body = *bodies_[c.spec().body];
+    const WalkingBody& body = *model_->bodies[c.spec().body];
     body.positions(t, positions);
     if (triangles.rows() == 0) triangles = body.triangles();
   } else {
@@ -276,276 +95,33 @@ void SimulationCore::collider_surface(size_t k, double t, Points& positions, Tri
 }
 
 Eigen::Isometry3d SimulationCore::collider_pose(size_t k, double t) const {
-  if (k >= colliders_.size())
+  const std::vector<ColliderSpec>& specs = model_->scene.colliders;
+  if (k >= specs.size())
     throw InputError("collider_pose: collider " + std::to_string(k) + " does not exist (the scene has " +
-                     std::to_string(colliders_.size()) + " colliders)");
-  if (scene_.colliders[k].shape == ColliderShape::kBody)
-    throw InputError("collider_pose: " + scene_.colliders[k].name + " is a walking body, without a rigid pose");
-  return scene_.colliders[k].motion.at(t);
+                     std::to_string(specs.size()) + " colliders)");
+  if (specs[k].shape == ColliderShape::kBody)
+    throw InputError("collider_pose: " + specs[k].name + " is a walking body, without a rigid pose");
+  return data_->collider_motions[k].at(t);
 }
 
 void SimulationCore::reset_state(const VecX& x, const VecX& v) {
-  state_ = State{};
-  state_.x = x;
-  state_.v = v;
-  set_energy_reference();
+  // x and v may be the state's own vectors; the state keeps its storage (the Python module's
+  // arrays view it).
+  const VecX new_x = x, new_v = v;
+  State& s = data_->state;
+  VecX storage_x = std::move(s.x), storage_v = std::move(s.v);
+  s = State{};
+  s.x = std::move(storage_x);
+  s.v = std::move(storage_v);
+  s.x = new_x;
+  s.v = new_v;
+  set_energy_reference(*model_, *data_);
 }
 
-void SimulationCore::set_energy_reference() {
-  gravity0_ = 0;
-  total0_ = 0;
-  system_->evaluate(state_.x, state_.v, false, eval_);
-  gravity0_ = eval_.gravity_energy;
-  const EnergyRow e0 = energies();
-  total0_ = e0.total();
-  Vec3 lo = node(state_.x, 0), hi = lo;
-  for (int i = 1; i < model_->num_vertices(); ++i) {
-    lo = lo.cwiseMin(node(state_.x, i));
-    hi = hi.cwiseMax(node(state_.x, i));
-  }
-  energy_scale_ = e0.kinetic + e0.elastic + model_->mass.sum() * scene_.gravity.norm() * (hi - lo).norm() + 1e-12;
-  integrator_->set_energy_scale(energy_scale_);
-}
-
-namespace {
-void put(BinaryWriter& out, const LogStatistics& s) {
-  const LogStatistics::Snapshot snap = s.snapshot();
-  out.u64(snap.bins.size());
-  for (const auto& [bin, n] : snap.bins) {
-    out.i64(bin);
-    out.i64(n);
-  }
-  out.i64(snap.count);
-  out.f64(snap.min);
-  out.f64(snap.max);
-  out.f64(snap.sum);
-}
-
-LogStatistics get_statistics(BinaryReader& in) {
-  LogStatistics::Snapshot snap;
-  const std::uint64_t bins = in.u64();
-  for (std::uint64_t k = 0; k < bins; ++k) {
-    const std::int64_t bin = in.i64();
-    snap.bins.emplace_back(static_cast<int>(std::clamp<std::int64_t>(bin, -1, 1 << 30)), in.i64());
-  }
-  snap.count = in.i64();
-  snap.min = in.f64();
-  snap.max = in.f64();
-  snap.sum = in.f64();
-  try {
-    return LogStatistics::from_snapshot(snap);
-  } catch (const std::invalid_argument& e) {
-    in.fail(std::string("checkpoint is damaged: ") + e.what());
-  }
-}
-
-// Vectors of the State are empty or 3n long.
-VecX get_state_vector(BinaryReader& in, Eigen::Index size, const char* name, bool may_be_empty) {
-  VecX v = in.vec();
-  if (v.size() != size && !(may_be_empty && v.size() == 0))
-    in.fail(std::string("checkpoint's ") + name + " has " + std::to_string(v.size()) + " values, the cloth " +
-            std::to_string(size));
-  return v;
-}
-}  // namespace
-
-std::uint64_t SimulationCore::fingerprint() const {
-  BinaryWriter w;
-  const VecX x0 = model_->initial_positions();
-  w.vec(x0);
-  w.vec(model_->mass);
-  w.raw(model_->fixed.data(), model_->fixed.size());
-  w.u64(model_->mesh.triangles.size());
-  w.u64(model_->bending.size());
-  w.u64(static_cast<std::uint64_t>(model_->pattern.num_blocks()));
-  const IntegratorSettings& is = integrator_->settings();
-  w.i64(static_cast<int>(is.method));
-  for (double d : {is.alpha, is.dt, is.cg_tolerance, is.error_tolerance, is.ssor_relaxation}) w.f64(d);
-  w.i64(is.cg_max_iterations);
-  w.i64(static_cast<int>(integrator_->preconditioner()));
-  w.i64(is.ssor_single_precision);
-  w.i64(is.warm_start_history);
-  w.i64(is.guard);
-  if (is.newton_iterations > 0) {  // (absent when off: fingerprints of older checkpoints hold)
-    w.i64(is.newton_iterations);
-    w.f64(is.newton_tolerance);
-  }
-  w.f64(system_->damping_settings().damping_ratio);
-  w.f64(system_->damping_settings().reference_dt);
-  for (const Material& m : model_->materials)
-    for (double d : {m.viscosity_Ns_m, m.surface_density_kg_m2, m.bending_rigidity_weft_Nm, m.bending_rigidity_warp_Nm})
-      w.f64(d);
-  for (int k : model_->triangle_material) w.i64(k);  // empty with one material
-  for (double d : {scene_.duration, scene_.frame_interval}) w.f64(d);
-  w.raw(scene_.gravity.data(), 3 * sizeof(double));
-  w.i64(scene_.cloth.self_collision);
-  for (double d : {scene_.cloth.thickness, scene_.cloth.friction}) w.f64(d);
-  if (clamps_) {
-    for (size_t i = 0; i < clamps_->clamped().size(); ++i) w.i64(clamps_->clamped()[i]);
-    for (const ClampSpec& c : scene_.cloth.clamps)
-      for (double t : {0.0, scene_.duration}) w.raw(c.motion.at(t).matrix().data(), 16 * sizeof(double));
-  }
-  return fnv1a(w.bytes().data(), w.bytes().size());
-}
-
-void SimulationCore::save(BinaryWriter& out) const {
-  out.u64(fingerprint());
-  const State& s = state_;
-  out.vec(s.x);
-  out.vec(s.v);
-  out.f64(s.t);
-  out.vec(s.dx_prev);
-  out.vec(s.dv_prev);
-  out.i64(s.has_history);
-  out.f64(s.viscous_dissipated);
-  out.f64(s.contact_work);
-  out.f64(s.fail_safe_work);
-  out.f64(s.rk45_step);
-  for (long c : {stats_.steps, stats_.rejected_steps, stats_.cg_iterations, stats_.cg_solves, stats_.cg_failures,
-                 stats_.contacts, stats_.max_contacts, stats_.released_contacts, stats_.fail_safe_moves,
-                 stats_.contact_passes, stats_.failed_contact_steps, stats_.halved_steps, stats_.guard_redone_steps,
-                 stats_.guard_raised_steps, stats_.guard_split_steps, stats_.guard_parts, stats_.newton_iterations,
-                 stats_.newton_steps, stats_.newton_halvings, stats_.newton_unconverged})
-    out.i64(c);
-  out.f64(stats_.guard_max_alpha);
-  for (double d : {stats_.assembly_seconds, stats_.solve_seconds, stats_.detection_seconds, stats_.response_seconds,
-                   stats_.guard_seconds, stats_.newton_seconds})
-    out.f64(d);
-  out.f64(gravity0_);
-  out.f64(total0_);
-  out.f64(energy_scale_);
-
-  const ClothSystem::DynamicState sys = system_->dynamic_state();
-  out.doubles(sys.membrane_viscosity.front().data(), 3 * sys.membrane_viscosity.size());
-  for (const LogStatistics* l : {&sys.statistics.membrane_kappa, &sys.statistics.membrane_lambda,
-                                 &sys.statistics.bending_kappa, &sys.statistics.added_viscosity})
-    put(out, *l);
-  out.i64(sys.statistics.element_steps);
-  out.i64(sys.statistics.raised_element_steps);
-
-  const Integrator::DynamicState in = integrator_->dynamic_state();
-  out.i64(in.history.size);
-  out.i64(in.history.next);
-  out.mat(in.history.b);
-  out.mat(in.history.x);
-  out.mat(in.history.gram);
-  for (double d : {in.history_alpha, in.history_beta, in.history_dt_b, in.history_t, in.ssor_residual_ratio}) out.f64(d);
-  out.i64(in.ssor_single_fallbacks);
-  out.doubles(in.multigrid_setup_blocks.empty() ? nullptr : in.multigrid_setup_blocks.front().data(),
-              9 * in.multigrid_setup_blocks.size());
-  for (const std::vector<char>* flags : {&in.contact_pulling, &in.contact_stuck}) {
-    out.i64(static_cast<std::int64_t>(flags->size()));
-    for (char c : *flags) out.i64(c);
-  }
-  for (int g : {in.guard_rung, in.guard_calm_steps, in.guard_depth, in.guard_depth_calm_steps}) out.i64(g);
-  // The cloth-cloth fail-safe keeps nothing between steps but its counts (for summary.json).
-  SelfContactStatistics self;
-  if (self_contacts_) self = self_contacts_->statistics();
-  for (long c : {self.repulsions, self.collision_impulses, self.impact_zones, self.zone_nodes,
-                 self.failed_steps})
-    out.i64(c);
-  out.f64(self.seconds);
-}
-
-void SimulationCore::restore(BinaryReader& in) {
-  if (in.u64() != fingerprint())
-    in.fail("checkpoint belongs to another cloth or other settings (the mesh, pins, material, integrator or "
-            "timing differ from the scene's)");
-  const Eigen::Index size = 3 * model_->num_vertices();
-  State s;
-  s.x = get_state_vector(in, size, "positions", false);
-  s.v = get_state_vector(in, size, "velocities", false);
-  s.t = in.f64();
-  s.dx_prev = get_state_vector(in, size, "previous change of positions", true);
-  s.dv_prev = get_state_vector(in, size, "previous change of velocities", true);
-  s.has_history = in.i64() != 0;
-  s.viscous_dissipated = in.f64();
-  s.contact_work = in.f64();
-  s.fail_safe_work = in.f64();
-  s.rk45_step = in.f64();
-  StepStatistics st;
-  for (long* c : {&st.steps, &st.rejected_steps, &st.cg_iterations, &st.cg_solves, &st.cg_failures, &st.contacts,
-                  &st.max_contacts, &st.released_contacts, &st.fail_safe_moves, &st.contact_passes,
-                  &st.failed_contact_steps, &st.halved_steps, &st.guard_redone_steps, &st.guard_raised_steps,
-                  &st.guard_split_steps, &st.guard_parts, &st.newton_iterations, &st.newton_steps,
-                  &st.newton_halvings, &st.newton_unconverged})
-    *c = in.i64();
-  st.guard_max_alpha = in.f64();
-  for (double* d : {&st.assembly_seconds, &st.solve_seconds, &st.detection_seconds, &st.response_seconds,
-                    &st.guard_seconds, &st.newton_seconds})
-    *d = in.f64();
-  const double gravity0 = in.f64(), total0 = in.f64(), energy_scale = in.f64();
-
-  ClothSystem::DynamicState sys;
-  const std::vector<double> eta = in.doubles();
-  if (eta.size() != 3 * model_->mesh.triangles.size())
-    in.fail("checkpoint's viscosities are for " + std::to_string(eta.size() / 3) + " triangles, the cloth has " +
-            std::to_string(model_->mesh.triangles.size()));
-  for (size_t t = 0; 3 * t < eta.size(); ++t) sys.membrane_viscosity.emplace_back(eta[3 * t], eta[3 * t + 1], eta[3 * t + 2]);
-  for (LogStatistics* l : {&sys.statistics.membrane_kappa, &sys.statistics.membrane_lambda,
-                           &sys.statistics.bending_kappa, &sys.statistics.added_viscosity})
-    *l = get_statistics(in);
-  sys.statistics.element_steps = in.i64();
-  sys.statistics.raised_element_steps = in.i64();
-
-  Integrator::DynamicState id;
-  id.history.size = static_cast<int>(in.i64());
-  id.history.next = static_cast<int>(in.i64());
-  id.history.b = in.mat();
-  id.history.x = in.mat();
-  id.history.gram = in.mat();
-  for (double* d : {&id.history_alpha, &id.history_beta, &id.history_dt_b, &id.history_t, &id.ssor_residual_ratio})
-    *d = in.f64();
-  id.ssor_single_fallbacks = in.i64();
-  const std::vector<double> blocks = in.doubles();
-  if (blocks.size() % 9) in.fail("checkpoint is damaged (multigrid matrix of " + std::to_string(blocks.size()) + " values)");
-  for (size_t b = 0; b < blocks.size(); b += 9) id.multigrid_setup_blocks.push_back(Eigen::Map<const Mat3>(&blocks[b]));
-  for (std::vector<char>* flags : {&id.contact_pulling, &id.contact_stuck}) {
-    const std::int64_t count = in.i64();
-    if (count != 0 && count != model_->num_vertices())
-      in.fail("checkpoint is damaged (contact flags for " + std::to_string(count) + " nodes)");
-    for (std::int64_t k = 0; k < count; ++k) flags->push_back(in.i64() != 0);
-  }
-  for (int* g : {&id.guard_rung, &id.guard_calm_steps, &id.guard_depth, &id.guard_depth_calm_steps})
-    *g = static_cast<int>(in.i64());
-  SelfContactStatistics self;
-  for (long* c : {&self.repulsions, &self.collision_impulses, &self.impact_zones, &self.zone_nodes,
-                  &self.failed_steps})
-    *c = in.i64();
-  self.seconds = in.f64();
-  try {
-    system_->restore(sys);
-    integrator_->restore(id);
-  } catch (const std::invalid_argument& e) {
-    in.fail(std::string("checkpoint does not fit the scene: ") + e.what());
-  }
-  state_ = std::move(s);
-  stats_ = st;
-  gravity0_ = gravity0;
-  total0_ = total0;
-  energy_scale_ = energy_scale;
-  integrator_->set_energy_scale(energy_scale_);
-  if (self_contacts_) self_contacts_->set_statistics(self);
-}
-
-EnergyRow SimulationCore::energies() {
-  system_->evaluate(state_.x, state_.v, false, eval_);
-  EnergyRow r;
-  r.time = state_.t;
-  const VecX& m = model_->mass;
-  for (int i = 0; i < model_->num_vertices(); ++i) r.kinetic += 0.5 * m[i] * node(state_.v, i).squaredNorm();
-  r.elastic = eval_.elastic_energy;
-  r.gravity = eval_.gravity_energy - gravity0_;
-  r.viscous_dissipated = state_.viscous_dissipated;
-  r.contact_work = state_.contact_work;
-  r.fail_safe_work = state_.fail_safe_work;
-  r.numerical_dissipated = total0_ + r.contact_work - r.total() - r.viscous_dissipated;
-  if (scene_.integrator.guard) {
-    r.guard_parts = static_cast<double>(statistics().guard_parts);
-    r.guard_alpha = integrator_->guard_alpha();
-  }
-  return r;
-}
+EnergyRow SimulationCore::energies() { return weft::energies(*model_, *data_); }
+std::uint64_t SimulationCore::fingerprint() const { return weft::fingerprint(*model_); }
+void SimulationCore::save(BinaryWriter& out) const { save_data(*model_, *data_, out); }
+void SimulationCore::restore(BinaryReader& in) { restore_data(*model_, *data_, in); }
 
 namespace {
 /// How far the energy the collision fail-safes put in may pile up, in energy scales, before a

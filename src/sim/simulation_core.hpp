@@ -5,45 +5,39 @@
 #include <string>
 #include <vector>
 
-#include "integrate/integrator.hpp"
-#include "system/cloth.hpp"
-#include "weft/simulation.hpp"
+#include "sim/model_data.hpp"
 
 namespace weft {
 
-class BinaryWriter;
-class BinaryReader;
-class Collider;
-class ColliderContacts;
-class SelfContacts;
-class Clamps;
-class WalkingBody;
-
-/// What the public Simulation (weft/simulation.hpp) steps: the model, the system, the
-/// integrator, the colliders and contact handlers, and the State. weft's own code (the
-/// experiments, the tests of the parts) reaches it through Simulation::core().
+/// What the public Simulation (weft/simulation.hpp) steps: a SimulationModel and one
+/// SimulationData of it (sim/model_data.hpp), with a ClothSystem and an Integrator that view
+/// them. weft's own code (the experiments, the tests of the parts) reaches it through
+/// Simulation::core().
 class SimulationCore {
  public:
   explicit SimulationCore(const Scene& scene, const SetupProgress& on_setup = {});
   ~SimulationCore();
-  const Scene& scene() const { return scene_; }
-  const ClothModel& model() const { return *model_; }
+  const SimulationModel& simulation_model() const { return *model_; }
+  SimulationData& simulation_data() { return *data_; }
+  const SimulationData& simulation_data() const { return *data_; }
+  const Scene& scene() const { return model_->scene; }
+  const ClothModel& model() const { return *model_->cloth; }
   ClothSystem& system() { return *system_; }
   const ClothSystem& system() const { return *system_; }
   Integrator& integrator() { return *integrator_; }
   const Integrator& integrator() const { return *integrator_; }
-  State& state() { return state_; }
-  const State& state() const { return state_; }
-  const StepStatistics& statistics() const { return stats_; }
+  State& state() { return data_->state; }
+  const State& state() const { return data_->state; }
+  const StepStatistics& statistics() const { return data_->statistics; }
   /// The scene's colliders in file order (Collider::surface draws one at any time).
-  const std::vector<std::unique_ptr<Collider>>& colliders() const { return colliders_; }
+  const std::vector<std::unique_ptr<Collider>>& colliders() const { return data_->colliders; }
   /// The walking bodies of the body colliders (Scene::bodies order).
-  const std::vector<std::unique_ptr<WalkingBody>>& bodies() const { return bodies_; }
+  const std::vector<std::unique_ptr<WalkingBody>>& bodies() const { return model_->bodies; }
   /// Collider k's surface at time t: a walking body's skinned mesh, another collider's as
   /// Collider::surface draws it (what the frames' body<k> and collider<k> files hold).
   void collider_surface(size_t k, double t, Points& positions, Triangles& triangles) const;
   /// Cloth-cloth contact handling; null when the scene turns self_collision off.
-  const SelfContacts* self_contacts() const { return self_contacts_.get(); }
+  const SelfContacts* self_contacts() const { return data_->self_contacts.get(); }
   /// Replaces positions and velocities (e.g. a perturbed start) and makes it the reference of
   /// the energy accounting: time 0, no dissipation yet, no BDF-2 history.
   void reset_state(const VecX& x, const VecX& v);
@@ -59,7 +53,7 @@ class SimulationCore {
   /// vertex that is not pinned, and for an arrival not after now or a non-finite target.
   void move_pins(const std::vector<int>& nodes, const std::vector<Vec3>& targets, double arrival);
   /// The pins still moving to their targets (move_pins).
-  size_t moving_pins() const { return pin_moves_.size(); }
+  size_t moving_pins() const { return data_->pin_moves.size(); }
   /// Replaces the motion of collider k (colliders() order) for the steps from now on: from its
   /// pose now to `target` at time `arrival` (rounded like move_pins'), linearly (the rotation
   /// by spherical interpolation), then held there. A pose is the transform the collider's
@@ -72,9 +66,9 @@ class SimulationCore {
   /// Energies at the current state.
   EnergyRow energies();
   /// A scale of the scene's energy (J): initial kinetic + elastic + weight times size.
-  double energy_scale() const { return energy_scale_; }
+  double energy_scale() const { return data_->energy_scale; }
   /// Mechanical energy (kinetic + elastic + gravity) of the reference state (J).
-  double initial_total_energy() const { return total0_; }
+  double initial_total_energy() const { return data_->total0; }
 
   /// Writes everything later steps and the run's statistics depend on, bit for bit: the
   /// State, the step statistics, the energy reference and the system's and integrator's
@@ -88,28 +82,10 @@ class SimulationCore {
   std::uint64_t fingerprint() const;
 
  private:
-  Scene scene_;
-  std::unique_ptr<ClothModel> model_;
-  std::unique_ptr<ClothSystem> system_;
-  std::unique_ptr<Integrator> integrator_;
-  std::vector<std::unique_ptr<WalkingBody>> bodies_;
-  std::vector<std::unique_ptr<Collider>> colliders_;
-  std::unique_ptr<ColliderContacts> contacts_;
-  std::unique_ptr<SelfContacts> self_contacts_;
-  std::unique_ptr<Clamps> clamps_;
-  State state_;
-  StepStatistics stats_;
-  Evaluation eval_;
-  double gravity0_ = 0, total0_ = 0, energy_scale_ = 0;
-  struct PinMove {
-    int node;
-    Vec3 target;
-    double arrival;
-  };
-  std::vector<PinMove> pin_moves_;  ///< move_pins: the pins on their way
-  void set_energy_reference();
-  /// Sets the velocity of pinned vertex i (and its BDF-2 history, as if it had moved so before).
-  void set_pin_velocity(int i, const Vec3& v);
+  std::unique_ptr<SimulationModel> model_;
+  std::unique_ptr<SimulationData> data_;
+  std::unique_ptr<ClothSystem> system_;     ///< a view of model_ and data_
+  std::unique_ptr<Integrator> integrator_;  ///< a view of system_, model_ and data_
   /// `arrival` on the step grid from now (fixed-step methods); checks it is after now.
   double arrival_time(double arrival, const std::string& what) const;
 };

@@ -164,40 +164,38 @@ ClothModel build_cloth_model(TriMesh mesh, const TriangleMaterials& materials, c
   return m;
 }
 
-ClothSystem::ClothSystem(const ClothModel& model, DampingSettings damping)
-    : model_(model), damping_(damping) {
-  membrane_viscosity_.resize(model.membranes.size());
-  for (size_t t = 0; t < membrane_viscosity_.size(); ++t)
-    membrane_viscosity_[t] = Vec3::Constant(model.material_of(t).viscosity_Ns_m);
+ClothSystem::Constants ClothSystem::make_constants(const ClothModel& model, DampingSettings damping) {
+  Constants c;
+  c.damping = damping;
   // kappa_b = dt^2 S and lambda_b = dt gamma S, so lambda >= 2 zeta sqrt(kappa) means
   // gamma >= 2 zeta / sqrt(S): a constant per stencil (METHOD.md 4).
-  const double zeta = damping_.damping_ratio;
-  bending_damping_.resize(model.bending.size());
-  bending_slot_damping_.assign(model.pattern.num_blocks(), 0.0);
+  const double zeta = c.damping.damping_ratio;
+  c.bending_damping.resize(model.bending.size());
+  c.bending_slot_damping.assign(model.pattern.num_blocks(), 0.0);
   for (size_t e = 0; e < model.bending.size(); ++e) {
     const double S = model.bending_mass_sums[e];
     const double gamma = (zeta > 0 && S > 0) ? 2.0 * zeta / std::sqrt(S) : 0.0;
-    bending_damping_[e] = gamma;
+    c.bending_damping[e] = gamma;
     const auto& Q = model.bending[e].Q;
     const Eigen::Index k = Q.rows();
     for (Eigen::Index a = 0; a < k; ++a)
-      for (Eigen::Index c = 0; c < k; ++c) bending_slot_damping_[model.bending_slots[e][k * a + c]] += gamma * Q(a, c);
+      for (Eigen::Index b = 0; b < k; ++b) c.bending_slot_damping[model.bending_slots[e][k * a + b]] += gamma * Q(a, b);
   }
-  linear_moduli_ = true;
+  c.linear_moduli = true;
   for (const Material& mat : model.materials) {
-    MaterialConstants c;
-    c.material = &mat;
-    c.linear = membrane::LinearCurves<double>::of(mat);
-    c.viscosity = mat.viscosity_Ns_m;
-    material_constants_.push_back(c);
-    linear_moduli_ = linear_moduli_ && mat.weft.is_linear() && mat.warp.is_linear() && mat.shear.is_linear();
+    MaterialConstants mc;
+    mc.material = &mat;
+    mc.linear = membrane::LinearCurves<double>::of(mat);
+    mc.viscosity = mat.viscosity_Ns_m;
+    c.material_constants.push_back(mc);
+    c.linear_moduli = c.linear_moduli && mat.weft.is_linear() && mat.warp.is_linear() && mat.shear.is_linear();
   }
-  mixed_ = model.materials.size() > 1;
+  c.mixed = model.materials.size() > 1;
   // Packed triangles; the first triangle (in order) to touch a block slot assigns it.
   std::vector<char> written(model.pattern.num_blocks(), 0);
-  triangles_.resize(model.membranes.size());
-  for (size_t t = 0; t < triangles_.size(); ++t) {
-    PackedTriangle& p = triangles_[t];
+  c.triangles.resize(model.membranes.size());
+  for (size_t t = 0; t < c.triangles.size(); ++t) {
+    PackedTriangle& p = c.triangles[t];
     const auto& g = model.membranes[t];
     p.vertex = model.mesh.triangles[t];
     p.material = static_cast<int>(model.material_index(t));
@@ -217,19 +215,38 @@ ClothSystem::ClothSystem(const ClothModel& model, DampingSettings damping)
   // A row's slots that no membrane writes go with the first triangle that touches the row.
   const auto& rs = model.pattern.row_start();
   std::vector<char> row_done(model.num_vertices(), 0);
-  for (PackedTriangle& p : triangles_) {
-    p.bending_only_begin = static_cast<int>(bending_only_slots_.size());
+  for (PackedTriangle& p : c.triangles) {
+    p.bending_only_begin = static_cast<int>(c.bending_only_slots.size());
     for (int i : p.vertex) {
       if (row_done[i]) continue;
       row_done[i] = 1;
       for (int s = rs[i]; s < rs[i + 1]; ++s)
-        if (!written[s]) bending_only_slots_.push_back(s);
+        if (!written[s]) c.bending_only_slots.push_back(s);
     }
-    p.bending_only_end = static_cast<int>(bending_only_slots_.size());
+    p.bending_only_end = static_cast<int>(c.bending_only_slots.size());
   }
-  constant_slots_.assign(model.pattern.num_blocks(), 0);
-  for (int slot : bending_only_slots_) constant_slots_[slot] = 1;
+  c.constant_slots.assign(model.pattern.num_blocks(), 0);
+  for (int slot : c.bending_only_slots) c.constant_slots[slot] = 1;
+  return c;
 }
+
+ClothSystem::Data ClothSystem::make_data(const ClothModel& model) {
+  Data d;
+  d.membrane_viscosity.resize(model.membranes.size());
+  for (size_t t = 0; t < d.membrane_viscosity.size(); ++t)
+    d.membrane_viscosity[t] = Vec3::Constant(model.material_of(t).viscosity_Ns_m);
+  return d;
+}
+
+ClothSystem::ClothSystem(const ClothModel& model, DampingSettings damping)
+    : own_constants_(std::make_unique<Constants>(make_constants(model, damping))),
+      own_data_(std::make_unique<Data>(make_data(model))),
+      model_(model),
+      c_(*own_constants_),
+      d_(*own_data_) {}
+
+ClothSystem::ClothSystem(const ClothModel& model, const Constants& constants, Data& data)
+    : model_(model), c_(constants), d_(data) {}
 
 namespace {
 Vec3 membrane_strain(const MembraneGeometry& g, const VecX& x, const std::array<int, 3>& tri) {
@@ -251,58 +268,58 @@ std::vector<double> ClothSystem::membrane_kappa_max(const VecX& x, double dt) co
 }
 
 void ClothSystem::prepare_linear_damping(double dt) {
-  if (linear_viscosity_ready_ && dt == linear_stats_dt_) return;
-  const double zeta = damping_.damping_ratio;
+  if (d_.linear_viscosity_ready && dt == d_.linear_stats_dt) return;
+  const double zeta = c_.damping.damping_ratio;
   // Linear curves: each material's moduli are its tangents at every strain.
   std::vector<Vec3> moduli;
   for (const Material& m : model_.materials) moduli.push_back(membrane_tangent_moduli(m, Vec3::Zero()));
-  if (!linear_viscosity_ready_) {
+  if (!d_.linear_viscosity_ready) {
     for (size_t t = 0; t < model_.membranes.size(); ++t) {
       const Vec3& E = moduli[model_.material_index(t)];
       Vec3 eta = Vec3::Constant(model_.material_of(t).viscosity_Ns_m);
       if (zeta > 0)
         eta = eta.cwiseMax(membrane_required_viscosity(model_.membranes[t].area, E, model_.membrane_mass_sums[t], zeta));
-      membrane_viscosity_[t] = eta;
+      d_.membrane_viscosity[t] = eta;
     }
-    linear_viscosity_ready_ = true;
+    d_.linear_viscosity_ready = true;
   }
-  if (dt == linear_stats_dt_) return;
-  linear_kappa_step_ = LogStatistics();
-  linear_lambda_step_ = LogStatistics();
-  linear_added_step_ = LogStatistics();
-  linear_raised_per_step_ = 0;
+  if (dt == d_.linear_stats_dt) return;
+  d_.linear_kappa_step = LogStatistics();
+  d_.linear_lambda_step = LogStatistics();
+  d_.linear_added_step = LogStatistics();
+  d_.linear_raised_per_step = 0;
   for (size_t t = 0; t < model_.membranes.size(); ++t) {
     const double area = model_.membranes[t].area;
     const Vec3& S = model_.membrane_mass_sums[t];
-    const Vec3& eta = membrane_viscosity_[t];
+    const Vec3& eta = d_.membrane_viscosity[t];
     const double eta0 = model_.material_of(t).viscosity_Ns_m;
     const Vec3 kappa = membrane_kappa(area, moduli[model_.material_index(t)], S, dt);
     int mode;
-    linear_kappa_step_.add(kappa.maxCoeff(&mode));
-    linear_lambda_step_.add(membrane_lambda(area, eta, S, dt)[mode]);
+    d_.linear_kappa_step.add(kappa.maxCoeff(&mode));
+    d_.linear_lambda_step.add(membrane_lambda(area, eta, S, dt)[mode]);
     const double added = (eta - Vec3::Constant(eta0)).maxCoeff();
     if (added > 0) {
-      ++linear_raised_per_step_;
-      linear_added_step_.add(added);
+      ++d_.linear_raised_per_step;
+      d_.linear_added_step.add(added);
     }
   }
-  linear_stats_dt_ = dt;
+  d_.linear_stats_dt = dt;
 }
 
 void ClothSystem::begin_step(const VecX& x, const VecX&, double step_dt) {
   // METHOD.md 4: per element and step, kappa and lambda from the tangent stiffness at the
   // current strain; raise the viscosity of each mode to reach the target damping ratio.
-  const double dt = damping_.reference_dt > 0 ? damping_.reference_dt : step_dt;
-  const double zeta = damping_.damping_ratio;
-  if (linear_moduli_) {
+  const double dt = c_.damping.reference_dt > 0 ? c_.damping.reference_dt : step_dt;
+  const double zeta = c_.damping.damping_ratio;
+  if (c_.linear_moduli) {
     // Linear curves: the moduli, hence the viscosity and the factors, do not depend on the
     // strain; the step's statistics are the same every step of the same dt.
     prepare_linear_damping(dt);
-    stats_.membrane_kappa.merge(linear_kappa_step_);
-    stats_.membrane_lambda.merge(linear_lambda_step_);
-    stats_.added_viscosity.merge(linear_added_step_);
-    stats_.element_steps += static_cast<long>(model_.membranes.size());
-    stats_.raised_element_steps += linear_raised_per_step_;
+    d_.statistics.membrane_kappa.merge(d_.linear_kappa_step);
+    d_.statistics.membrane_lambda.merge(d_.linear_lambda_step);
+    d_.statistics.added_viscosity.merge(d_.linear_added_step);
+    d_.statistics.element_steps += static_cast<long>(model_.membranes.size());
+    d_.statistics.raised_element_steps += d_.linear_raised_per_step;
   } else {
     for (size_t t = 0; t < model_.membranes.size(); ++t) {
       const auto& g = model_.membranes[t];
@@ -312,41 +329,33 @@ void ClothSystem::begin_step(const VecX& x, const VecX&, double step_dt) {
       const Vec3 E = membrane_tangent_moduli(material, membrane_strain(g, x, model_.mesh.triangles[t]));
       Vec3 eta = Vec3::Constant(eta0);
       if (zeta > 0) eta = eta.cwiseMax(membrane_required_viscosity(g.area, E, S, zeta));
-      membrane_viscosity_[t] = eta;
+      d_.membrane_viscosity[t] = eta;
       const Vec3 kappa = membrane_kappa(g.area, E, S, dt);
       int mode;
-      stats_.membrane_kappa.add(kappa.maxCoeff(&mode));
-      stats_.membrane_lambda.add(membrane_lambda(g.area, eta, S, dt)[mode]);
+      d_.statistics.membrane_kappa.add(kappa.maxCoeff(&mode));
+      d_.statistics.membrane_lambda.add(membrane_lambda(g.area, eta, S, dt)[mode]);
       const double added = (eta - Vec3::Constant(eta0)).maxCoeff();
-      ++stats_.element_steps;
+      ++d_.statistics.element_steps;
       if (added > 0) {
-        ++stats_.raised_element_steps;
-        stats_.added_viscosity.add(added);
+        ++d_.statistics.raised_element_steps;
+        d_.statistics.added_viscosity.add(added);
       }
     }
   }
   // The stencils' kappa depends on dt only: gathered once per dt, counted every step.
-  if (dt != bending_kappa_dt_) {
-    bending_kappa_step_ = LogStatistics();
-    for (double S : model_.bending_mass_sums) bending_kappa_step_.add(dt * dt * S);
-    bending_kappa_dt_ = dt;
+  if (dt != d_.bending_kappa_dt) {
+    d_.bending_kappa_step = LogStatistics();
+    for (double S : model_.bending_mass_sums) d_.bending_kappa_step.add(dt * dt * S);
+    d_.bending_kappa_dt = dt;
   }
-  stats_.bending_kappa.merge(bending_kappa_step_);
-}
-
-void ClothSystem::restore(const DynamicState& d) {
-  if (d.membrane_viscosity.size() != membrane_viscosity_.size())
-    throw std::invalid_argument("the damping state has " + std::to_string(d.membrane_viscosity.size()) +
-                                " triangles, the cloth " + std::to_string(membrane_viscosity_.size()));
-  membrane_viscosity_ = d.membrane_viscosity;
-  stats_ = d.statistics;
+  d_.statistics.bending_kappa.merge(d_.bending_kappa_step);
 }
 
 VecX ClothSystem::added_viscosity_per_vertex() const {
   const int n = model_.num_vertices();
   VecX sum = VecX::Zero(n), weight = VecX::Zero(n);
   for (size_t t = 0; t < model_.membranes.size(); ++t) {
-    const double added = (membrane_viscosity_[t] - Vec3::Constant(model_.material_of(t).viscosity_Ns_m)).maxCoeff();
+    const double added = (d_.membrane_viscosity[t] - Vec3::Constant(model_.material_of(t).viscosity_Ns_m)).maxCoeff();
     for (int k : model_.mesh.triangles[t]) {
       sum[k] += model_.membranes[t].area * added;
       weight[k] += model_.membranes[t].area;
@@ -358,13 +367,13 @@ VecX ClothSystem::added_viscosity_per_vertex() const {
 void ClothSystem::add_bending(const VecX& x, const VecX& v, bool jacobians, VecX& force, double& energy,
                               double& viscous_power, BlockMatrix* stiffness, BlockMatrix* damping) const {
   // Summed over the stencils, Q and gamma Q live on the block pattern (bending_slot_q and
-  // bending_slot_damping_): E = 1/2 sum_ij Q_ij x_i . x_j; F = -Q x - gamma Q v;
+  // c_.bending_slot_damping): E = 1/2 sum_ij Q_ij x_i . x_j; F = -Q x - gamma Q v;
   // K = -Q (x) I3; D = -gamma Q (x) I3.
   if (model_.bending.empty()) return;
   const auto& rs = model_.pattern.row_start();
   const auto& col = model_.pattern.column();
   const double* q = model_.bending_slot_q.data();
-  const double* qd = bending_slot_damping_.data();
+  const double* qd = c_.bending_slot_damping.data();
   for (int i = 0; i < num_nodes(); ++i) {
     Vec3 qx = Vec3::Zero(), qv = Vec3::Zero();
     for (int s = rs[i]; s < rs[i + 1]; ++s) {
@@ -399,7 +408,7 @@ void ClothSystem::add_gravity_and_membranes(
       xe[k] = node(x, tri[k]);
       ve[k] = node(v, tri[k]);
     }
-    evaluate_membrane(model_.membranes[t], model_.material_of(t), membrane_viscosity_[t], xe, ve, jacobians, true, mr,
+    evaluate_membrane(model_.membranes[t], model_.material_of(t), d_.membrane_viscosity[t], xe, ve, jacobians, true, mr,
                       expand);
     elastic_energy += mr.energy;
     viscous_power += mr.viscous_power;
@@ -476,7 +485,7 @@ inline void write_triangle_blocks(const Triangle& tr, const double* ru, const do
 ClothSystem::MembraneArrays ClothSystem::membrane_arrays(const VecX& x, const VecX& v, const VecX& w,
                                                        StepAssembly& out) const {
   return {x.data(), v.data(), w.data(), out.force.data(), out.stiffness_times_w.data(), out.matrix.block.data(),
-          model_.bending_slot_q.data(), bending_slot_damping_.data(), membrane_viscosity_.data()};
+          model_.bending_slot_q.data(), c_.bending_slot_damping.data(), d_.membrane_viscosity.data()};
 }
 
 // The four matrices of membrane::step_matrices as write_triangle_blocks takes them.
@@ -504,7 +513,7 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
   // four matrices of membrane::step_matrices; write_triangle_blocks). One material: its
   // constants read once, before the loop; several: per triangle.
   using namespace membrane;
-  const MaterialConstants* constants = material_constants_.data();
+  const MaterialConstants* constants = c_.material_constants.data();
   const double ck = out.ck, cd = out.cd;
   const MembraneArrays arrays = membrane_arrays(x, v, w, out);
   const double *X = arrays.X, *Vel = arrays.Vel, *W = arrays.W, *q = arrays.q, *qd = arrays.qd;
@@ -513,7 +522,7 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
   const Vec3* viscosity = arrays.viscosity;
   double energy = 0, power = 0;
   for (size_t t = begin; t < end; ++t) {
-    const PackedTriangle& tr = triangles_[t];
+    const PackedTriangle& tr = c_.triangles[t];
     const MaterialConstants& mc = constants[kMixed ? tr.material : 0];
     const double A = tr.area;
     const double* ru = tr.ru;
@@ -536,7 +545,7 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
       scatter_stiffness_times(k, A, ru, rv, U, V, dU, dV, [&](int i, int c, double value) { KW[o[i] + c] -= value; });
       double m[4][9];
       step_matrices(k, eta, A, ck, cd, U, V, m);
-      write_triangle_blocks(tr, ru, rv, triangle_matrices(m), blocks, bending_only_slots_.data(), q, qd, ck, cd);
+      write_triangle_blocks(tr, ru, rv, triangle_matrices(m), blocks, c_.bending_only_slots.data(), q, qd, ck, cd);
     };
     if constexpr (kLinear) assemble(mc.linear);
     else assemble(MaterialCurves(*mc.material));
@@ -604,7 +613,7 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, cons
   // of a material. One material: scalars, set once; several: four lanes, set per batch.
   using namespace membrane;
   using Moduli = std::conditional_t<kMixed, D4, double>;
-  const MaterialConstants* constants = material_constants_.data();
+  const MaterialConstants* constants = c_.material_constants.data();
   LinearCurves<Moduli> curves{};
   if constexpr (!kMixed) curves = constants[0].linear;
   const double ck = out.ck, cd = out.cd;
@@ -620,7 +629,7 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, cons
   alignas(32) double table[kRows][4];
   const auto row = [&table](int k) __attribute__((always_inline)) -> D4& { return *reinterpret_cast<D4*>(table[k]); };
   for (size_t t0 = 0; t0 < end; t0 += 4) {
-    const PackedTriangle* tr[4] = {&triangles_[t0], &triangles_[t0 + 1], &triangles_[t0 + 2], &triangles_[t0 + 3]};
+    const PackedTriangle* tr[4] = {&c_.triangles[t0], &c_.triangles[t0 + 1], &c_.triangles[t0 + 2], &c_.triangles[t0 + 3]};
     const TriangleBatch batch(tr);
     if constexpr (kMixed) {
       const LinearCurves<double>* c[4] = {&constants[tr[0]->material].linear, &constants[tr[1]->material].linear,
@@ -701,7 +710,7 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, cons
       M.uu_8 = table[kMatrices + 8][l];
       M.x_8 = table[kMatrices + 9 + 8][l];
       M.vv_8 = table[kMatrices + 27 + 8][l];
-      write_triangle_blocks(t, t.ru, t.rv, M, blocks, bending_only_slots_.data(), q, qd, ck, cd);
+      write_triangle_blocks(t, t.ru, t.rv, M, blocks, c_.bending_only_slots.data(), q, qd, ck, cd);
     }
   }
   out.elastic_energy += (energy[0] + energy[1]) + (energy[2] + energy[3]);
@@ -720,12 +729,12 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_step_kernel(const VecX& x, const VecX
   if (out.matrix.pattern != &model_.pattern) out.matrix.reset(model_.pattern);
   // Per vertex: gravity and the bending forces, energy, viscous power and K w. Summed over
   // the stencils, Q and gamma Q live on the block pattern (bending_slot_q and
-  // bending_slot_damping_): E = 1/2 sum_ij Q_ij x_i . x_j; F = -Q x - gamma Q v; K = -Q (x) I3;
+  // c_.bending_slot_damping): E = 1/2 sum_ij Q_ij x_i . x_j; F = -Q x - gamma Q v; K = -Q (x) I3;
   // D = -gamma Q (x) I3. This pass assigns force and K w; the membranes add to them.
   const auto& rs = model_.pattern.row_start();
   const auto& col = model_.pattern.column();
   const double* q = model_.bending_slot_q.data();
-  const double* qd = bending_slot_damping_.data();
+  const double* qd = c_.bending_slot_damping.data();
   const double* X = x.data();
   const double* Vel = v.data();
   const double* W = w.data();
@@ -774,35 +783,35 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_step_kernel(const VecX& x, const VecX
   } else {
     // The blocks only bending couples are rewritten below with the same values unless ck or
     // cd changed (or something else changed the matrix since the last assembly).
-    out.matrix.constant_slots = &constant_slots_;
-    if (out.matrix.constant_version != constants_version_ || out.ck != constants_ck_ || out.cd != constants_cd_) {
+    out.matrix.constant_slots = &c_.constant_slots;
+    if (out.matrix.constant_version != d_.constants_version || out.ck != d_.constants_ck || out.cd != d_.constants_cd) {
       out.matrix.constants_changed();
-      constants_version_ = out.matrix.constant_version;
-      constants_ck_ = out.ck;
-      constants_cd_ = out.cd;
+      d_.constants_version = out.matrix.constant_version;
+      d_.constants_ck = out.ck;
+      d_.constants_cd = out.cd;
     }
   }
-  const size_t count = triangles_.size();
-  if (linear_moduli_ && jacobians) {
+  const size_t count = c_.triangles.size();
+  if (c_.linear_moduli && jacobians) {
     const size_t batched = count - count % 4;
     out.element_data.resize(6 * batched);
-    if (mixed_)
+    if (c_.mixed)
       assemble_membranes_batched<true>(x, v, w, batched, out);
     else
       assemble_membranes_batched<false>(x, v, w, batched, out);
-    if (mixed_)
+    if (c_.mixed)
       assemble_membranes<true, true>(x, v, w, jacobians, batched, count, out);
     else
       assemble_membranes<true, false>(x, v, w, jacobians, batched, count, out);
-  } else if (linear_moduli_) {
+  } else if (c_.linear_moduli) {
     out.element_data.clear();
-    if (mixed_)
+    if (c_.mixed)
       assemble_membranes<true, true>(x, v, w, jacobians, 0, count, out);
     else
       assemble_membranes<true, false>(x, v, w, jacobians, 0, count, out);
   } else {
     out.element_data.clear();
-    if (mixed_)
+    if (c_.mixed)
       assemble_membranes<false, true>(x, v, w, jacobians, 0, count, out);
     else
       assemble_membranes<false, false>(x, v, w, jacobians, 0, count, out);
@@ -814,7 +823,7 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_step_kernel(const VecX& x, const VecX
 double ClothSystem::viscous_power(const VecX& x, const VecX& v) { return viscous_power_with(x, v, nullptr); }
 
 double ClothSystem::step_viscous_power(const VecX& x, const VecX& v, const StepAssembly& assembly) {
-  const size_t count = triangles_.size();
+  const size_t count = c_.triangles.size();
   const bool stored = assembly.element_data.size() == 6 * (count - count % 4) && count >= 4;
   return viscous_power_with(x, v, stored ? assembly.element_data.data() : nullptr);
 }
@@ -823,10 +832,10 @@ WEFT_HOT_KERNEL double ClothSystem::viscous_power_with(const VecX& x, const VecX
   const double* X = x.data();
   const double* Vel = v.data();
   // Four triangles at a time (TriangleBatch), the rest one at a time.
-  const size_t count = triangles_.size(), batched = count - count % 4;
+  const size_t count = c_.triangles.size(), batched = count - count % 4;
   D4 power4 = splat(0);
   for (size_t t0 = 0; t0 < batched; t0 += 4) {
-    const PackedTriangle* tr[4] = {&triangles_[t0], &triangles_[t0 + 1], &triangles_[t0 + 2], &triangles_[t0 + 3]};
+    const PackedTriangle* tr[4] = {&c_.triangles[t0], &c_.triangles[t0 + 1], &c_.triangles[t0 + 2], &c_.triangles[t0 + 3]};
     const TriangleBatch batch(tr);
     D4 U[3], V[3], Ud[3], Vd[3];
     if (frames) {  // the assembly's U and V: the same sums of the same positions
@@ -839,24 +848,24 @@ WEFT_HOT_KERNEL double ClothSystem::viscous_power_with(const VecX& x, const VecX
       batch.gradient(X, U, V);
     }
     batch.gradient(Vel, Ud, Vd);
-    power4 += membrane::viscous_power(batch.A, TriangleBatch::viscosity(membrane_viscosity_.data(), t0),
+    power4 += membrane::viscous_power(batch.A, TriangleBatch::viscosity(d_.membrane_viscosity.data(), t0),
                                       membrane::strain_rate(U, V, Ud, Vd));
   }
   double power = (power4[0] + power4[1]) + (power4[2] + power4[3]);
   for (size_t t = batched; t < count; ++t) {
-    const PackedTriangle& tr = triangles_[t];
+    const PackedTriangle& tr = c_.triangles[t];
     const int o[3] = {3 * tr.vertex[0], 3 * tr.vertex[1], 3 * tr.vertex[2]};
     double U[3], V[3], Ud[3], Vd[3];
     membrane::gradient(tr.ru, tr.rv, [&](int k, int c) { return X[o[k] + c]; }, U, V);
     membrane::gradient(tr.ru, tr.rv, [&](int k, int c) { return Vel[o[k] + c]; }, Ud, Vd);
-    const Vec3& eta = membrane_viscosity_[t];
+    const Vec3& eta = d_.membrane_viscosity[t];
     power += membrane::viscous_power(tr.area, membrane::Modes<double>{eta[0], eta[1], eta[2]},
                                      membrane::strain_rate(U, V, Ud, Vd));
   }
   if (model_.bending.empty()) return power;
   const auto& rs = model_.pattern.row_start();
   const auto& col = model_.pattern.column();
-  const double* qd = bending_slot_damping_.data();
+  const double* qd = c_.bending_slot_damping.data();
   const int n = num_nodes();
   // v . gamma Q v from the lower half of the symmetric gamma Q (a row's columns are sorted,
   // so the slots before the diagonal's are those of earlier nodes, each with a next node).

@@ -2,6 +2,7 @@
 // A piece of cloth as a mechanical system: membrane triangles, bending stencils, gravity
 // and pinned vertices (DESIGN.md: the Model is built once and never changed by a step).
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -80,9 +81,75 @@ struct DampingSettings {
 };
 
 
+/// The cloth as the integrators see it (System). Its parts are split the way DESIGN.md splits
+/// a simulation: Constants, built once from the model and the damping settings and never
+/// changed by a step, and Data, everything a step of the cloth reads and writes (the
+/// viscosity in use, the damping statistics, caches keyed on the step). A ClothSystem made
+/// from a model alone owns both; one made from Constants and Data is a view that steps that
+/// Data (many Data may share one Constants, each stepped by its own view).
 class ClothSystem : public System {
  public:
+  /// Per-triangle constants packed for the step's passes, in triangle order.
+  struct PackedTriangle {
+    std::array<int, 3> vertex;
+    /// Bit 3a + b set: this triangle is the first (in triangle order) to write block slot
+    /// (a, b), so it assigns the block instead of adding to it.
+    unsigned first_writer = 0;
+    std::array<int, 9> slot;  ///< block slots (a, b), row-major
+    /// Constants::bending_only_slots[begin, end): the slots, with no membrane block, of the
+    /// rows this triangle is the first to touch; written with its blocks, while their cache
+    /// lines are at hand.
+    int bending_only_begin = 0, bending_only_end = 0;
+    int material = 0;  ///< index into ClothModel::materials
+    double ru[3], rv[3];
+    double area;
+  };
+  /// Per material: its curves' moduli and the tangents the step's stiffness uses, for the
+  /// linear paths (membrane::LinearCurves), and its viscosity.
+  struct MaterialConstants {
+    const Material* material;
+    membrane::LinearCurves<double> linear;
+    double viscosity;
+  };
+  /// What the steps never change.
+  struct Constants {
+    DampingSettings damping;
+    std::vector<PackedTriangle> triangles;
+    std::vector<int> bending_only_slots;  ///< block slots no membrane writes, by triangle
+    /// Per block slot, 1 for those of bending_only_slots: their step-matrix blocks,
+    /// ck Q + cd gamma Q, change only with ck and cd (BlockMatrix::constant_slots).
+    std::vector<char> constant_slots;
+    std::vector<MaterialConstants> material_constants;  ///< one per ClothModel::materials
+    bool mixed = false;          ///< several materials
+    bool linear_moduli = false;  ///< weft, warp and shear curves of every material all linear
+    /// Bending damping time constant gamma (s) per stencil: damping force -gamma Q v.
+    std::vector<double> bending_damping;
+    std::vector<double> bending_slot_damping;  ///< sum of gamma Q_ij per block slot
+  };
+  /// What a step reads and writes. membrane_viscosity and statistics outlive a step
+  /// (checkpoints write them); the rest are caches keyed on the step's dt, ck and cd that
+  /// rebuild to the same values.
+  struct Data {
+    std::vector<Vec3> membrane_viscosity;  ///< per triangle and mode (N s/m), this step's
+    DampingStatistics statistics;          ///< the run's
+    /// The step matrix's constant_version after the last assembly, and its ck and cd.
+    long constants_version = 0;
+    double constants_ck = 0, constants_cd = 0;
+    bool linear_viscosity_ready = false;  ///< membrane_viscosity holds the adaptive values
+    double linear_stats_dt = -1;          ///< the dt of the membrane statistics below
+    LogStatistics linear_kappa_step, linear_lambda_step, linear_added_step;
+    long linear_raised_per_step = 0;
+    LogStatistics bending_kappa_step;  ///< the stencils' kappa at bending_kappa_dt
+    double bending_kappa_dt = -1;
+  };
+  static Constants make_constants(const ClothModel& model, DampingSettings damping);
+  /// A fresh Data: the materials' own viscosity, no statistics.
+  static Data make_data(const ClothModel& model);
+
+  /// A system that owns its Constants and Data.
   ClothSystem(const ClothModel& model, DampingSettings damping);
+  /// A view stepping `data` (all three must outlive it).
+  ClothSystem(const ClothModel& model, const Constants& constants, Data& data);
 
   int num_nodes() const override { return model_.num_vertices(); }
   const VecX& node_mass() const override { return model_.mass; }
@@ -100,25 +167,18 @@ class ClothSystem : public System {
   double step_viscous_power(const VecX& x, const VecX& v, const StepAssembly& assembly) override;
 
   const ClothModel& model() const { return model_; }
-  const DampingSettings& damping_settings() const { return damping_; }
+  const Constants& constants() const { return c_; }
+  Data& data() { return d_; }
+  const Data& data() const { return d_; }
+  const DampingSettings& damping_settings() const { return c_.damping; }
   /// Viscosity per triangle and mode (N s/m) in use for the current step.
-  const std::vector<Vec3>& membrane_viscosity() const { return membrane_viscosity_; }
+  const std::vector<Vec3>& membrane_viscosity() const { return d_.membrane_viscosity; }
   /// Bending damping time constant gamma (s) per stencil: damping force -gamma Q v.
-  const std::vector<double>& bending_damping() const { return bending_damping_; }
+  const std::vector<double>& bending_damping() const { return c_.bending_damping; }
   /// Added viscosity per vertex (area-weighted mean over its triangles of the largest mode's
   /// addition), for colouring frames.
   VecX added_viscosity_per_vertex() const;
-  const DampingStatistics& statistics() const { return stats_; }
-  /// What outlives a step (checkpoints): the viscosity in use (the last step's) and the
-  /// run's statistics. The other members are constants of the model and settings, or caches
-  /// keyed on the step's dt, ck and cd that rebuild to the same values.
-  struct DynamicState {
-    std::vector<Vec3> membrane_viscosity;
-    DampingStatistics statistics;
-  };
-  DynamicState dynamic_state() const { return {membrane_viscosity_, stats_}; }
-  /// Throws std::invalid_argument for a state of another mesh.
-  void restore(const DynamicState& d);
+  const DampingStatistics& statistics() const { return d_.statistics; }
   /// Per-element stiffness factors kappa (largest mode) at a state, for analysis.
   std::vector<double> membrane_kappa_max(const VecX& x, double dt) const;
 
@@ -140,30 +200,6 @@ class ClothSystem : public System {
   void add_bending(const VecX& x, const VecX& v, bool jacobians, VecX& force, double& energy, double& viscous_power,
                    BlockMatrix* stiffness, BlockMatrix* damping) const;
 
-  /// Per-triangle constants packed for the step's passes, in triangle order.
-  struct PackedTriangle {
-    std::array<int, 3> vertex;
-    /// Bit 3a + b set: this triangle is the first (in triangle order) to write block slot
-    /// (a, b), so it assigns the block instead of adding to it.
-    unsigned first_writer = 0;
-    std::array<int, 9> slot;  ///< block slots (a, b), row-major
-    /// bending_only_slots_[begin, end): the slots, with no membrane block, of the rows
-    /// this triangle is the first to touch; written with its blocks, while their cache
-    /// lines are at hand.
-    int bending_only_begin = 0, bending_only_end = 0;
-    int material = 0;  ///< index into ClothModel::materials
-    double ru[3], rv[3];
-    double area;
-  };
-  /// Per material: its curves' moduli and the tangents the step's stiffness uses, for the
-  /// linear paths (membrane::LinearCurves), and its viscosity.
-  struct MaterialConstants {
-    const Material* material;
-    membrane::LinearCurves<double> linear;
-    double viscosity;
-  };
-  /// The membranes' part of assemble_step: energies, forces, K w and the step matrix blocks
-  /// (with the bending diagonal on each slot's first write); kLinear: all curves linear.
   /// The arrays the membrane assembly reads and writes: positions, velocities, w; force,
   /// K w, matrix blocks; the bending Q and gamma Q per slot; the viscosity per triangle.
   struct MembraneArrays {
@@ -174,6 +210,8 @@ class ClothSystem : public System {
     const Vec3* viscosity;
   };
   MembraneArrays membrane_arrays(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) const;
+  /// The membranes' part of assemble_step: energies, forces, K w and the step matrix blocks
+  /// (with the bending diagonal on each slot's first write); kLinear: all curves linear;
   /// kMixed: the triangles are of several materials (each reads its own constants).
   template <bool kLinear, bool kMixed>
   void assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, size_t begin, size_t end,
@@ -186,29 +224,11 @@ class ClothSystem : public System {
   /// linear: the tangent moduli do not depend on the strain, so neither do they.
   void prepare_linear_damping(double dt);
 
+  std::unique_ptr<Constants> own_constants_;  ///< when the system owns them
+  std::unique_ptr<Data> own_data_;
   const ClothModel& model_;
-  DampingSettings damping_;
-  std::vector<PackedTriangle> triangles_;
-  std::vector<int> bending_only_slots_;  ///< block slots no membrane writes, by triangle
-  /// Per block slot, 1 for those of bending_only_slots_: their step-matrix blocks,
-  /// ck Q + cd gamma Q, change only with ck and cd (BlockMatrix::constant_slots).
-  std::vector<char> constant_slots_;
-  /// The step matrix's constant_version after the last assembly, and its ck and cd.
-  long constants_version_ = 0;
-  double constants_ck_ = 0, constants_cd_ = 0;
-  std::vector<MaterialConstants> material_constants_;  ///< one per ClothModel::materials
-  bool mixed_ = false;                   ///< several materials
-  bool linear_moduli_ = false;           ///< weft, warp and shear curves of every material all linear
-  bool linear_viscosity_ready_ = false;  ///< membrane_viscosity_ holds the adaptive values
-  double linear_stats_dt_ = -1;          ///< the dt of the membrane statistics below
-  LogStatistics linear_kappa_step_, linear_lambda_step_, linear_added_step_;
-  long linear_raised_per_step_ = 0;
-  std::vector<Vec3> membrane_viscosity_;
-  std::vector<double> bending_damping_;
-  std::vector<double> bending_slot_damping_;  ///< sum of gamma Q_ij per block slot
-  LogStatistics bending_kappa_step_;          ///< the stencils' kappa at bending_kappa_dt_
-  double bending_kappa_dt_ = -1;
-  DampingStatistics stats_;
+  const Constants& c_;
+  Data& d_;
 };
 
 }  // namespace weft

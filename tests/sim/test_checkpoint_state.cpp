@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "sim/checkpoint.hpp"
+#include "support/contact_scene.hpp"
 #include "weft/error.hpp"
 #include "sim/simulation_core.hpp"
 
@@ -76,19 +77,7 @@ TEST(CheckpointState, AnotherSceneOrADamagedFileIsRefusedNamingTheFile) {
 // With contacts the checkpoint also holds which contacts pulled and which stuck, so a restored
 // run with friction and colliders steps to the same bits.
 TEST(CheckpointState, RestoredSimulationWithContactsStepsToTheSameBits) {
-  Scene scene = swing("bdf2");
-  scene.cloth.pin_vertices.clear();
-  scene.cloth.pin_grid_nodes.clear();
-  ColliderSpec sphere;
-  sphere.shape = ColliderShape::kSphere;
-  sphere.centre = Vec3(0.2, 0.5, -0.2);
-  sphere.radius = 0.25;
-  sphere.friction = 0.5;
-  ColliderSpec floor;
-  floor.shape = ColliderShape::kPlane;
-  floor.point = Vec3(0, 0.3, 0);
-  floor.friction = 0.8;
-  scene.colliders = {sphere, floor};
+  const Scene scene = test::dropped_onto_sphere_and_floor(swing("bdf2"));
   Simulation a(scene);
   a.advance_to(0.3);
   ASSERT_GT(a.core().statistics().contacts, 0);
@@ -118,7 +107,7 @@ TEST(CheckpointState, GuardedStepsResumeToTheSameBitsWhileTheGuardActs) {
     Simulation a(scene);
     double t = 0;
     for (;;) {
-      const Integrator::DynamicState at = a.core().integrator().dynamic_state();
+      const Integrator::Data& at = a.core().integrator().data();
       if (at.guard_depth + at.guard_rung > 0) break;
       ASSERT_LT(t, 1.0) << "the guard never acted";
       t += scene.frame_interval;

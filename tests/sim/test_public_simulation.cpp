@@ -49,6 +49,26 @@ TEST(PublicSimulation, ReportsTheSceneItWasBuiltFrom) {
   EXPECT_GT(sim.damping_statistics().element_steps, 0);
 }
 
+TEST(PublicSimulation, ResetStateTakesTheSimulationsOwnVectorsAndKeepsTheirStorage) {
+  // A caller may hand back the simulation's own positions with new velocities: the state must
+  // not be cleared before they are read, and arrays that view the state (the Python module's)
+  // keep viewing it.
+  Simulation sim(sheet_over_sphere());
+  sim.advance_to(0.02);
+  const VecX x = sim.positions();
+  const double* x_storage = sim.positions().data();
+  const double* v_storage = sim.velocities().data();
+  const VecX v = VecX::Constant(x.size(), 0.25);
+  sim.reset_state(sim.positions(), v);
+  EXPECT_EQ(sim.positions(), x);
+  EXPECT_EQ(sim.velocities(), v);
+  EXPECT_EQ(sim.positions().data(), x_storage);
+  EXPECT_EQ(sim.velocities().data(), v_storage);
+  EXPECT_EQ(sim.time(), 0.0);
+  sim.reset_state(sim.positions(), sim.velocities());
+  EXPECT_EQ(sim.velocities(), v);
+}
+
 TEST(PublicSimulation, ACollidersIndexOutOfRangeIsRefused) {
   Simulation sim(sheet_over_sphere());
   try {

@@ -1,0 +1,534 @@
+#include "sim/model_data.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+
+#include "collision/clamps.hpp"
+#include "collision/colliders.hpp"
+#include "collision/self_contact.hpp"
+#include "sim/checkpoint.hpp"
+#include "weft/error.hpp"
+#include "weft/garment/sewing.hpp"
+
+namespace weft {
+
+namespace {
+// Shares of the set-up time by stage (the integrator and the energy reference take the rest).
+constexpr double kSetupShareMesh = 0.2, kSetupShareModel = 0.6, kSetupShareSystem = 0.1;
+/// The scene's garment: its pattern meshed, placed around the first body in its bind pose and
+/// sewn (weft/garment/sewing.hpp), each panel in its material (the scene's cloth material unless
+/// cloth.mesh.pattern.panels.NAME.material gives one); `materials` receives them per triangle.
+TriMesh sew_scene_garment(const Scene& scene, const SetupProgress& on_setup, TriangleMaterials& materials) {
+  const GarmentSpec& g = *scene.cloth.garment;
+  const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": cloth.mesh.pattern";
+  if (on_setup) on_setup("garment: meshing " + g.pattern_file, 0.0);
+  const Pattern pattern = load_pattern(g.pattern_file);
+  GarmentMeshOptions mesh_options;
+  mesh_options.target_edge_m = g.edge_length_m;
+  for (const auto& [name, degrees] : g.panel_grain_deg) mesh_options.grain_angle_rad[name] = degrees * M_PI / 180;
+  const GarmentMesh garment = mesh_garment(pattern, mesh_options);
+  const BindBody body = load_bind_body(scene.bodies.front(), 1.0);
+  PlacementOptions placement;
+  placement.clearance_m = g.clearance_m;
+  placement.overrides = g.panels;
+  const PlacedGarment placed = place_garment(pattern, garment, body, placement);
+  SewingOptions sewing;
+  sewing.material = scene.cloth.material;
+  for (const Panel& panel : pattern.panels) {
+    const auto own = g.panel_materials.find(panel.name);
+    sewing.panel_materials.push_back(own == g.panel_materials.end() ? scene.cloth.material : own->second);
+  }
+  sewing.seam_stiffness_N_m = g.seam_stiffness_N_m;
+  sewing.max_time_s = g.sewing_time_s;
+  if (on_setup) on_setup("garment: sewing", 0.0);
+  SewnGarment sewn = sew_garment(placed, body, sewing);
+  if (sewn.intersections.count() > 0)
+    std::fprintf(stderr, "weft: warning: %s: the sewn garment starts with %zu intersecting triangle pairs\n",
+                 where.c_str(), sewn.intersections.count());
+  materials = {std::move(sewing.panel_materials), std::move(sewn.panel_of_triangle)};
+  return std::move(sewn.mesh);
+}
+
+}  // namespace
+
+std::unique_ptr<SimulationModel> build_model(const Scene& scene, const SetupProgress& on_setup) {
+  auto model = std::make_unique<SimulationModel>();
+  SimulationModel& M = *model;
+  M.scene = scene;
+  // The fractions are roughly the stages' shares of a large grid's set-up (a 601x601 grid).
+  auto stage = [&](const char* name, double fraction) {
+    if (on_setup) on_setup(name, fraction);
+  };
+  stage("cloth mesh", 0.0);
+  // One material for the whole cloth, unless a garment's panels or a mesh made in code give
+  // one per triangle.
+  TriangleMaterials materials{{scene.cloth.material}, {}};
+  if (!scene.cloth.garment && !scene.cloth.triangle_materials.materials.empty())
+    materials = scene.cloth.triangle_materials;
+  TriMesh mesh =
+      scene.cloth.garment ? sew_scene_garment(scene, on_setup, materials) : build_cloth_mesh(scene.cloth);
+  // Problems found while building the model (a degenerate triangle, a bad pin) name the
+  // scene and the mesh they come from.
+  const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": cloth" +
+                            (scene.cloth.obj_path.empty() ? std::string(" grid") : " mesh " + scene.cloth.obj_path);
+  try {
+    const std::vector<int> pins = resolve_pins(scene.cloth, mesh);
+    M.clamp_groups = resolve_clamps(scene.cloth, mesh, pins);
+    stage("model", kSetupShareMesh);
+    M.cloth = std::make_unique<ClothModel>(build_cloth_model(std::move(mesh), materials, scene.gravity, pins,
+                                                            parse_bending_model(scene.cloth.bending_model, "cloth.bending_model"),
+                                                            scene.cloth.seams));
+  } catch (const InputError& e) {
+    throw InputError(where + ": " + e.what());
+  }
+  // RK45 steps adaptively: report its stiffness factors at the scene's (largest) step.
+  DampingSettings damping{scene.effective_damping_ratio()};
+  if (scene.integrator.method == Method::Rk45) damping.reference_dt = scene.integrator.dt;
+  stage("element system", kSetupShareMesh + kSetupShareModel);
+  M.system = ClothSystem::make_constants(*M.cloth, damping);
+  stage("integrator", kSetupShareMesh + kSetupShareModel + kSetupShareSystem);
+  {
+    ClothSystem::Data scratch = ClothSystem::make_data(*M.cloth);
+    const ClothSystem system(*M.cloth, M.system, scratch);
+    M.integrator = Integrator::make_constants(system, scene.integrator);
+  }
+  for (size_t k = 0; k < scene.bodies.size(); ++k) {
+    stage(("body " + std::to_string(k) + " (rig, motion, skinning)").c_str(), kSetupShareMesh + kSetupShareModel + kSetupShareSystem);
+    M.bodies.push_back(std::make_unique<WalkingBody>(scene.bodies[k]));
+  }
+  // Mesh colliders' geometry as the scene places it (their motions move it).
+  M.collider_triangles.resize(scene.colliders.size());
+  M.collider_vertices.resize(scene.colliders.size());
+  for (size_t k = 0; k < scene.colliders.size(); ++k) {
+    const ColliderSpec& c = scene.colliders[k];
+    if (c.shape != ColliderShape::kMesh) continue;
+    const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": " + c.name;
+    ObjMesh obj;
+    try {
+      obj = read_obj(c.obj_path);
+    } catch (const InputError& e) {
+      throw InputError(where + ": " + e.what());
+    }
+    if (obj.triangles.rows() == 0) throw InputError(where + ": " + c.obj_path + ": no faces (a mesh collider needs triangles)");
+    const Mat3 R = rotation_from_degrees(c.rotation_deg);
+    for (Eigen::Index v = 0; v < obj.positions.rows(); ++v)
+      obj.positions.row(v) = (R * (c.scale * obj.positions.row(v).transpose()) + c.translation).transpose();
+    M.collider_triangles[k] = std::move(obj.triangles);
+    M.collider_vertices[k] = std::move(obj.positions);
+  }
+  // Clamped vertices follow their clamps whatever touches them: the colliders' and the
+  // cloth's contact handling take them as pinned.
+  M.held_still = M.cloth->fixed;
+  for (const std::vector<int>& group : M.clamp_groups)
+    for (int i : group) M.held_still[i] = 1;
+  if (!scene.cloth.seams.empty()) {
+    // The two sides of a seam are one point of the cloth to come: they do not push apart.
+    std::vector<int> group(M.num_vertices());
+    std::iota(group.begin(), group.end(), 0);
+    auto find = [&group](int i) {
+      while (group[i] != i) i = group[i] = group[group[i]];
+      return i;
+    };
+    for (const Seam& seam : scene.cloth.seams) group[std::max(find(seam.a), find(seam.b))] = std::min(find(seam.a), find(seam.b));
+    for (int i = 0; i < M.num_vertices(); ++i) group[i] = find(i);
+    M.seam_groups = std::move(group);
+  }
+  stage("done", 1.0);
+  return model;
+}
+
+SimulationData::~SimulationData() = default;
+
+std::unique_ptr<SimulationData> make_data(const SimulationModel& M) {
+  const Scene& scene = M.scene;
+  const ClothModel& cloth = *M.cloth;
+  auto data = std::make_unique<SimulationData>();
+  SimulationData& D = *data;
+  D.system = ClothSystem::make_data(cloth);
+  ClothSystem system(cloth, M.system, D.system);
+  D.integrator = Integrator::make_data(system, M.integrator);
+  Integrator integrator(system, M.integrator, D.integrator);
+  for (const ColliderSpec& c : scene.colliders) D.collider_motions.push_back(c.motion);
+  for (size_t k = 0; k < scene.colliders.size(); ++k) {
+    const ColliderSpec& c = scene.colliders[k];
+    if (c.shape == ColliderShape::kBody) {
+      const WalkingBody* body = M.bodies[c.body].get();
+      D.colliders.push_back(make_mesh_collider(
+          c, body->triangles(), [body](double t, Points& out) { body->positions(t, out); }, true));
+    } else if (c.shape == ColliderShape::kMesh) {
+      // The motion as the data holds it: move_collider may replace it between steps.
+      const RigidMotion* motion = &D.collider_motions[k];
+      const Points* placed = &M.collider_vertices[k];
+      D.colliders.push_back(make_mesh_collider(
+          c, M.collider_triangles[k],
+          [placed, motion](double t, Points& out) {
+            const Eigen::Isometry3d T = motion->at(t);
+            out.resize(placed->rows(), 3);
+            for (Eigen::Index v = 0; v < placed->rows(); ++v) out.row(v) = (T * Vec3(placed->row(v))).transpose();
+          },
+          c.closed));
+    } else {
+      D.colliders.push_back(make_analytic_collider(c));
+    }
+  }
+  if (!M.clamp_groups.empty()) {
+    std::vector<RigidMotion> motions;
+    for (const ClampSpec& c : scene.cloth.clamps) motions.push_back(c.motion);
+    D.clamps = std::make_unique<Clamps>(M.clamp_groups, std::move(motions), cloth.initial_positions(), cloth.mass);
+  }
+  if (!D.colliders.empty()) {
+    std::vector<Collider*> list;
+    for (const auto& c : D.colliders) list.push_back(c.get());
+    D.contacts = std::make_unique<ColliderContacts>(std::move(list), cloth.mass, M.held_still, cloth.mesh.triangles);
+    integrator.add_contact_handler(D.contacts.get());
+  }
+  // Cloth-cloth contact after the colliders': its fail-safe sees their corrections.
+  if (scene.cloth.self_collision) {
+    D.self_contacts = std::make_unique<SelfContacts>(cloth.mesh.triangles, cloth.initial_positions(), cloth.mass,
+                                                     M.held_still, scene.cloth.thickness, scene.cloth.friction);
+    if (D.contacts) D.self_contacts->set_held_nodes(&D.contacts->touching());
+    if (!M.seam_groups.empty()) D.self_contacts->set_vertex_groups(M.seam_groups);
+    integrator.add_contact_handler(D.self_contacts.get());
+  }
+  // The clamps last: their contacts join the others', and they put their vertices on their
+  // paths after every other correction.
+  if (D.clamps) integrator.add_contact_handler(D.clamps.get());
+  State& s = D.state;
+  s.x = cloth.initial_positions();
+  s.v = VecX::Zero(s.x.size());
+  for (int i = 0; i < cloth.num_vertices(); ++i)
+    if (!cloth.fixed[i]) node(s.v, i) = scene.cloth.initial_velocity;
+  for (size_t k = 0; k < M.clamp_groups.size(); ++k)
+    for (int i : M.clamp_groups[k]) {
+      node(s.x, i) = D.clamps->position(k, i, 0);
+      node(s.v, i) = D.clamps->velocity(k, i, 0);
+    }
+  s.t = 0;
+  set_energy_reference(M, D);
+  return data;
+}
+
+namespace {
+/// Sets the velocity of pinned vertex i (and its BDF-2 history, as if it had moved so before).
+void set_pin_velocity(const SimulationModel& M, State& s, int i, const Vec3& v) {
+  node(s.v, i) = v;
+  // BDF-2 moves a node by beta dx_prev + dt_b v (with dv = 0 on a pin): a previous change of
+  // dt v, beta dt + dt_b = dt, makes that dt v from the next step on.
+  if (s.has_history) {
+    node(s.dx_prev, i) = M.scene.integrator.dt * v;
+    node(s.dv_prev, i).setZero();
+  }
+}
+}  // namespace
+
+void set_pin_velocity(const SimulationModel& M, SimulationData& D, int i, const Vec3& v) {
+  set_pin_velocity(M, D.state, i, v);
+}
+
+void advance(const SimulationModel& M, SimulationData& D, double t) {
+  ClothSystem system(*M.cloth, M.system, D.system);
+  Integrator integrator(system, M.integrator, D.integrator);
+  State& s = D.state;
+  // While pins move: a step at a time (each arrival is on the step grid), each moving pin's
+  // velocity set again after every step to reach its target at its arrival, so that a pin the
+  // self-collision fail-safe held still for a step (an impact zone holding a pin stops) catches
+  // up; pins that arrived are put on their targets and stopped.
+  const double dt = M.scene.integrator.dt;
+  const double slack = 1e-9 * dt;
+  while (!D.pin_moves.empty() && s.t < t - slack) {
+    double next = std::min(t, s.t + dt);
+    for (const PinMove& m : D.pin_moves) next = std::min(next, m.arrival);
+    integrator.advance(s, next, D.statistics);
+    std::erase_if(D.pin_moves, [&](const PinMove& m) {
+      if (m.arrival > s.t + slack) {
+        set_pin_velocity(M, s, m.node, (m.target - node(s.x, m.node)) / (m.arrival - s.t));
+        return false;
+      }
+      node(s.x, m.node) = m.target;
+      set_pin_velocity(M, s, m.node, Vec3::Zero());
+      return true;
+    });
+  }
+  integrator.advance(s, t, D.statistics);
+}
+
+void set_energy_reference(const SimulationModel& M, SimulationData& D) {
+  const ClothModel& cloth = *M.cloth;
+  const State& s = D.state;
+  D.gravity0 = 0;
+  D.total0 = 0;
+  ClothSystem system(cloth, M.system, D.system);
+  system.evaluate(s.x, s.v, false, D.eval);
+  D.gravity0 = D.eval.gravity_energy;
+  const EnergyRow e0 = energies(M, D);
+  D.total0 = e0.total();
+  Vec3 lo = node(s.x, 0), hi = lo;
+  for (int i = 1; i < cloth.num_vertices(); ++i) {
+    lo = lo.cwiseMin(node(s.x, i));
+    hi = hi.cwiseMax(node(s.x, i));
+  }
+  D.energy_scale = e0.kinetic + e0.elastic + cloth.mass.sum() * M.scene.gravity.norm() * (hi - lo).norm() + 1e-12;
+  D.integrator.energy_scale = D.energy_scale;
+}
+
+EnergyRow energies(const SimulationModel& M, SimulationData& D) {
+  ClothSystem system(*M.cloth, M.system, D.system);
+  const Integrator integrator(system, M.integrator, D.integrator);
+  const State& state = D.state;
+  system.evaluate(state.x, state.v, false, D.eval);
+  EnergyRow r;
+  r.time = state.t;
+  const VecX& m = M.cloth->mass;
+  for (int i = 0; i < M.cloth->num_vertices(); ++i) r.kinetic += 0.5 * m[i] * node(state.v, i).squaredNorm();
+  r.elastic = D.eval.elastic_energy;
+  r.gravity = D.eval.gravity_energy - D.gravity0;
+  r.viscous_dissipated = state.viscous_dissipated;
+  r.contact_work = state.contact_work;
+  r.fail_safe_work = state.fail_safe_work;
+  r.numerical_dissipated = D.total0 + r.contact_work - r.total() - r.viscous_dissipated;
+  if (M.scene.integrator.guard) {
+    r.guard_parts = static_cast<double>(D.statistics.guard_parts);
+    r.guard_alpha = integrator.guard_alpha();
+  }
+  return r;
+}
+
+
+namespace {
+void put(BinaryWriter& out, const LogStatistics& s) {
+  const LogStatistics::Snapshot snap = s.snapshot();
+  out.u64(snap.bins.size());
+  for (const auto& [bin, n] : snap.bins) {
+    out.i64(bin);
+    out.i64(n);
+  }
+  out.i64(snap.count);
+  out.f64(snap.min);
+  out.f64(snap.max);
+  out.f64(snap.sum);
+}
+
+LogStatistics get_statistics(BinaryReader& in) {
+  LogStatistics::Snapshot snap;
+  const std::uint64_t bins = in.u64();
+  for (std::uint64_t k = 0; k < bins; ++k) {
+    const std::int64_t bin = in.i64();
+    snap.bins.emplace_back(static_cast<int>(std::clamp<std::int64_t>(bin, -1, 1 << 30)), in.i64());
+  }
+  snap.count = in.i64();
+  snap.min = in.f64();
+  snap.max = in.f64();
+  snap.sum = in.f64();
+  try {
+    return LogStatistics::from_snapshot(snap);
+  } catch (const std::invalid_argument& e) {
+    in.fail(std::string("checkpoint is damaged: ") + e.what());
+  }
+}
+
+// Vectors of the State are empty or 3n long.
+VecX get_state_vector(BinaryReader& in, Eigen::Index size, const char* name, bool may_be_empty) {
+  VecX v = in.vec();
+  if (v.size() != size && !(may_be_empty && v.size() == 0))
+    in.fail(std::string("checkpoint's ") + name + " has " + std::to_string(v.size()) + " values, the cloth " +
+            std::to_string(size));
+  return v;
+}
+}  // namespace
+
+std::uint64_t fingerprint(const SimulationModel& M) {
+  BinaryWriter w;
+  const VecX x0 = M.cloth->initial_positions();
+  w.vec(x0);
+  w.vec(M.cloth->mass);
+  w.raw(M.cloth->fixed.data(), M.cloth->fixed.size());
+  w.u64(M.cloth->mesh.triangles.size());
+  w.u64(M.cloth->bending.size());
+  w.u64(static_cast<std::uint64_t>(M.cloth->pattern.num_blocks()));
+  const IntegratorSettings& is = M.integrator.settings;
+  w.i64(static_cast<int>(is.method));
+  for (double d : {is.alpha, is.dt, is.cg_tolerance, is.error_tolerance, is.ssor_relaxation}) w.f64(d);
+  w.i64(is.cg_max_iterations);
+  w.i64(static_cast<int>(M.integrator.preconditioner));
+  w.i64(is.ssor_single_precision);
+  w.i64(is.warm_start_history);
+  w.i64(is.guard);
+  if (is.newton_iterations > 0) {  // (absent when off: fingerprints of older checkpoints hold)
+    w.i64(is.newton_iterations);
+    w.f64(is.newton_tolerance);
+  }
+  w.f64(M.system.damping.damping_ratio);
+  w.f64(M.system.damping.reference_dt);
+  for (const Material& m : M.cloth->materials)
+    for (double d : {m.viscosity_Ns_m, m.surface_density_kg_m2, m.bending_rigidity_weft_Nm, m.bending_rigidity_warp_Nm})
+      w.f64(d);
+  for (int k : M.cloth->triangle_material) w.i64(k);  // empty with one material
+  for (double d : {M.scene.duration, M.scene.frame_interval}) w.f64(d);
+  w.raw(M.scene.gravity.data(), 3 * sizeof(double));
+  w.i64(M.scene.cloth.self_collision);
+  for (double d : {M.scene.cloth.thickness, M.scene.cloth.friction}) w.f64(d);
+  if (!M.clamp_groups.empty()) {
+    std::vector<char> clamped(M.num_vertices(), 0);
+    for (const std::vector<int>& group : M.clamp_groups)
+      for (int i : group) clamped[i] = 1;
+    for (char c : clamped) w.i64(c);
+    for (const ClampSpec& c : M.scene.cloth.clamps)
+      for (double t : {0.0, M.scene.duration}) w.raw(c.motion.at(t).matrix().data(), 16 * sizeof(double));
+  }
+  return fnv1a(w.bytes().data(), w.bytes().size());
+}
+
+
+void save_data(const SimulationModel& M, const SimulationData& D, BinaryWriter& out) {
+  out.u64(fingerprint(M));
+  const State& s = D.state;
+  out.vec(s.x);
+  out.vec(s.v);
+  out.f64(s.t);
+  out.vec(s.dx_prev);
+  out.vec(s.dv_prev);
+  out.i64(s.has_history);
+  out.f64(s.viscous_dissipated);
+  out.f64(s.contact_work);
+  out.f64(s.fail_safe_work);
+  out.f64(s.rk45_step);
+  for (long c : {D.statistics.steps, D.statistics.rejected_steps, D.statistics.cg_iterations, D.statistics.cg_solves, D.statistics.cg_failures,
+                 D.statistics.contacts, D.statistics.max_contacts, D.statistics.released_contacts, D.statistics.fail_safe_moves,
+                 D.statistics.contact_passes, D.statistics.failed_contact_steps, D.statistics.halved_steps, D.statistics.guard_redone_steps,
+                 D.statistics.guard_raised_steps, D.statistics.guard_split_steps, D.statistics.guard_parts, D.statistics.newton_iterations,
+                 D.statistics.newton_steps, D.statistics.newton_halvings, D.statistics.newton_unconverged})
+    out.i64(c);
+  out.f64(D.statistics.guard_max_alpha);
+  for (double d : {D.statistics.assembly_seconds, D.statistics.solve_seconds, D.statistics.detection_seconds, D.statistics.response_seconds,
+                   D.statistics.guard_seconds, D.statistics.newton_seconds})
+    out.f64(d);
+  out.f64(D.gravity0);
+  out.f64(D.total0);
+  out.f64(D.energy_scale);
+
+  const ClothSystem::Data& sys = D.system;
+  out.doubles(sys.membrane_viscosity.front().data(), 3 * sys.membrane_viscosity.size());
+  for (const LogStatistics* l : {&sys.statistics.membrane_kappa, &sys.statistics.membrane_lambda,
+                                 &sys.statistics.bending_kappa, &sys.statistics.added_viscosity})
+    put(out, *l);
+  out.i64(sys.statistics.element_steps);
+  out.i64(sys.statistics.raised_element_steps);
+
+  const Integrator::Data& in = D.integrator;
+  const SolutionHistory::Snapshot history = in.history.snapshot();
+  out.i64(history.size);
+  out.i64(history.next);
+  out.mat(history.b);
+  out.mat(history.x);
+  out.mat(history.gram);
+  for (double d : {in.history_alpha, in.history_beta, in.history_dt_b, in.history_t, in.pcg.ssor_residual_ratio}) out.f64(d);
+  out.i64(in.pcg.ssor_single_fallbacks);
+  out.doubles(in.multigrid_setup_blocks.empty() ? nullptr : in.multigrid_setup_blocks.front().data(),
+              9 * in.multigrid_setup_blocks.size());
+  for (const std::vector<char>* flags : {&in.pulling, &in.stuck}) {
+    out.i64(static_cast<std::int64_t>(flags->size()));
+    for (char c : *flags) out.i64(c);
+  }
+  for (int g : {in.guard_rung, in.guard_calm_steps, in.guard_depth, in.guard_depth_calm_steps}) out.i64(g);
+  // The cloth-cloth fail-safe keeps nothing between steps but its counts (for summary.json).
+  SelfContactStatistics self;
+  if (D.self_contacts) self = D.self_contacts->statistics();
+  for (long c : {self.repulsions, self.collision_impulses, self.impact_zones, self.zone_nodes,
+                 self.failed_steps})
+    out.i64(c);
+  out.f64(self.seconds);
+}
+
+
+void restore_data(const SimulationModel& M, SimulationData& D, BinaryReader& in) {
+  if (in.u64() != fingerprint(M))
+    in.fail("checkpoint belongs to another cloth or other settings (the mesh, pins, material, integrator or "
+            "timing differ from the scene's)");
+  const Eigen::Index size = 3 * M.cloth->num_vertices();
+  State s;
+  s.x = get_state_vector(in, size, "positions", false);
+  s.v = get_state_vector(in, size, "velocities", false);
+  s.t = in.f64();
+  s.dx_prev = get_state_vector(in, size, "previous change of positions", true);
+  s.dv_prev = get_state_vector(in, size, "previous change of velocities", true);
+  s.has_history = in.i64() != 0;
+  s.viscous_dissipated = in.f64();
+  s.contact_work = in.f64();
+  s.fail_safe_work = in.f64();
+  s.rk45_step = in.f64();
+  StepStatistics st;
+  for (long* c : {&st.steps, &st.rejected_steps, &st.cg_iterations, &st.cg_solves, &st.cg_failures, &st.contacts,
+                  &st.max_contacts, &st.released_contacts, &st.fail_safe_moves, &st.contact_passes,
+                  &st.failed_contact_steps, &st.halved_steps, &st.guard_redone_steps, &st.guard_raised_steps,
+                  &st.guard_split_steps, &st.guard_parts, &st.newton_iterations, &st.newton_steps,
+                  &st.newton_halvings, &st.newton_unconverged})
+    *c = in.i64();
+  st.guard_max_alpha = in.f64();
+  for (double* d : {&st.assembly_seconds, &st.solve_seconds, &st.detection_seconds, &st.response_seconds,
+                    &st.guard_seconds, &st.newton_seconds})
+    *d = in.f64();
+  const double gravity0 = in.f64(), total0 = in.f64(), energy_scale = in.f64();
+
+  ClothSystem::Data sys = ClothSystem::make_data(*M.cloth);
+  sys.membrane_viscosity.clear();
+  const std::vector<double> eta = in.doubles();
+  if (eta.size() != 3 * M.cloth->mesh.triangles.size())
+    in.fail("checkpoint's viscosities are for " + std::to_string(eta.size() / 3) + " triangles, the cloth has " +
+            std::to_string(M.cloth->mesh.triangles.size()));
+  for (size_t t = 0; 3 * t < eta.size(); ++t) sys.membrane_viscosity.emplace_back(eta[3 * t], eta[3 * t + 1], eta[3 * t + 2]);
+  for (LogStatistics* l : {&sys.statistics.membrane_kappa, &sys.statistics.membrane_lambda,
+                           &sys.statistics.bending_kappa, &sys.statistics.added_viscosity})
+    *l = get_statistics(in);
+  sys.statistics.element_steps = in.i64();
+  sys.statistics.raised_element_steps = in.i64();
+
+  // The integrator's checkpointed part, checked against the model before D changes.
+  Integrator::Data id = Integrator::make_data(ClothSystem(*M.cloth, M.system, sys), M.integrator);
+  SolutionHistory::Snapshot history;
+  history.size = static_cast<int>(in.i64());
+  history.next = static_cast<int>(in.i64());
+  history.b = in.mat();
+  history.x = in.mat();
+  history.gram = in.mat();
+  for (double* d : {&id.history_alpha, &id.history_beta, &id.history_dt_b, &id.history_t, &id.pcg.ssor_residual_ratio})
+    *d = in.f64();
+  id.pcg.ssor_single_fallbacks = in.i64();
+  const std::vector<double> blocks = in.doubles();
+  if (blocks.size() % 9) in.fail("checkpoint is damaged (multigrid matrix of " + std::to_string(blocks.size()) + " values)");
+  for (size_t b = 0; b < blocks.size(); b += 9) id.multigrid_setup_blocks.push_back(Eigen::Map<const Mat3>(&blocks[b]));
+  for (std::vector<char>* flags : {&id.pulling, &id.stuck}) {
+    const std::int64_t count = in.i64();
+    if (count != 0 && count != M.cloth->num_vertices())
+      in.fail("checkpoint is damaged (contact flags for " + std::to_string(count) + " nodes)");
+    for (std::int64_t k = 0; k < count; ++k) flags->push_back(in.i64() != 0);
+  }
+  for (int* g : {&id.guard_rung, &id.guard_calm_steps, &id.guard_depth, &id.guard_depth_calm_steps})
+    *g = static_cast<int>(in.i64());
+  SelfContactStatistics self;
+  for (long* c : {&self.repulsions, &self.collision_impulses, &self.impact_zones, &self.zone_nodes,
+                  &self.failed_steps})
+    *c = in.i64();
+  self.seconds = in.f64();
+  id.energy_scale = energy_scale;
+  try {
+    id.history.restore(history);
+    ClothSystem system(*M.cloth, M.system, sys);
+    Integrator(system, M.integrator, id).restored();
+  } catch (const std::invalid_argument& e) {
+    in.fail(std::string("checkpoint does not fit the scene: ") + e.what());
+  }
+  // Into D: the handlers stay D's own.
+  id.handlers = std::move(D.integrator.handlers);
+  D.system = std::move(sys);
+  D.integrator = std::move(id);
+  D.state = std::move(s);
+  D.statistics = st;
+  D.gravity0 = gravity0;
+  D.total0 = total0;
+  D.energy_scale = energy_scale;
+  if (D.self_contacts) D.self_contacts->set_statistics(self);
+}
+
+}  // namespace weft
