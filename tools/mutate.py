@@ -78,8 +78,8 @@ MUTATIONS = [
       "K w misses a stress-matrix term", "MembraneElement.*:ClothAssembly.*"),
     # Integrators
     M("viscous-work-half", "integrators", "src/integrate/integrator.cpp",
-      "s.viscous_dissipated -= dt * system_.step_viscous_power(s.x, d_.tmp, d_.step);",
-      "s.viscous_dissipated -= 0.5 * dt * system_.step_viscous_power(s.x, d_.tmp, d_.step);",
+      "s.viscous_dissipated -= dt * system_.step_viscous_power(s.x, d_.mean_velocity, d_.step);",
+      "s.viscous_dissipated -= 0.5 * dt * system_.step_viscous_power(s.x, d_.mean_velocity, d_.step);",
       "semi-implicit step accounts half the viscous dissipation", "EnergyAccount.*"),
     M("rk45-error-weight", "integrators", "src/integrate/integrator.cpp",
       "b4[7] = {5179.0 / 57600,", "b4[7] = {5178.0 / 57600,",

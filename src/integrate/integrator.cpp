@@ -441,11 +441,11 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   // w = beta dx_p + dt_b v, so that the right-hand side is
   //   beta M dv_p + dt_b f + alpha dt_b K w
   // and the matrix M - alpha dt_b D - alpha^2 dt_b^2 K (METHOD.md 1-2).
-  d_.tmp = dt_b * s.v;
-  if (beta != 0.0) d_.tmp += beta * s.dx_prev;
+  d_.w = dt_b * s.v;
+  if (beta != 0.0) d_.w += beta * s.dx_prev;
   d_.step.ck = alpha * alpha * dt_b * dt_b;
   d_.step.cd = alpha * dt_b;
-  system_.assemble_step(s.x, s.v, d_.tmp, d_.step);
+  system_.assemble_step(s.x, s.v, d_.w, d_.step);
   d_.rhs = dt_b * d_.step.force;
   if (beta != 0.0) d_.rhs += beta * c_.mass3.cwiseProduct(s.dv_prev);
   if (alpha > 0.0) d_.rhs += alpha * dt_b * d_.step.stiffness_times_w;
@@ -556,12 +556,12 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     }
     d_.contacts.resize(kept);
     d_.contact_stuck.resize(kept);
-    d_.tmp2 = s.x + dt_b * (s.v + alpha * d_.dv);
-    if (beta != 0.0) d_.tmp2 += beta * s.dx_prev;
+    d_.x_end = s.x + dt_b * (s.v + alpha * d_.dv);
+    if (beta != 0.0) d_.x_end += beta * s.dx_prev;
     d_.held.assign(n, 0);
     for (const NodeContact& c : d_.contacts) d_.held[c.node] = 1;
     const size_t before = d_.contacts.size();
-    for (ContactHandler* h : d_.handlers) h->detect_end(s.x, d_.tmp2, s.t, dt, d_.held, d_.contacts);
+    for (ContactHandler* h : d_.handlers) h->detect_end(s.x, d_.x_end, s.t, dt, d_.held, d_.contacts);
     d_.contact_stuck.resize(d_.contacts.size(), 0);  // those that join slide
     for (size_t k = before; k < d_.contacts.size(); ++k)
       if (d_.released_now[d_.contacts[k].node]) d_.keep_held[d_.contacts[k].node] = 1;
@@ -582,7 +582,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   if (!d_.handlers.empty()) d_.x_start = s.x;
 
   // dx = beta dx_p + dt_b (v + alpha dv), built in dx_prev's storage (no allocation per step);
-  // d_.tmp holds the mean velocity dx/dt.
+  // d_.mean_velocity holds the mean velocity dx/dt.
   if (beta != 0.0) {
     s.dx_prev = beta * s.dx_prev + dt_b * (s.v + alpha * d_.dv);
   } else {
@@ -592,12 +592,12 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   // dx/dt (METHOD.md 6); for forward Euler the start's velocity. A step Newton iterated
   // evaluated its forces at x_a = x + alpha dx: its viscous force does its work there.
   if (newton_iterations > 0) {
-    d_.tmp = s.dx_prev / dt;
-    d_.tmp2 = s.x + alpha * s.dx_prev;
-    s.viscous_dissipated -= dt * system_.viscous_power(d_.tmp2, d_.tmp);
+    d_.mean_velocity = s.dx_prev / dt;
+    d_.x_forces = s.x + alpha * s.dx_prev;
+    s.viscous_dissipated -= dt * system_.viscous_power(d_.x_forces, d_.mean_velocity);
   } else if (alpha > 0.0) {
-    d_.tmp = s.dx_prev / dt;
-    s.viscous_dissipated -= dt * system_.step_viscous_power(s.x, d_.tmp, d_.step);
+    d_.mean_velocity = s.dx_prev / dt;
+    s.viscous_dissipated -= dt * system_.step_viscous_power(s.x, d_.mean_velocity, d_.step);
   } else {
     s.viscous_dissipated -= dt * d_.step.viscous_power;
   }

@@ -118,7 +118,11 @@ class Integrator {
     // Scratch, rewritten by every step.
     Evaluation eval;
     StepAssembly step;
-    VecX rhs, dv, tmp, tmp2;
+    VecX rhs, dv;
+    VecX w;              ///< the vector the assembly multiplies K by: beta dx_p + dt_b v
+    VecX x_end;          ///< where the linearised step would end (the contacts' end detection)
+    VecX mean_velocity;  ///< the step's dx/dt (the viscous work's accounting)
+    VecX x_forces;       ///< where a Newton-iterated step evaluated its forces: x + alpha dx
     bool last_step_ok = true;  ///< the handlers' verdict on the last step
     int retry_depth = 0;
     std::vector<NodeContact> contacts;   ///< this step's, held by the solve
