@@ -19,6 +19,7 @@
 namespace weft {
 
 class SimulationCore;
+struct SimulationModel;
 
 /// Called while a Simulation is built: the stage starting ("cloth mesh", "model", ...) and the
 /// fraction of the set-up done before it (1 with stage "done" at the end).
@@ -42,7 +43,35 @@ struct EnergyRow {
   double total() const { return kinetic + elastic + gravity; }
 };
 
-/// A scene being simulated: built from a Scene, advanced in time, its state and statistics
+/// What a scene defines and no step changes: the cloth's mesh (a garment meshed, placed and
+/// sewn), its elements, masses and pins, the integrator's settings and what follows from them,
+/// the walking bodies and the collider meshes. A Simulation built from a Scene builds its own;
+/// Simulations made from one shared Model are independent simulations of the same scene that
+/// pay for the set-up once (docs/api.md, "Model and data"). No step changes a Model, so
+/// Simulations sharing one may be stepped on different threads.
+class Model {
+ public:
+  /// Builds what Simulation(scene) builds; throws InputError as it does.
+  explicit Model(const Scene& scene, const SetupProgress& on_setup = {});
+  ~Model();
+  Model(const Model&) = delete;
+  Model& operator=(const Model&) = delete;
+
+  const Scene& scene() const;
+  /// The cloth mesh as built (Simulation::mesh).
+  const TriMesh& mesh() const;
+  int vertex_count() const;
+  /// Simulation::fingerprint: the same for every Simulation of this model.
+  std::uint64_t fingerprint() const;
+  /// The parts, for weft's own code: SimulationModel is defined in the library's private
+  /// headers (src/sim/model_data.hpp) and is not part of the API.
+  const SimulationModel& core() const { return *impl_; }
+
+ private:
+  std::unique_ptr<SimulationModel> impl_;
+};
+
+/// A scene being simulated: built from a Scene (or a shared Model), advanced in time, its state and statistics
 /// read, its pins and colliders moved between steps. What `weft run`, the experiments, the
 /// benchmarks and the Python module drive.
 class Simulation {
@@ -53,11 +82,17 @@ class Simulation {
   /// for what the scene's validation could not see (a pin out of range, a pattern that does
   /// not mesh, a run too large for the machine).
   explicit Simulation(const Scene& scene, const SetupProgress& on_setup = {});
+  /// A simulation of a shared model at the scene's start, with its own state, statistics,
+  /// contacts and solver history: what it does, the model's other Simulations never see.
+  /// Throws InputError for a null model.
+  explicit Simulation(std::shared_ptr<const Model> model);
   ~Simulation();
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
 
   const Scene& scene() const;
+  /// The model this simulation steps, to make more Simulations of it.
+  const std::shared_ptr<const Model>& model() const;
   double time() const;  ///< simulated time (s)
   /// The cloth mesh as the simulation built it: its starting positions, pattern coordinates
   /// and triangles (a garment's sewn mesh, a grid, an OBJ).

@@ -255,3 +255,23 @@ def test_thread_count_changes_no_bit(tmp_path):
     assert np.array_equal(results[0], results[1])
     with pytest.raises(ValueError, match="thread count must be 0"):
         weft.set_thread_count(-1)
+
+
+def test_a_new_run_shares_the_set_up_and_nothing_that_steps(sheet):
+    sim = weft.Simulation(sheet, method="backward-euler")
+    sim.advance(0.05)
+    other = sim.new_run()
+    assert other.time == 0.0 and other.method == "backward-euler"
+    assert not np.shares_memory(other.positions, sim.positions)
+    # It starts where the scene starts, and its own push does not reach the first run.
+    fresh = weft.Simulation(sheet, method="backward-euler")
+    assert np.array_equal(other.positions, fresh.positions)
+    free = np.setdiff1d(np.arange(sim.vertex_count), sim.pinned)
+    other.velocities[free] = (0.0, 0.0, 1.0)
+    fresh.velocities[free] = (0.0, 0.0, 1.0)
+    x_before = sim.positions.copy()
+    other.advance(0.05)
+    fresh.advance(0.05)
+    assert np.array_equal(sim.positions, x_before)
+    assert np.array_equal(other.positions, fresh.positions)
+    assert other.summary()["steps"] == fresh.summary()["steps"] == 5

@@ -19,21 +19,26 @@ namespace weft {
 
 
 SimulationCore::SimulationCore(const Scene& scene, const SetupProgress& on_setup)
-    : model_(build_model(scene, on_setup)), data_(make_data(*model_)) {
-  system_ = std::make_unique<ClothSystem>(*model_->cloth, model_->system, data_->system);
-  integrator_ = std::make_unique<Integrator>(*system_, model_->integrator, data_->integrator);
+    : SimulationCore(std::make_shared<const Model>(scene, on_setup)) {}
+
+SimulationCore::SimulationCore(std::shared_ptr<const Model> model)
+    : model_(model ? std::move(model) : throw InputError("Simulation: no model (a null pointer)")),
+      m_(&model_->core()),
+      data_(make_data(*m_)) {
+  system_ = std::make_unique<ClothSystem>(*m_->cloth, m_->system, data_->system);
+  integrator_ = std::make_unique<Integrator>(*system_, m_->integrator, data_->integrator);
 }
 
 SimulationCore::~SimulationCore() = default;
 
-void SimulationCore::advance_to(double t) { advance(*model_, *data_, t); }
+void SimulationCore::advance_to(double t) { advance(*m_, *data_, t); }
 
 double SimulationCore::arrival_time(double arrival, const std::string& what) const {
-  const double now = data_->state.t, dt = model_->scene.integrator.dt;
+  const double now = data_->state.t, dt = m_->scene.integrator.dt;
   if (!(arrival > now) || !std::isfinite(arrival))
     throw InputError(what + ": the arrival time " + std::to_string(arrival) + " s must be after the current time " +
                      std::to_string(now) + " s");
-  if (model_->scene.integrator.method == Method::Rk45) return arrival;
+  if (m_->scene.integrator.method == Method::Rk45) return arrival;
   return now + std::max(1L, std::lround((arrival - now) / dt)) * dt;
 }
 
@@ -58,7 +63,7 @@ void SimulationCore::move_pins(const std::vector<int>& nodes, const std::vector<
     const int i = nodes[k];
     std::erase_if(data_->pin_moves, [i](const PinMove& m) { return m.node == i; });
     data_->pin_moves.push_back({i, targets[k], when});
-    set_pin_velocity(*model_, *data_, i, (targets[k] - node(s.x, i)) / (when - s.t));
+    set_pin_velocity(*m_, *data_, i, (targets[k] - node(s.x, i)) / (when - s.t));
   }
 }
 
@@ -68,7 +73,7 @@ void SimulationCore::move_collider(size_t k, const Eigen::Isometry3d& target, do
   if (k >= count)
     throw InputError(what + ": collider " + std::to_string(k) + " does not exist (the scene has " +
                      std::to_string(count) + " colliders)");
-  const ColliderSpec& spec = model_->scene.colliders[k];
+  const ColliderSpec& spec = m_->scene.colliders[k];
   if (spec.shape == ColliderShape::kBody)
     throw InputError(what + ": " + spec.name + " is a walking body, moved by its motion file, not rigidly");
   if (!target.matrix().allFinite()) throw InputError(what + ": the target pose of " + spec.name + " is not finite");
@@ -86,7 +91,7 @@ void SimulationCore::move_collider(size_t k, const Eigen::Isometry3d& target, do
 void SimulationCore::collider_surface(size_t k, double t, Points& positions, Triangles& triangles) const {
   const Collider& c = *data_->colliders.at(k);
   if (c.spec().shape == ColliderShape::kBody) {
-    const WalkingBody& body = *model_->bodies[c.spec().body];
+    const WalkingBody& body = *m_->bodies[c.spec().body];
     body.positions(t, positions);
     if (triangles.rows() == 0) triangles = body.triangles();
   } else {
@@ -95,7 +100,7 @@ void SimulationCore::collider_surface(size_t k, double t, Points& positions, Tri
 }
 
 Eigen::Isometry3d SimulationCore::collider_pose(size_t k, double t) const {
-  const std::vector<ColliderSpec>& specs = model_->scene.colliders;
+  const std::vector<ColliderSpec>& specs = m_->scene.colliders;
   if (k >= specs.size())
     throw InputError("collider_pose: collider " + std::to_string(k) + " does not exist (the scene has " +
                      std::to_string(specs.size()) + " colliders)");
@@ -115,13 +120,13 @@ void SimulationCore::reset_state(const VecX& x, const VecX& v) {
   s.v = std::move(storage_v);
   s.x = new_x;
   s.v = new_v;
-  set_energy_reference(*model_, *data_);
+  set_energy_reference(*m_, *data_);
 }
 
-EnergyRow SimulationCore::energies() { return weft::energies(*model_, *data_); }
-std::uint64_t SimulationCore::fingerprint() const { return weft::fingerprint(*model_); }
-void SimulationCore::save(BinaryWriter& out) const { save_data(*model_, *data_, out); }
-void SimulationCore::restore(BinaryReader& in) { restore_data(*model_, *data_, in); }
+EnergyRow SimulationCore::energies() { return weft::energies(*m_, *data_); }
+std::uint64_t SimulationCore::fingerprint() const { return weft::fingerprint(*m_); }
+void SimulationCore::save(BinaryWriter& out) const { save_data(*m_, *data_, out); }
+void SimulationCore::restore(BinaryReader& in) { restore_data(*m_, *data_, in); }
 
 namespace {
 /// How far the energy the collision fail-safes put in may pile up, in energy scales, before a
@@ -390,7 +395,16 @@ std::string energy_csv(const std::vector<EnergyRow>& rows) {
 Simulation::Simulation(const Scene& scene, const SetupProgress& on_setup)
     : core_(std::make_unique<SimulationCore>(scene, on_setup)) {}
 Simulation::~Simulation() = default;
+Simulation::Simulation(std::shared_ptr<const Model> model) : core_(std::make_unique<SimulationCore>(std::move(model))) {}
 const Scene& Simulation::scene() const { return core_->scene(); }
+const std::shared_ptr<const Model>& Simulation::model() const { return core_->shared_model(); }
+
+Model::Model(const Scene& scene, const SetupProgress& on_setup) : impl_(build_model(scene, on_setup)) {}
+Model::~Model() = default;
+const Scene& Model::scene() const { return impl_->scene; }
+const TriMesh& Model::mesh() const { return impl_->cloth->mesh; }
+int Model::vertex_count() const { return impl_->num_vertices(); }
+std::uint64_t Model::fingerprint() const { return weft::fingerprint(*impl_); }
 double Simulation::time() const { return core_->state().t; }
 const TriMesh& Simulation::mesh() const { return core_->model().mesh; }
 int Simulation::vertex_count() const { return core_->model().num_vertices(); }

@@ -16,12 +16,15 @@ namespace weft {
 class SimulationCore {
  public:
   explicit SimulationCore(const Scene& scene, const SetupProgress& on_setup = {});
+  /// A simulation of a shared model, at the scene's start.
+  explicit SimulationCore(std::shared_ptr<const Model> model);
   ~SimulationCore();
-  const SimulationModel& simulation_model() const { return *model_; }
+  const std::shared_ptr<const Model>& shared_model() const { return model_; }
+  const SimulationModel& simulation_model() const { return *m_; }
   SimulationData& simulation_data() { return *data_; }
   const SimulationData& simulation_data() const { return *data_; }
-  const Scene& scene() const { return model_->scene; }
-  const ClothModel& model() const { return *model_->cloth; }
+  const Scene& scene() const { return m_->scene; }
+  const ClothModel& model() const { return *m_->cloth; }
   ClothSystem& system() { return *system_; }
   const ClothSystem& system() const { return *system_; }
   Integrator& integrator() { return *integrator_; }
@@ -32,7 +35,7 @@ class SimulationCore {
   /// The scene's colliders in file order (Collider::surface draws one at any time).
   const std::vector<std::unique_ptr<Collider>>& colliders() const { return data_->colliders; }
   /// The walking bodies of the body colliders (Scene::bodies order).
-  const std::vector<std::unique_ptr<WalkingBody>>& bodies() const { return model_->bodies; }
+  const std::vector<std::unique_ptr<WalkingBody>>& bodies() const { return m_->bodies; }
   /// Collider k's surface at time t: a walking body's skinned mesh, another collider's as
   /// Collider::surface draws it (what the frames' body<k> and collider<k> files hold).
   void collider_surface(size_t k, double t, Points& positions, Triangles& triangles) const;
@@ -82,7 +85,8 @@ class SimulationCore {
   std::uint64_t fingerprint() const;
 
  private:
-  std::unique_ptr<SimulationModel> model_;
+  std::shared_ptr<const Model> model_;
+  const SimulationModel* m_;  ///< model_'s parts
   std::unique_ptr<SimulationData> data_;
   std::unique_ptr<ClothSystem> system_;     ///< a view of model_ and data_
   std::unique_ptr<Integrator> integrator_;  ///< a view of system_, model_ and data_

@@ -3,7 +3,9 @@
 // the frames recorded for the animations are the states the simulation passed through.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
+#include <thread>
 
 #include "weft/error.hpp"
 #include "weft/recording.hpp"
@@ -112,4 +114,47 @@ TEST(FrameRecording, NamesABodyAfterItsBodyAndOtherCollidersAfterTheirPlace) {
   box.shape = ColliderShape::kBox;
   EXPECT_EQ(collider_output_name(body, 4), "body1");
   EXPECT_EQ(collider_output_name(box, 4), "collider4");
+}
+
+TEST(PublicSimulation, SimulationsOfOneModelOnTwoThreadsStepAsIfEachWereAlone) {
+  // Two simulations of one shared model, one of them pushed, stepped at the same time on two
+  // threads: each must end with the bits of a simulation built alone and stepped alone, so
+  // nothing a step changes may live in the model.
+  const Scene scene = sheet_over_sphere();
+  const auto model = std::make_shared<const Model>(scene);
+  Simulation a(model), b(model);
+  EXPECT_EQ(a.model(), model);
+  EXPECT_EQ(b.fingerprint(), model->fingerprint());
+  EXPECT_EQ(model->vertex_count(), 49);
+  VecX push = b.velocities();
+  for (Eigen::Index i = 0; i < push.size(); i += 3)
+    if (!b.pinned()[i / 3]) push[i] += 0.4 * std::sin(0.9 * static_cast<double>(i));
+  b.reset_state(b.positions(), push);
+  std::thread run_a([&a] { a.advance_to(0.3); }), run_b([&b] { b.advance_to(0.3); });
+  run_a.join();
+  run_b.join();
+  Simulation alone_a(scene), alone_b(scene);
+  alone_b.reset_state(alone_b.positions(), push);
+  alone_a.advance_to(0.3);
+  alone_b.advance_to(0.3);
+  ASSERT_GT(a.step_statistics().contacts, 0);
+  EXPECT_NE(a.positions(), b.positions());
+  EXPECT_EQ(a.positions(), alone_a.positions());
+  EXPECT_EQ(a.velocities(), alone_a.velocities());
+  EXPECT_EQ(b.positions(), alone_b.positions());
+  EXPECT_EQ(b.velocities(), alone_b.velocities());
+  EXPECT_EQ(b.step_statistics().cg_iterations, alone_b.step_statistics().cg_iterations);
+  // A third, made after the others ran, starts at the scene's start.
+  Simulation c(a.model());
+  EXPECT_EQ(c.time(), 0.0);
+  EXPECT_EQ(c.positions(), Simulation(scene).positions());
+}
+
+TEST(PublicSimulation, ANullModelIsRefused) {
+  try {
+    Simulation sim{std::shared_ptr<const Model>()};
+    FAIL() << "a simulation of no model was built";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "Simulation: no model (a null pointer)");
+  }
 }
