@@ -89,7 +89,10 @@ void SimulationCore::move_collider(size_t k, const Eigen::Isometry3d& target, do
 }
 
 void SimulationCore::collider_surface(size_t k, double t, Points& positions, Triangles& triangles) const {
-  const Collider& c = *data_->colliders.at(k);
+  if (k >= data_->colliders.size())
+    throw InputError("collider_surface: collider " + std::to_string(k) + " does not exist (the scene has " +
+                     std::to_string(data_->colliders.size()) + " colliders)");
+  const Collider& c = *data_->colliders[k];
   if (c.spec().shape == ColliderShape::kBody) {
     const WalkingBody& body = *m_->bodies[c.spec().body];
     body.positions(t, positions);
@@ -420,8 +423,8 @@ const DampingStatistics& Simulation::damping_statistics() const { return core_->
 size_t Simulation::collider_count() const { return core_->colliders().size(); }
 const ColliderSpec& Simulation::collider(size_t k) const {
   if (k >= core_->colliders().size())
-    throw InputError("collider " + std::to_string(k) + " does not exist: the scene has " +
-                     std::to_string(core_->colliders().size()) + " colliders");
+    throw InputError("collider " + std::to_string(k) + " does not exist (the scene has " +
+                     std::to_string(core_->colliders().size()) + " colliders)");
   return core_->colliders()[k]->spec();
 }
 void Simulation::collider_surface(size_t k, double t, Points& positions, Triangles& triangles) const {

@@ -77,7 +77,15 @@ TEST(PublicSimulation, ACollidersIndexOutOfRangeIsRefused) {
     sim.collider(2);
     FAIL() << "no error for collider 2";
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), "collider 2 does not exist: the scene has 2 colliders");
+    EXPECT_EQ(std::string(e.what()), "collider 2 does not exist (the scene has 2 colliders)");
+  }
+  Points positions;
+  Triangles triangles;
+  try {
+    sim.collider_surface(5, 0.0, positions, triangles);
+    FAIL() << "no error for collider 5";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "collider_surface: collider 5 does not exist (the scene has 2 colliders)");
   }
 }
 
