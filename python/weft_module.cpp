@@ -104,7 +104,13 @@ class PySimulation {
       throw weft::InputError("advance: the time " + std::to_string(t) + " s is before the current time " +
                              std::to_string(now) + " s");
     const auto start = std::chrono::steady_clock::now();
-    sim_->advance_to(t);
+    {
+      // Other Python threads run while this one steps (simulations of one model, new_run, may
+      // be stepped in several threads at once). The arrays over this simulation's state must
+      // not be written meanwhile.
+      py::gil_scoped_release release;
+      sim_->advance_to(t);
+    }
     wall_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
   void step(long n) {

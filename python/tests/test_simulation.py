@@ -275,3 +275,26 @@ def test_a_new_run_shares_the_set_up_and_nothing_that_steps(sheet):
     assert np.array_equal(sim.positions, x_before)
     assert np.array_equal(other.positions, fresh.positions)
     assert other.summary()["steps"] == fresh.summary()["steps"] == 5
+
+
+def test_runs_of_one_model_step_in_threads_as_they_do_alone(sheet):
+    # advance lets go of the interpreter while it steps: two runs stepped in two threads end
+    # where each ends stepped alone.
+    import threading
+    first = weft.Simulation(sheet)
+    runs = [first.new_run(), first.new_run()]
+    free = np.setdiff1d(np.arange(first.vertex_count), first.pinned)
+    runs[1].velocities[free] = (0.5, 0.0, 0.0)
+    threads = [threading.Thread(target=r.advance, args=(0.1,)) for r in runs]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    alone = [first.new_run(), first.new_run()]
+    alone[1].velocities[free] = (0.5, 0.0, 0.0)
+    for r in alone:
+        r.advance(0.1)
+    assert runs[0].time == runs[1].time == 0.1
+    assert np.array_equal(runs[0].positions, alone[0].positions)
+    assert np.array_equal(runs[1].positions, alone[1].positions)
+    assert not np.array_equal(runs[0].positions, runs[1].positions)
