@@ -73,10 +73,10 @@ struct State {
 };
 
 
-/// Steps a System. Split the way DESIGN.md splits a simulation: Constants (the settings and
-/// what follows from them and the system: the preconditioner, the guard's alphas, the mass
-/// per coordinate), never changed by a step, and Data, everything the steps read and write
-/// beyond the State: the warm-start history, the guard's rung, the contact flags, the
+/// Steps a System. Split as a simulation is (docs/api.md, "Model and data"): Constants (the
+/// settings and what follows from them and the system: the preconditioner, the guard's alphas,
+/// the mass per coordinate), never changed by a step, and Data, everything the steps read and
+/// write beyond the State: the warm-start history, the guard's rung, the contact flags, the
 /// solver's residual ratio and multigrid hierarchy, the contact handlers and all scratch. An
 /// Integrator made from settings owns both; one made from Constants and Data is a view that
 /// steps that Data.

@@ -1,6 +1,6 @@
 #pragma once
-// A simulation as a constant model and the data its steps change (DESIGN.md, "Model and
-// Data"): SimulationModel is built once from a scene and never changed by a step;
+// A simulation as a constant model and the data its steps change (docs/api.md, "Model and
+// data"): SimulationModel is built once from a scene and never changed by a step;
 // SimulationData holds everything a step reads and writes, and advance(model, data, t) steps
 // it. Several SimulationData made from one SimulationModel are independent simulations of the
 // same scene (each stepped by its own advance calls), and a checkpoint is a SimulationData

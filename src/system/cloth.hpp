@@ -1,6 +1,6 @@
 #pragma once
 // A piece of cloth as a mechanical system: membrane triangles, bending stencils, gravity
-// and pinned vertices (DESIGN.md: the Model is built once and never changed by a step).
+// and pinned vertices (docs/api.md, "Model and data": built once, never changed by a step).
 #include <array>
 #include <memory>
 #include <string>
@@ -81,12 +81,12 @@ struct DampingSettings {
 };
 
 
-/// The cloth as the integrators see it (System). Its parts are split the way DESIGN.md splits
-/// a simulation: Constants, built once from the model and the damping settings and never
-/// changed by a step, and Data, everything a step of the cloth reads and writes (the
-/// viscosity in use, the damping statistics, caches keyed on the step). A ClothSystem made
-/// from a model alone owns both; one made from Constants and Data is a view that steps that
-/// Data (many Data may share one Constants, each stepped by its own view).
+/// The cloth as the integrators see it (System). Its parts are split as a simulation is
+/// (docs/api.md, "Model and data"): Constants, built once from the model and the damping
+/// settings and never changed by a step, and Data, everything a step of the cloth reads and
+/// writes (the viscosity in use, the damping statistics, caches keyed on the step). A
+/// ClothSystem made from a model alone owns both; one made from Constants and Data is a view
+/// that steps that Data (many Data may share one Constants, each stepped by its own view).
 class ClothSystem : public System {
  public:
   /// Per-triangle constants packed for the step's passes, in triangle order.
