@@ -15,6 +15,8 @@
 namespace weft {
 
 namespace {
+/// How messages name the scene: its file, or "scene" for one made in code.
+std::string scene_name(const Scene& scene) { return scene.file.empty() ? std::string("scene") : scene.file; }
 // Shares of the set-up time by stage (the integrator and the energy reference take the rest).
 constexpr double kSetupShareMesh = 0.2, kSetupShareModel = 0.6, kSetupShareSystem = 0.1;
 /// The scene's garment: its pattern meshed, placed around the first body in its bind pose and
@@ -22,7 +24,7 @@ constexpr double kSetupShareMesh = 0.2, kSetupShareModel = 0.6, kSetupShareSyste
 /// cloth.mesh.pattern.panels.NAME.material gives one); `materials` receives them per triangle.
 TriMesh sew_scene_garment(const Scene& scene, const SetupProgress& on_setup, TriangleMaterials& materials) {
   const GarmentSpec& g = *scene.cloth.garment;
-  const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": cloth.mesh.pattern";
+  const std::string where = scene_name(scene) + ": cloth.mesh.pattern";
   if (on_setup) on_setup("garment: meshing " + g.pattern_file, 0.0);
   const Pattern pattern = load_pattern(g.pattern_file);
   GarmentMeshOptions mesh_options;
@@ -71,7 +73,7 @@ std::unique_ptr<SimulationModel> build_model(const Scene& scene, const SetupProg
       scene.cloth.garment ? sew_scene_garment(scene, on_setup, materials) : build_cloth_mesh(scene.cloth);
   // Problems found while building the model (a degenerate triangle, a bad pin) name the
   // scene and the mesh they come from.
-  const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": cloth" +
+  const std::string where = scene_name(scene) + ": cloth" +
                             (scene.cloth.obj_path.empty() ? std::string(" grid") : " mesh " + scene.cloth.obj_path);
   try {
     const std::vector<int> pins = resolve_pins(scene.cloth, mesh);
@@ -104,7 +106,7 @@ std::unique_ptr<SimulationModel> build_model(const Scene& scene, const SetupProg
   for (size_t k = 0; k < scene.colliders.size(); ++k) {
     const ColliderSpec& c = scene.colliders[k];
     if (c.shape != ColliderShape::kMesh) continue;
-    const std::string where = (scene.file.empty() ? std::string("scene") : scene.file) + ": " + c.name;
+    const std::string where = scene_name(scene) + ": " + c.name;
     ObjMesh obj;
     try {
       obj = read_obj(c.obj_path);
@@ -471,8 +473,7 @@ void restore_data(const SimulationModel& M, SimulationData& D, BinaryReader& in)
     *d = in.f64();
   const double gravity0 = in.f64(), total0 = in.f64(), energy_scale = in.f64();
 
-  ClothSystem::Data sys = ClothSystem::make_data(*M.cloth);
-  sys.membrane_viscosity.clear();
+  ClothSystem::Data sys;  // caches at their start; the viscosities and statistics read below
   const std::vector<double> eta = in.doubles();
   if (eta.size() != 3 * M.cloth->mesh.triangles.size())
     in.fail("checkpoint's viscosities are for " + std::to_string(eta.size() / 3) + " triangles, the cloth has " +
