@@ -576,9 +576,8 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     if (r.converged) d_.history.record(d_.rhs, system_.fixed(), d_.dv);
   }
   stats.solve_seconds += seconds_since(t1);
-  const int newton_iterations = c_.settings.newton_iterations > 0 && alpha > 0.0 && d_.contacts.empty()
-                                    ? newton_iterate(s, alpha, beta, dt_b, stats)
-                                    : 0;
+  const int newton_iterations =
+      c_.settings.newton_iterations > 0 && alpha > 0.0 ? newton_iterate(s, dt, alpha, beta, dt_b, stats) : 0;
   if (!d_.handlers.empty()) d_.x_start = s.x;
 
   // dx = beta dx_p + dt_b (v + alpha dv), built in dx_prev's storage (no allocation per step);
@@ -626,7 +625,17 @@ double Integrator::newton_residual(const State& s, double alpha, double beta, do
   const auto& fixed = system_.fixed();
   for (size_t i = 0; i < fixed.size(); ++i)
     if (fixed[i]) r.segment<3>(3 * i).setZero();
-  return std::sqrt(r.cwiseAbs2().cwiseQuotient(c_.mass3).sum());
+  if (d_.contacts.empty()) return std::sqrt(r.cwiseAbs2().cwiseQuotient(c_.mass3).sum());
+  // At a contact only the free directions' residual counts: the held ones carry the
+  // constraint's force.
+  const VecX& m = system_.node_mass();
+  double sum = 0;
+  for (int i = 0, n = system_.num_nodes(); i < n; ++i) {
+    const int k = d_.contact_slot[i];
+    const Vec3 ri = k < 0 ? Vec3(node(r, i)) : Vec3(contact_filter(k) * node(r, i));
+    sum += ri.squaredNorm() / m[i];
+  }
+  return std::sqrt(sum);
 }
 
 // Newton's method on the step's equations before linearisation (METHOD.md 1-2): the step
@@ -640,11 +649,17 @@ double Integrator::newton_residual(const State& s, double alpha, double beta, do
 // solves A delta = r at the current iterate and takes the largest of delta, delta/2, ...
 // (kNewtonMaxHalvings halvings) that lowers |M^-1/2 r| (Armijo's rule); the step keeps the
 // last iterate when none does. Adaptive damping's viscosities stay those of the step's start.
-int Integrator::newton_iterate(const State& s, double alpha, double beta, double dt_b, StepStatistics& stats) {
+int Integrator::newton_iterate(const State& s, double dt, double alpha, double beta, double dt_b,
+                               StepStatistics& stats) {
   const auto t0 = Clock::now();
   const VecX& m = system_.node_mass();
   const BlockPattern& P = system_.pattern();
   const int n = system_.num_nodes();
+  auto index_contacts = [&] {
+    d_.contact_slot.assign(n, -1);
+    for (size_t k = 0; k < d_.contacts.size(); ++k) d_.contact_slot[d_.contacts[k].node] = static_cast<int>(k);
+  };
+  if (!d_.contacts.empty()) index_contacts();
   const double rhs_norm = std::sqrt(d_.rhs.cwiseAbs2().cwiseQuotient(c_.mass3).sum());
   double residual = newton_residual(s, alpha, beta, dt_b, d_.dv, d_.newton_r);
   auto converged = [&] {
@@ -653,42 +668,86 @@ int Integrator::newton_iterate(const State& s, double alpha, double beta, double
   };
   int taken = 0, moved = 0;
   bool stuck = false;
-  while (std::isfinite(residual) && !converged() && taken < c_.settings.newton_iterations) {
-    d_.newton_step.ck = alpha * alpha * dt_b * dt_b;
-    d_.newton_step.cd = alpha * dt_b;
-    d_.newton_w.setZero(3 * n);
-    system_.assemble_step(d_.newton_x, d_.newton_v, d_.newton_w, d_.newton_step);
-    for (int i = 0; i < n; ++i) d_.newton_step.matrix.block[P.diagonal_slot(i)].diagonal().array() += m[i];
-    d_.newton_delta.setZero(3 * n);
-    const PcgResult r = solve_pcg(d_.newton_step.matrix, d_.newton_r, system_.fixed(), pcg_settings(), d_.newton_delta, d_.pcg);
-    stats.cg_iterations += r.iterations;
-    ++stats.cg_solves;
-    if (!r.converged) ++stats.cg_failures;
-    ++taken;
-    double fraction = 1.0;
-    bool accepted = false;
-    for (int halving = 0; halving <= kNewtonMaxHalvings; ++halving) {
-      d_.newton_dv_trial = d_.dv + fraction * d_.newton_delta;
-      const double trial = newton_residual(s, alpha, beta, dt_b, d_.newton_dv_trial, d_.newton_r_trial);
-      if (trial <= (1.0 - 1e-4 * fraction) * residual) {
-        d_.dv.swap(d_.newton_dv_trial);
-        d_.newton_r.swap(d_.newton_r_trial);
-        residual = trial;
-        accepted = true;
-        ++moved;
+  for (int round = 0;; ++round) {
+    // A round after nodes joined the contacts gets at least one iteration.
+    const int limit = round == 0 ? c_.settings.newton_iterations : std::max(c_.settings.newton_iterations, taken + 1);
+    const int taken_before = taken;
+    while (std::isfinite(residual) && !converged() && taken < limit) {
+      d_.newton_step.ck = alpha * alpha * dt_b * dt_b;
+      d_.newton_step.cd = alpha * dt_b;
+      d_.newton_w.setZero(3 * n);
+      system_.assemble_step(d_.newton_x, d_.newton_v, d_.newton_w, d_.newton_step);
+      for (int i = 0; i < n; ++i) d_.newton_step.matrix.block[P.diagonal_slot(i)].diagonal().array() += m[i];
+      // With contacts, the correction keeps dv's held components (the prescribed ones): the
+      // matrix and the residual are filtered as the linearised step's are (constrain).
+      const VecX* rhs = &d_.newton_r;
+      if (!d_.contacts.empty()) {
+        filter_matrix(d_.newton_step.matrix, [](int) {});
+        d_.newton_rhs = d_.newton_r;
+        for (size_t k = 0; k < d_.contacts.size(); ++k) {
+          const int i = d_.contacts[k].node;
+          node(d_.newton_rhs, i) = contact_filter(k) * node(d_.newton_rhs, i);
+        }
+        rhs = &d_.newton_rhs;
+      }
+      d_.newton_delta.setZero(3 * n);
+      const PcgResult r =
+          solve_pcg(d_.newton_step.matrix, *rhs, system_.fixed(), pcg_settings(), d_.newton_delta, d_.pcg);
+      stats.cg_iterations += r.iterations;
+      ++stats.cg_solves;
+      if (!r.converged) ++stats.cg_failures;
+      ++taken;
+      double fraction = 1.0;
+      bool accepted = false;
+      for (int halving = 0; halving <= kNewtonMaxHalvings; ++halving) {
+        d_.newton_dv_trial = d_.dv + fraction * d_.newton_delta;
+        const double trial = newton_residual(s, alpha, beta, dt_b, d_.newton_dv_trial, d_.newton_r_trial);
+        if (trial <= (1.0 - 1e-4 * fraction) * residual) {
+          d_.dv.swap(d_.newton_dv_trial);
+          d_.newton_r.swap(d_.newton_r_trial);
+          residual = trial;
+          accepted = true;
+          ++moved;
+          break;
+        }
+        fraction *= 0.5;
+        ++stats.newton_halvings;
+      }
+      if (!accepted) {
+        stuck = true;
         break;
       }
-      fraction *= 0.5;
-      ++stats.newton_halvings;
     }
-    if (!accepted) {
-      stuck = true;
-      break;
+    if (d_.handlers.empty() || stuck || taken == taken_before || round >= kNewtonContactRounds) break;
+    // The iterations moved the free nodes: those that would now end inside a collider's
+    // thickness join the contacts, their held components prescribed, and the iterations go on.
+    const auto td = Clock::now();
+    d_.x_end = s.x + dt_b * (s.v + alpha * d_.dv);
+    if (beta != 0.0) d_.x_end += beta * s.dx_prev;
+    d_.held.assign(n, 0);
+    for (const NodeContact& c : d_.contacts) d_.held[c.node] = 1;
+    const size_t before = d_.contacts.size();
+    for (ContactHandler* h : d_.handlers) h->detect_end(s.x, d_.x_end, s.t, dt, d_.held, d_.contacts);
+    stats.detection_seconds += seconds_since(td);
+    if (d_.contacts.size() == before) break;
+    d_.contact_stuck.resize(d_.contacts.size(), 0);
+    d_.contact_dv.resize(d_.contacts.size());
+    for (size_t k = before; k < d_.contacts.size(); ++k) {
+      const int i = d_.contacts[k].node;
+      d_.contact_dv[k] = prescribed_dv(s, k, dt, alpha, beta, dt_b);
+      node(d_.dv, i) = contact_filter(k) * node(d_.dv, i) + d_.contact_dv[k];
     }
+    index_contacts();
+    residual = newton_residual(s, alpha, beta, dt_b, d_.dv, d_.newton_r);
   }
   if (taken > 0) {
     ++stats.newton_steps;
     stats.newton_iterations += taken;
+    // The constraints' impulses where the iterations ended: the held components of the
+    // residual, -(A dv - b) there (unconstrain).
+    d_.contact_impulse.resize(d_.contacts.size());
+    for (size_t k = 0; k < d_.contacts.size(); ++k)
+      d_.contact_impulse[k] = -(dt / dt_b) * node(d_.newton_r, d_.contacts[k].node);
   }
   if (stuck || !converged()) ++stats.newton_unconverged;
   stats.newton_seconds += seconds_since(t0);
@@ -711,6 +770,20 @@ Mat3 Integrator::contact_filter(size_t k) const {
   return d_.contact_stuck[k] ? Mat3(Mat3::Zero()) : Mat3(Mat3::Identity() - n * n.transpose());
 }
 
+Vec3 Integrator::prescribed_dv(const State& s, size_t k, double dt, double alpha, double beta, double dt_b) const {
+  const NodeContact& c = d_.contacts[k];
+  const int i = c.node;
+  // The prescribed displacement: along the normal, and when stuck the surface's tangential one.
+  Vec3 target = c.normal * c.normal_displacement;
+  if (c.kinematic) {
+    target = c.displacement;
+  } else if (d_.contact_stuck[k]) {
+    target += dt * (c.surface_velocity - c.normal * c.normal.dot(c.surface_velocity));
+  }
+  if (beta != 0.0) target -= beta * node(s.dx_prev, i);
+  return (Mat3::Identity() - contact_filter(k)) * ((target / dt_b - node(s.v, i)) / alpha);
+}
+
 void Integrator::constrain(const State& s, double dt, double alpha, double beta, double dt_b) {
   const BlockPattern& P = system_.pattern();
   const auto& row_start = P.row_start();
@@ -728,19 +801,8 @@ void Integrator::constrain(const State& s, double dt, double alpha, double beta,
   };
   // z, and b - A z with the original blocks.
   for (size_t k = 0; k < count; ++k) {
-    const NodeContact& c = d_.contacts[k];
-    const int i = c.node;
-    const Mat3 S = contact_filter(k);
-    // The prescribed displacement: along the normal, and when stuck the surface's tangential one.
-    Vec3 target = c.normal * c.normal_displacement;
-    if (c.kinematic) {
-      target = c.displacement;
-    } else if (d_.contact_stuck[k]) {
-      target += dt * (c.surface_velocity - c.normal * c.normal.dot(c.surface_velocity));
-    }
-    if (beta != 0.0) target -= beta * node(s.dx_prev, i);
-    d_.contact_dv[k] = (Mat3::Identity() - S) * ((target / dt_b - node(s.v, i)) / alpha);
-    d_.contact_rhs[k] = node(d_.rhs, i);
+    d_.contact_dv[k] = prescribed_dv(s, k, dt, alpha, beta, dt_b);
+    d_.contact_rhs[k] = node(d_.rhs, d_.contacts[k].node);
   }
   for (size_t k = 0; k < count; ++k) {
     const int i = d_.contacts[k].node;
@@ -755,6 +817,16 @@ void Integrator::constrain(const State& s, double dt, double alpha, double beta,
     node(d_.rhs, i) = S * node(d_.rhs, i);
     node(d_.dv, i) = S * node(d_.dv, i);
   }
+  filter_matrix(d_.step.matrix, save);
+}
+
+template <class Save>
+void Integrator::filter_matrix(BlockMatrix& matrix, const Save& save) const {
+  const BlockPattern& P = system_.pattern();
+  const auto& row_start = P.row_start();
+  const auto& column = P.column();
+  std::vector<Mat3>& blocks = matrix.block;
+  const size_t count = d_.contacts.size();
   // S_i A_ij and A_ji S_i for every contact i (both: S_i A_ij S_j), the diagonal blocks last.
   for (size_t k = 0; k < count; ++k) {
     const int i = d_.contacts[k].node;
@@ -778,7 +850,7 @@ void Integrator::constrain(const State& s, double dt, double alpha, double beta,
     const double c = a.trace() / 3;
     a = S * a * S + c * (Mat3::Identity() - S);
   }
-  d_.step.matrix.constants_changed();
+  matrix.constants_changed();
 }
 
 void Integrator::unconstrain(double dt, double dt_b) {

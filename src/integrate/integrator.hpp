@@ -44,6 +44,9 @@ constexpr int kGuardRelaxSteps = 5;
 /// sphere drop a third solve costs 12% more time and changes no contact the fail-safe would
 /// not; docs/collisions.md).
 constexpr int kMaxContactPasses = 2;
+/// Times Newton's iterations (IntegratorSettings::newton_iterations) check where the free
+/// nodes now end and add those that would end inside a collider's thickness to the contacts.
+constexpr int kNewtonContactRounds = 2;
 /// How many times a step the contact handlers could not make valid is halved.
 constexpr int kMaxStepHalvings = 3;
 /// A contact is let go when it pulls with an impulse that would change its node's velocity by
@@ -145,6 +148,8 @@ class Integrator {
     VecX x_before_fail_safe, v_before_group;  ///< finish_contacts: the state before one group of handlers
     StepAssembly newton_step;  ///< newton_iterate's assembly (step keeps the step start's)
     VecX newton_x, newton_v, newton_r, newton_r_trial, newton_dv_trial, newton_delta, newton_w;
+    VecX newton_rhs;                ///< the residual filtered by the contacts
+    std::vector<int> contact_slot;  ///< per node: its contact this step, or -1
   };
   static Constants make_constants(const System& system, IntegratorSettings settings);
   /// A fresh Data for stepping `system` with these constants: no history, no handlers.
@@ -214,7 +219,7 @@ class Integrator {
   void linear_step(State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
   /// Newton iterations on the step's equations from the linearised solution in Data::dv
   /// (IntegratorSettings::newton_iterations); returns how many changed it.
-  int newton_iterate(const State& s, double alpha, double beta, double dt_b, StepStatistics& stats);
+  int newton_iterate(const State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
   /// The residual r = beta M dv_p + dt_b f(x_a, v_a) - M dv of the step's equations at dv, with
   /// x_a = x + alpha (beta dx_p + dt_b (v + alpha dv)), v_a = v + alpha dv (left in
   /// Data::newton_x, newton_v); zero at pinned nodes. Returns |M^-1/2 r|.
@@ -225,6 +230,13 @@ class Integrator {
   /// Turns the step's system A dv = rhs into the one for the contacts' free directions
   /// (docs/collisions.md); sets dv's prescribed normal components in Data::contact_dv.
   void constrain(const State& s, double dt, double alpha, double beta, double dt_b);
+  /// The contacts' filters applied to a step matrix (S A S, with c (I - S) on the held
+  /// directions); save(slot) is called before a block is changed.
+  template <class Save>
+  void filter_matrix(BlockMatrix& matrix, const Save& save) const;
+  /// Contact k's prescribed part z of dv: the held components that put the node where the
+  /// contact prescribes.
+  Vec3 prescribed_dv(const State& s, size_t k, double dt, double alpha, double beta, double dt_b) const;
   /// The filter S of contact k: I - n n^T sliding, 0 stuck.
   Mat3 contact_filter(size_t k) const;
   /// After the solve: dv completed with the prescribed components, the matrix restored,
