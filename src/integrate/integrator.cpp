@@ -556,12 +556,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     }
     d_.contacts.resize(kept);
     d_.contact_stuck.resize(kept);
-    d_.x_end = s.x + dt_b * (s.v + alpha * d_.dv);
-    if (beta != 0.0) d_.x_end += beta * s.dx_prev;
-    d_.held.assign(n, 0);
-    for (const NodeContact& c : d_.contacts) d_.held[c.node] = 1;
-    const size_t before = d_.contacts.size();
-    for (ContactHandler* h : d_.handlers) h->detect_end(s.x, d_.x_end, s.t, dt, d_.held, d_.contacts);
+    const size_t before = join_end_contacts(s, dt, alpha, beta, dt_b);
     d_.contact_stuck.resize(d_.contacts.size(), 0);  // those that join slide
     for (size_t k = before; k < d_.contacts.size(); ++k)
       if (d_.released_now[d_.contacts[k].node]) d_.keep_held[d_.contacts[k].node] = 1;
@@ -722,12 +717,7 @@ int Integrator::newton_iterate(const State& s, double dt, double alpha, double b
     // The iterations moved the free nodes: those that would now end inside a collider's
     // thickness join the contacts, their held components prescribed, and the iterations go on.
     const auto td = Clock::now();
-    d_.x_end = s.x + dt_b * (s.v + alpha * d_.dv);
-    if (beta != 0.0) d_.x_end += beta * s.dx_prev;
-    d_.held.assign(n, 0);
-    for (const NodeContact& c : d_.contacts) d_.held[c.node] = 1;
-    const size_t before = d_.contacts.size();
-    for (ContactHandler* h : d_.handlers) h->detect_end(s.x, d_.x_end, s.t, dt, d_.held, d_.contacts);
+    const size_t before = join_end_contacts(s, dt, alpha, beta, dt_b);
     stats.detection_seconds += seconds_since(td);
     if (d_.contacts.size() == before) break;
     d_.contact_stuck.resize(d_.contacts.size(), 0);
@@ -768,6 +758,16 @@ int Integrator::newton_iterate(const State& s, double dt, double alpha, double b
 Mat3 Integrator::contact_filter(size_t k) const {
   const Vec3& n = d_.contacts[k].normal;
   return d_.contact_stuck[k] ? Mat3(Mat3::Zero()) : Mat3(Mat3::Identity() - n * n.transpose());
+}
+
+size_t Integrator::join_end_contacts(const State& s, double dt, double alpha, double beta, double dt_b) {
+  d_.x_end = s.x + dt_b * (s.v + alpha * d_.dv);
+  if (beta != 0.0) d_.x_end += beta * s.dx_prev;
+  d_.held.assign(system_.num_nodes(), 0);
+  for (const NodeContact& c : d_.contacts) d_.held[c.node] = 1;
+  const size_t before = d_.contacts.size();
+  for (ContactHandler* h : d_.handlers) h->detect_end(s.x, d_.x_end, s.t, dt, d_.held, d_.contacts);
+  return before;
 }
 
 Vec3 Integrator::prescribed_dv(const State& s, size_t k, double dt, double alpha, double beta, double dt_b) const {

@@ -234,6 +234,9 @@ class Integrator {
   /// directions); save(slot) is called before a block is changed.
   template <class Save>
   void filter_matrix(BlockMatrix& matrix, const Save& save) const;
+  /// Appends the nodes not held that the step with Data::dv would end inside a collider's
+  /// thickness (at Data::x_end) to the contacts; returns the count before.
+  size_t join_end_contacts(const State& s, double dt, double alpha, double beta, double dt_b);
   /// Contact k's prescribed part z of dv: the held components that put the node where the
   /// contact prescribes.
   Vec3 prescribed_dv(const State& s, size_t k, double dt, double alpha, double beta, double dt_b) const;
