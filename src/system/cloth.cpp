@@ -1,6 +1,7 @@
 #include "system/cloth.hpp"
 
 #include "linalg/dispatch.hpp"
+#include "sim/threads.hpp"
 
 #include <algorithm>
 #include <cstring>
@@ -191,10 +192,46 @@ ClothSystem::Constants ClothSystem::make_constants(const ClothModel& model, Damp
     c.linear_moduli = c.linear_moduli && mat.weft.is_linear() && mat.warp.is_linear() && mat.shear.is_linear();
   }
   c.mixed = model.materials.size() > 1;
-  // Packed triangles; the first triangle (in order) to touch a block slot assigns it.
+  // The membrane pass's pieces, grouped by a greedy colouring of the pieces that share a
+  // vertex (a grid's rows of triangles take two groups), and the order the pass takes the
+  // triangles in: group by group, piece by piece, then the last count % 4 triangles.
+  const int count = static_cast<int>(model.membranes.size());
+  const int batched = count - count % 4;
+  std::vector<std::pair<int, int>> pieces;
+  for (int b = 0; b < batched; b += kMembranePiece) pieces.emplace_back(b, std::min(batched, b + kMembranePiece));
+  std::vector<std::vector<int>> vertex_pieces(model.num_vertices());
+  for (size_t k = 0; k < pieces.size(); ++k)
+    for (int t = pieces[k].first; t < pieces[k].second; ++t)
+      for (int i : model.mesh.triangles[t])
+        if (vertex_pieces[i].empty() || vertex_pieces[i].back() != static_cast<int>(k))
+          vertex_pieces[i].push_back(static_cast<int>(k));
+  std::vector<int> group(pieces.size(), -1);
+  int groups = 0;
+  for (size_t k = 0; k < pieces.size(); ++k) {
+    std::vector<char> taken(groups + 1, 0);
+    for (int t = pieces[k].first; t < pieces[k].second; ++t)
+      for (int i : model.mesh.triangles[t])
+        for (int other : vertex_pieces[i])
+          if (group[other] >= 0) taken[group[other]] = 1;
+    group[k] = static_cast<int>(std::find(taken.begin(), taken.end(), 0) - taken.begin());
+    groups = std::max(groups, group[k] + 1);
+  }
+  for (int g = 0; g < groups; ++g) {
+    c.membrane_groups.push_back(static_cast<int>(c.membrane_pieces.size()));
+    for (size_t k = 0; k < pieces.size(); ++k)
+      if (group[k] == g) c.membrane_pieces.push_back(pieces[k]);
+  }
+  c.membrane_groups.push_back(static_cast<int>(c.membrane_pieces.size()));
+  std::vector<int> pass_order;
+  pass_order.reserve(count);
+  for (const auto& [begin, end] : c.membrane_pieces)
+    for (int t = begin; t < end; ++t) pass_order.push_back(t);
+  for (int t = batched; t < count; ++t) pass_order.push_back(t);
+
+  // Packed triangles; the first triangle (in the pass's order) to touch a block slot assigns it.
   std::vector<char> written(model.pattern.num_blocks(), 0);
   c.triangles.resize(model.membranes.size());
-  for (size_t t = 0; t < c.triangles.size(); ++t) {
+  for (int t : pass_order) {
     PackedTriangle& p = c.triangles[t];
     const auto& g = model.membranes[t];
     p.vertex = model.mesh.triangles[t];
@@ -215,7 +252,8 @@ ClothSystem::Constants ClothSystem::make_constants(const ClothModel& model, Damp
   // A row's slots that no membrane writes go with the first triangle that touches the row.
   const auto& rs = model.pattern.row_start();
   std::vector<char> row_done(model.num_vertices(), 0);
-  for (PackedTriangle& p : c.triangles) {
+  for (int t : pass_order) {
+    PackedTriangle& p = c.triangles[t];
     p.bending_only_begin = static_cast<int>(c.bending_only_slots.size());
     for (int i : p.vertex) {
       if (row_done[i]) continue;
@@ -506,8 +544,8 @@ inline TriangleMatrices triangle_matrices(const double m[4][9]) {
 }
 
 template <bool kLinear, bool kMixed>
-void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, size_t begin,
-                                     size_t end, StepAssembly& out) const {
+WEFT_HOT_KERNEL void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians,
+                                                     size_t begin, size_t end, StepAssembly& out) const {
   // The membrane kernel (elements/membrane_kernel.hpp) one triangle at a time, triangles
   // [begin, end): forces, energy, viscous power, K w and the step matrix blocks (from the
   // four matrices of membrane::step_matrices; write_triangle_blocks). One material: its
@@ -520,7 +558,8 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
   double *F = arrays.F, *KW = arrays.KW;
   Mat3* blocks = arrays.blocks;
   const Vec3* viscosity = arrays.viscosity;
-  double energy = 0, power = 0;
+  double* energy = d_.triangle_energy.data();
+  double* power = d_.triangle_power.data();
   for (size_t t = begin; t < end; ++t) {
     const PackedTriangle& tr = c_.triangles[t];
     const MaterialConstants& mc = constants[kMixed ? tr.material : 0];
@@ -535,8 +574,8 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
     const auto assemble = [&](const auto& curves) __attribute__((always_inline)) {
       Forces<double> f;
       forces(curves, A, eta, U, V, Ud, Vd, f);
-      energy += f.energy;
-      power += f.viscous_power;
+      energy[t] = f.energy;
+      power[t] = f.viscous_power;
       scatter_force(f, ru, rv, U, V, [&](int i, int c, double value) { F[o[i] + c] -= value; });
       if (!jacobians) return;
       const Stiffness<double> k = definite_stiffness(curves, f);
@@ -550,8 +589,6 @@ void ClothSystem::assemble_membranes(const VecX& x, const VecX& v, const VecX& w
     if constexpr (kLinear) assemble(mc.linear);
     else assemble(MaterialCurves(*mc.material));
   }
-  out.elastic_energy += energy;
-  out.viscous_power += power;
 }
 
 namespace {
@@ -601,8 +638,8 @@ struct TriangleBatch {
 }  // namespace
 
 template <bool kMixed>
-WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t end,
-                                                             StepAssembly& out) const {
+WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w,
+                                                             size_t begin, size_t end, StepAssembly& out) const {
   // assemble_membranes<true> with the membrane kernel run on four triangles at a time, lane l
   // of every D4 belonging to triangle t + l: the same expressions, so the same values. The
   // results go through a small per-batch table (the four matrices then transposed to one
@@ -622,13 +659,12 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, cons
   double *F = arrays.F, *KW = arrays.KW;
   Mat3* blocks = arrays.blocks;
   const Vec3* viscosity = arrays.viscosity;
-  D4 energy = splat(0), power = splat(0);
   // Per batch: force and K w per vertex and component (9 + 9) and the four matrices' 9
   // entries each (Muu, Muv, Mvu, Mvv), lane by lane (a row per quantity, a lane per triangle).
   enum { kForce = 0, kStiffness = 9, kMatrices = 18, kRows = 54 };
   alignas(32) double table[kRows][4];
   const auto row = [&table](int k) __attribute__((always_inline)) -> D4& { return *reinterpret_cast<D4*>(table[k]); };
-  for (size_t t0 = 0; t0 < end; t0 += 4) {
+  for (size_t t0 = begin; t0 < end; t0 += 4) {
     const PackedTriangle* tr[4] = {&c_.triangles[t0], &c_.triangles[t0 + 1], &c_.triangles[t0 + 2], &c_.triangles[t0 + 3]};
     const TriangleBatch batch(tr);
     if constexpr (kMixed) {
@@ -659,8 +695,8 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, cons
     }
     Forces<D4> f;
     forces(curves, A, eta, U, V, Ud, Vd, f);
-    energy += f.energy;
-    power += f.viscous_power;
+    std::memcpy(d_.triangle_energy.data() + t0, &f.energy, sizeof(D4));
+    std::memcpy(d_.triangle_power.data() + t0, &f.viscous_power, sizeof(D4));
     const Stiffness<D4> k = definite_stiffness(curves, f);
     scatter_force(f, ru, rv, U, V, [&](int i, int c, D4 value) __attribute__((always_inline)) {
       row(kForce + 3 * i + c) = value;
@@ -713,24 +749,19 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_membranes_batched(const VecX& x, cons
       write_triangle_blocks(t, t.ru, t.rv, M, blocks, c_.bending_only_slots.data(), q, qd, ck, cd);
     }
   }
-  out.elastic_energy += (energy[0] + energy[1]) + (energy[2] + energy[3]);
-  out.viscous_power += (power[0] + power[1]) + (power[2] + power[3]);
 }
 
 void ClothSystem::assemble_step(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) {
   assemble_step_kernel(x, v, w, out);
 }
 
-WEFT_HOT_KERNEL void ClothSystem::assemble_step_kernel(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) {
-  const int n = num_nodes();
-  const bool jacobians = out.ck != 0.0 || out.cd != 0.0;
-  out.force.resize(3 * n);
-  out.stiffness_times_w.resize(3 * n);
-  if (out.matrix.pattern != &model_.pattern) out.matrix.reset(model_.pattern);
+WEFT_HOT_KERNEL void ClothSystem::assemble_nodes(const VecX& x, const VecX& v, const VecX& w, int begin, int end,
+                                                  StepAssembly& out) const {
   // Per vertex: gravity and the bending forces, energy, viscous power and K w. Summed over
   // the stencils, Q and gamma Q live on the block pattern (bending_slot_q and
   // c_.bending_slot_damping): E = 1/2 sum_ij Q_ij x_i . x_j; F = -Q x - gamma Q v; K = -Q (x) I3;
   // D = -gamma Q (x) I3. This pass assigns force and K w; the membranes add to them.
+  const int n = num_nodes();
   const auto& rs = model_.pattern.row_start();
   const auto& col = model_.pattern.column();
   const double* q = model_.bending_slot_q.data();
@@ -742,11 +773,11 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_step_kernel(const VecX& x, const VecX
   double* KW = out.stiffness_times_w.data();
   const Vec3& g = model_.gravity;
   const bool bending = !model_.bending.empty();
-  double gravity_energy = 0, bending_energy = 0, bending_power = 0;
-  for (int i = 0; i < n; ++i) {
+  for (int i = begin; i < end; ++i) {
     const double mi = model_.mass[i];
     const double* xi = X + 3 * i;
     double qx[3] = {0, 0, 0}, qv[3] = {0, 0, 0}, qw[3] = {0, 0, 0};
+    double bending_energy = 0, bending_power = 0;
     if (bending) {
       D4 sx = splat(0), sv = splat(0), sw = splat(0);  // four-wide, lane 3 unused
       for (int s = rs[i]; s < rs[i + 1]; ++s) {
@@ -766,14 +797,54 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_step_kernel(const VecX& x, const VecX
         qv[c] = sv[c];
         qw[c] = sw[c];
       }
-      bending_energy += 0.5 * (xi[0] * qx[0] + xi[1] * qx[1] + xi[2] * qx[2]);
-      bending_power -= Vel[3 * i] * qv[0] + Vel[3 * i + 1] * qv[1] + Vel[3 * i + 2] * qv[2];
+      bending_energy = 0.5 * (xi[0] * qx[0] + xi[1] * qx[1] + xi[2] * qx[2]);
+      bending_power = -(Vel[3 * i] * qv[0] + Vel[3 * i + 1] * qv[1] + Vel[3 * i + 2] * qv[2]);
     }
-    gravity_energy -= mi * (g[0] * xi[0] + g[1] * xi[1] + g[2] * xi[2]);
+    d_.node_gravity[i] = -mi * (g[0] * xi[0] + g[1] * xi[1] + g[2] * xi[2]);
+    d_.node_bending[i] = bending_energy;
+    d_.node_bending_power[i] = bending_power;
     for (int c = 0; c < 3; ++c) {
       F[3 * i + c] = mi * g[c] - (qx[c] + qv[c]);
       KW[3 * i + c] = -qw[c];
     }
+  }
+}
+
+template <class Piece>
+void ClothSystem::for_each_membrane_piece(const Piece& piece) const {
+  const auto& pieces = c_.membrane_pieces;
+  const auto& groups = c_.membrane_groups;
+  for (size_t g = 0; g + 1 < groups.size(); ++g)
+    parallel_chunks(static_cast<size_t>(groups[g + 1] - groups[g]), [&](size_t k) {
+      const auto& [begin, end] = pieces[groups[g] + k];
+      piece(static_cast<size_t>(begin), static_cast<size_t>(end));
+    });
+}
+
+void ClothSystem::assemble_step_kernel(const VecX& x, const VecX& v, const VecX& w, StepAssembly& out) {
+  const int n = num_nodes();
+  const bool jacobians = out.ck != 0.0 || out.cd != 0.0;
+  out.force.resize(3 * n);
+  out.stiffness_times_w.resize(3 * n);
+  if (out.matrix.pattern != &model_.pattern) out.matrix.reset(model_.pattern);
+  d_.node_gravity.resize(n);
+  d_.node_bending.resize(n);
+  d_.node_bending_power.resize(n);
+  // The nodes in pieces of kNodePiece; every sum below is taken in index order afterwards, so
+  // the energies are the same at every thread count (and those a serial loop gives).
+  constexpr int kNodePiece = 1024;
+  parallel_chunks(static_cast<size_t>((n + kNodePiece - 1) / kNodePiece), [&](size_t k) {
+    const int begin = static_cast<int>(k) * kNodePiece;
+    assemble_nodes(x, v, w, begin, std::min(n, begin + kNodePiece), out);
+  });
+  const bool bending = !model_.bending.empty();
+  double gravity_energy = 0, bending_energy = 0, bending_power = 0;
+  for (int i = 0; i < n; ++i) {
+    if (bending) {
+      bending_energy += d_.node_bending[i];
+      bending_power += d_.node_bending_power[i];
+    }
+    gravity_energy += d_.node_gravity[i];
   }
   out.gravity_energy = gravity_energy;
   out.elastic_energy = 0;
@@ -792,30 +863,51 @@ WEFT_HOT_KERNEL void ClothSystem::assemble_step_kernel(const VecX& x, const VecX
     }
   }
   const size_t count = c_.triangles.size();
-  if (c_.linear_moduli && jacobians) {
-    const size_t batched = count - count % 4;
-    out.element_data.resize(6 * batched);
-    if (c_.mixed)
-      assemble_membranes_batched<true>(x, v, w, batched, out);
-    else
-      assemble_membranes_batched<false>(x, v, w, batched, out);
-    if (c_.mixed)
-      assemble_membranes<true, true>(x, v, w, jacobians, batched, count, out);
-    else
-      assemble_membranes<true, false>(x, v, w, jacobians, batched, count, out);
-  } else if (c_.linear_moduli) {
-    out.element_data.clear();
-    if (c_.mixed)
-      assemble_membranes<true, true>(x, v, w, jacobians, 0, count, out);
-    else
-      assemble_membranes<true, false>(x, v, w, jacobians, 0, count, out);
+  const size_t batched = count - count % 4;
+  d_.triangle_energy.resize(count);
+  d_.triangle_power.resize(count);
+  // The membranes: the pieces group by group (Constants::membrane_pieces), then the last
+  // count % 4 triangles.
+  const auto membranes = [&](auto linear, auto mixed, bool four_wide) {
+    for_each_membrane_piece([&](size_t begin, size_t end) {
+      if (four_wide)
+        assemble_membranes_batched<decltype(mixed)::value>(x, v, w, begin, end, out);
+      else
+        assemble_membranes<decltype(linear)::value, decltype(mixed)::value>(x, v, w, jacobians, begin, end, out);
+    });
+    assemble_membranes<decltype(linear)::value, decltype(mixed)::value>(x, v, w, jacobians, batched, count, out);
+  };
+  using True = std::true_type;
+  using False = std::false_type;
+  const bool four_wide = c_.linear_moduli && jacobians;
+  if (four_wide) out.element_data.resize(6 * batched);
+  else out.element_data.clear();
+  if (c_.linear_moduli) {
+    if (c_.mixed) membranes(True{}, True{}, four_wide);
+    else membranes(True{}, False{}, four_wide);
   } else {
-    out.element_data.clear();
-    if (c_.mixed)
-      assemble_membranes<false, true>(x, v, w, jacobians, 0, count, out);
-    else
-      assemble_membranes<false, false>(x, v, w, jacobians, 0, count, out);
+    if (c_.mixed) membranes(False{}, True{}, false);
+    else membranes(False{}, False{}, false);
   }
+  // The sums in the order a serial pass took them: the four-wide batches lane by lane, then
+  // the last triangles one by one (or all one by one).
+  double energy = 0, power = 0;
+  size_t t = 0;
+  if (four_wide) {
+    D4 energy4 = splat(0), power4 = splat(0);
+    for (; t < batched; t += 4) {
+      energy4 += D4{d_.triangle_energy[t], d_.triangle_energy[t + 1], d_.triangle_energy[t + 2], d_.triangle_energy[t + 3]};
+      power4 += D4{d_.triangle_power[t], d_.triangle_power[t + 1], d_.triangle_power[t + 2], d_.triangle_power[t + 3]};
+    }
+    out.elastic_energy += (energy4[0] + energy4[1]) + (energy4[2] + energy4[3]);
+    out.viscous_power += (power4[0] + power4[1]) + (power4[2] + power4[3]);
+  }
+  for (; t < count; ++t) {
+    energy += d_.triangle_energy[t];
+    power += d_.triangle_power[t];
+  }
+  out.elastic_energy += energy;
+  out.viscous_power += power;
   out.elastic_energy += bending_energy;
   out.viscous_power += bending_power;
 }

@@ -111,6 +111,8 @@ class ClothSystem : public System {
     membrane::LinearCurves<double> linear;
     double viscosity;
   };
+  /// Triangles per piece of the membrane pass (a multiple of 4).
+  static constexpr int kMembranePiece = 256;
   /// What the steps never change.
   struct Constants {
     DampingSettings damping;
@@ -125,6 +127,14 @@ class ClothSystem : public System {
     /// Bending damping time constant gamma (s) per stencil: damping force -gamma Q v.
     std::vector<double> bending_damping;
     std::vector<double> bending_slot_damping;  ///< sum of gamma Q_ij per block slot
+    /// The membrane pass's pieces: triangles [first, second) of kMembranePiece (the last
+    /// count % 4 triangles are not in any), ordered by group; a group's pieces share no
+    /// vertex, so they run at once on the threads allowed, and the groups run one after the
+    /// other (membrane_groups[g] is group g's first piece; a last entry closes the list).
+    /// The pass takes the triangles in this order at every thread count, and the first
+    /// writers of PackedTriangle follow it.
+    std::vector<std::pair<int, int>> membrane_pieces;
+    std::vector<int> membrane_groups;
   };
   /// What a step reads and writes. membrane_viscosity and statistics outlive a step
   /// (checkpoints write them); the rest are caches keyed on the step's dt, ck and cd that
@@ -141,6 +151,10 @@ class ClothSystem : public System {
     long linear_raised_per_step = 0;
     LogStatistics bending_kappa_step;  ///< the stencils' kappa at bending_kappa_dt
     double bending_kappa_dt = -1;
+    /// The assembly's energies and viscous powers per triangle and per node, written by the
+    /// pieces and summed in index order afterwards (the same sums at every thread count).
+    AlignedVector<double> triangle_energy, triangle_power;
+    std::vector<double> node_gravity, node_bending, node_bending_power;
   };
   static Constants make_constants(const ClothModel& model, DampingSettings damping);
   /// A fresh Data: the materials' own viscosity, no statistics.
@@ -213,13 +227,22 @@ class ClothSystem : public System {
   /// The membranes' part of assemble_step: energies, forces, K w and the step matrix blocks
   /// (with the bending diagonal on each slot's first write); kLinear: all curves linear;
   /// kMixed: the triangles are of several materials (each reads its own constants).
+  /// Triangles [begin, end); each triangle's energy and viscous power go to
+  /// Data::triangle_energy and triangle_power.
   template <bool kLinear, bool kMixed>
   void assemble_membranes(const VecX& x, const VecX& v, const VecX& w, bool jacobians, size_t begin, size_t end,
                           StepAssembly& out) const;
-  /// The same for triangles [0, end) (a multiple of 4), linear curves, with Jacobians: the
+  /// The same for triangles [begin, end) (multiples of 4), linear curves, with Jacobians: the
   /// element arithmetic of four triangles at a time in four-wide vectors; kMixed as above.
   template <bool kMixed>
-  void assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t end, StepAssembly& out) const;
+  void assemble_membranes_batched(const VecX& x, const VecX& v, const VecX& w, size_t begin, size_t end,
+                                  StepAssembly& out) const;
+  /// Runs piece(begin, end) on every membrane piece, group after group (Constants::membrane_pieces).
+  template <class Piece>
+  void for_each_membrane_piece(const Piece& piece) const;
+  /// assemble_step's per-node pass over nodes [begin, end): gravity and bending forces, K w
+  /// and the nodes' energies and bending power (Data::node_gravity, ...).
+  void assemble_nodes(const VecX& x, const VecX& v, const VecX& w, int begin, int end, StepAssembly& out) const;
   /// Adaptive viscosity and the per-step statistics of a material whose curves are all
   /// linear: the tangent moduli do not depend on the strain, so neither do they.
   void prepare_linear_damping(double dt);
