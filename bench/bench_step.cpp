@@ -1,5 +1,6 @@
 // Time per step of a 1 m x 1 m cloth pinned at two corners, at 33x33, 65x65 and 129x129
-// vertices, Implicit Midpoint and backward Euler at dt = 5 ms, one thread, over the same
+// vertices, Implicit Midpoint and backward Euler at dt = 5 ms, one thread (the last argument;
+// two for the default configuration too), over the same
 // 200 steps (1 s of motion from t = 0.05 s) in every configuration, so that sizes, methods
 // and preconditioners are compared on the same motion (the iterations a step needs vary
 // through the motion by a third); arguments:
@@ -25,6 +26,7 @@
 
 #include "support/cloth_step_problem.hpp"
 #include "sim/simulation_core.hpp"
+#include "weft/threads.hpp"
 
 using namespace weft;
 
@@ -74,6 +76,7 @@ void Step(benchmark::State& bs, const std::string& method) {
   const int n = static_cast<int>(bs.range(0));
   const int tolerance_exponent = static_cast<int>(bs.range(1));
   const int preconditioner = static_cast<int>(bs.range(2));
+  set_thread_count(bs.range(3));
   malloc_trim(0);  // hand back what earlier configurations freed, so the peak is this one's
   const bool peak_reset = reset_peak_rss();
   const double heap_before = heap_MB();
@@ -99,11 +102,14 @@ void Step(benchmark::State& bs, const std::string& method) {
   bs.counters["vertices"] = n * n;
   bs.counters["tolerance"] = sim.scene().integrator.cg_tolerance;
   bs.counters["preconditioner"] = preconditioner;
+  bs.counters["threads"] = static_cast<double>(bs.range(3));
   bs.SetLabel(method + " " + preconditioner_name(sim.core().integrator().preconditioner()));
+  set_thread_count(0);
 }
 
 void WarmStart(benchmark::State& bs) {
   const int n = static_cast<int>(bs.range(0));
+  set_thread_count(1);
   Scene scene = bench_scene(n, "implicit-midpoint", 6, 2);
   scene.integrator.warm_start_history = static_cast<int>(bs.range(1));
   Simulation sim(scene);
@@ -114,6 +120,7 @@ void WarmStart(benchmark::State& bs) {
   bs.counters["cg_iterations"] = stats.cg_iterations * per;
   bs.counters["assembly_ms"] = 1e3 * stats.assembly_seconds * per;
   bs.counters["solve_ms"] = 1e3 * stats.solve_seconds * per;
+  set_thread_count(0);
 }
 
 }  // namespace
@@ -124,17 +131,29 @@ BENCHMARK(WarmStart)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(kSteps);
 BENCHMARK_CAPTURE(Step, ImplicitMidpoint, std::string("implicit-midpoint"))
-    ->ArgsProduct({{33, 65, 129}, {6, 4}, {0, 1, 2}})
-    ->ArgNames({"n", "tol", "pc"})
+    ->ArgsProduct({{33, 65, 129}, {6, 4}, {0, 1, 2}, {1}})
+    ->ArgNames({"n", "tol", "pc", "threads"})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(kSteps);
 BENCHMARK_CAPTURE(Step, ImplicitMidpoint, std::string("implicit-midpoint"))
-    ->ArgsProduct({{33, 65, 129}, {6}, {3}})
-    ->ArgNames({"n", "tol", "pc"})
+    ->ArgsProduct({{33, 65, 129}, {6}, {3}, {1}})
+    ->ArgNames({"n", "tol", "pc", "threads"})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(kSteps);
 BENCHMARK_CAPTURE(Step, BackwardEuler, std::string("backward-euler"))
-    ->ArgsProduct({{33, 65, 129}, {6}, {0, 1, 2}})
-    ->ArgNames({"n", "tol", "pc"})
+    ->ArgsProduct({{33, 65, 129}, {6}, {0, 1, 2}, {1}})
+    ->ArgNames({"n", "tol", "pc", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(kSteps);
+// The default configuration (SSOR in single precision at 1e-6) on one thread and on two: the
+// assembly runs on every thread allowed (docs/performance.md, "Threads").
+BENCHMARK_CAPTURE(Step, ImplicitMidpoint, std::string("implicit-midpoint"))
+    ->ArgsProduct({{33, 65, 129}, {6}, {2}, {2}})
+    ->ArgNames({"n", "tol", "pc", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(kSteps);
+BENCHMARK_CAPTURE(Step, BackwardEuler, std::string("backward-euler"))
+    ->ArgsProduct({{33, 65, 129}, {6}, {2}, {2}})
+    ->ArgNames({"n", "tol", "pc", "threads"})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(kSteps);

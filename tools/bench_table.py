@@ -16,8 +16,11 @@ def main(path):
         data = json.load(f)
     # The Step benchmarks only (a file from `make bench` also holds the solver and
     # skinning benchmarks).
-    rows = [b for b in data["benchmarks"]
-            if b.get("aggregate_name") == "median" and b.get("run_name", "").startswith("Step/")]
+    step_rows = [b for b in data["benchmarks"]
+                 if b.get("aggregate_name") == "median" and b.get("run_name", "").startswith("Step/")]
+    # The tables below are of one thread; the default configuration on two has its own.
+    rows = [b for b in step_rows if int(b.get("threads", 1)) == 1]
+    two = {(b["run_name"].split("/")[1], int(b["vertices"])): b for b in step_rows if int(b.get("threads", 1)) == 2}
     ctx = data["context"]
     cpu = "unknown CPU"
     try:
@@ -79,6 +82,19 @@ def main(path):
         if sp and dp:
             print(f"| {v} | {sp['real_time'] / dp['real_time']:.2f} | "
                   f"{sp['cg_iterations'] / dp['cg_iterations']:.2f} |")
+
+    if two:
+        print("\n| method | vertices | ms/step, 1 thread | ms/step, 2 threads | 2 / 1 | assembly ms, 1 / 2 threads "
+              "| solve ms, 1 / 2 threads |")
+        print("|---|---|---|---|---|---|---|")
+        for (method, v), b2 in sorted(two.items(), key=lambda kv: (kv[0][0] != "ImplicitMidpoint", kv[0][1])):
+            b1 = by.get((method, v, 2, 1e-6))
+            if not b1:
+                continue
+            print(f"| {method} | {v} | {b1['real_time']:.3f} | {b2['real_time']:.3f} | "
+                  f"{b2['real_time'] / b1['real_time']:.2f} | {b1['assembly_ms']:.3f} / {b2['assembly_ms']:.3f} | "
+                  f"{b1['solve_ms']:.3f} / {b2['solve_ms']:.3f} |")
+
 
 if __name__ == "__main__":
     main(sys.argv[1])
