@@ -1,7 +1,9 @@
-// Skinning the 13,380-vertex mannequin for one frame of the walk: linear blend and dual quaternion.
+// Skinning the 13,380-vertex mannequin for one frame of the walk: linear blend and dual quaternion,
+// on one thread and on two.
 #include <benchmark/benchmark.h>
 
 #include "weft/body.hpp"
+#include "weft/threads.hpp"
 
 namespace {
 
@@ -13,6 +15,7 @@ const weft::WalkingBody& body() {
 template <void (*Skin)(const weft::Points&, const weft::SkinWeights&,
                        const std::vector<weft::BonePose>&, weft::Points&)>
 void BM_Skin(benchmark::State& state) {
+  weft::set_thread_count(static_cast<int>(state.range(0)));
   std::vector<weft::BonePose> poses;
   body().bone_poses(1.7, poses);
   weft::Points out;
@@ -21,6 +24,7 @@ void BM_Skin(benchmark::State& state) {
     benchmark::DoNotOptimize(out.data());
   }
   state.SetItemsProcessed(state.iterations() * body().vertex_count());
+  weft::set_thread_count(0);
 }
 
 void BM_BonePoses(benchmark::State& state) {
@@ -35,6 +39,6 @@ void BM_BonePoses(benchmark::State& state) {
 
 }  // namespace
 
-BENCHMARK(BM_Skin<weft::skin_lbs>)->Name("SkinLBS")->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_Skin<weft::skin_dqs>)->Name("SkinDQS")->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Skin<weft::skin_lbs>)->Name("SkinLBS")->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Skin<weft::skin_dqs>)->Name("SkinDQS")->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_BonePoses)->Name("BonePosesWalk")->Unit(benchmark::kMicrosecond);

@@ -1,10 +1,24 @@
 // Linear blend and dual-quaternion skinning of a mesh by per-bone rigid transforms.
+#include <algorithm>
+
 #include "weft/body.hpp"
 #include "weft/error.hpp"
+#include "sim/threads.hpp"
 
 namespace weft {
 
 namespace {
+
+// Runs body(v) for every vertex, in pieces of 1,024 on the threads allowed: each vertex writes
+// only its own row, so the result is the same at every thread count.
+template <class Body>
+void for_each_vertex(Eigen::Index count, const Body& body) {
+  constexpr Eigen::Index kPiece = 1024;
+  parallel_chunks(static_cast<size_t>((count + kPiece - 1) / kPiece), [&](size_t k) {
+    const Eigen::Index begin = static_cast<Eigen::Index>(k) * kPiece;
+    for (Eigen::Index v = begin, end = std::min(count, begin + kPiece); v < end; ++v) body(v);
+  });
+}
 
 void check_sizes(const Points& rest, const SkinWeights& weights) {
   if (weights.bone.rows() != rest.rows() || weights.weight.rows() != rest.rows())
@@ -23,12 +37,12 @@ void skin_lbs(const Points& rest, const SkinWeights& weights, const std::vector<
     m[b].col(3) = poses[b].translation;
   }
   out.resize(rest.rows(), 3);
-  for (Eigen::Index v = 0; v < rest.rows(); ++v) {
+  for_each_vertex(rest.rows(), [&](Eigen::Index v) {
     Eigen::Matrix<double, 3, 4> blend = weights.weight(v, 0) * m[weights.bone(v, 0)];
     for (int k = 1; k < SkinWeights::kInfluences; ++k)
       blend += weights.weight(v, k) * m[weights.bone(v, k)];
     out.row(v) = (blend.leftCols<3>() * rest.row(v).transpose() + blend.col(3)).transpose();
-  }
+  });
 }
 
 void skin_dqs(const Points& rest, const SkinWeights& weights, const std::vector<BonePose>& poses,
@@ -45,7 +59,7 @@ void skin_dqs(const Points& rest, const SkinWeights& weights, const std::vector<
     dq[b] << q0.w(), q0.x(), q0.y(), q0.z(), qe.w(), qe.x(), qe.y(), qe.z();
   }
   out.resize(rest.rows(), 3);
-  for (Eigen::Index v = 0; v < rest.rows(); ++v) {
+  for_each_vertex(rest.rows(), [&](Eigen::Index v) {
     const Vec8& first = dq[weights.bone(v, 0)];
     Vec8 blend = weights.weight(v, 0) * first;
     for (int k = 1; k < SkinWeights::kInfluences; ++k) {
@@ -63,7 +77,7 @@ void skin_dqs(const Points& rest, const SkinWeights& weights, const std::vector<
     const Vec3 x = rest.row(v).transpose();
     const Vec3 vx = qv.cross(x);
     out.row(v) = (x + 2.0 * (w * vx + qv.cross(vx)) + t).transpose();
-  }
+  });
 }
 
 Skinning parse_skinning(const std::string& name, const std::string& where) {

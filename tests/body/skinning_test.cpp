@@ -6,6 +6,7 @@
 
 #include "body/body_fixture.hpp"
 #include "weft/body.hpp"
+#include "weft/threads.hpp"
 
 namespace weft {
 namespace {
@@ -69,6 +70,33 @@ TEST(SkinDualQuaternion, MatchesLinearBlendOnRigidVerticesAndKeepsScale) {
   EXPECT_GT(max_distance(lbs, dqs), 1e-4);
   // ...and both stay close to each other for a natural pose.
   EXPECT_LT(max_distance(lbs, dqs), 0.05);
+}
+
+// Skinning runs its vertices in pieces on every thread allowed; each vertex is its own, so the
+// positions are the same bits on one thread and on two, and the same as a vertex skinned alone.
+TEST(SkinThreads, TheSameBitsOnOneThreadAndOnTwo) {
+  const WalkingBody& body = test::shipped_body();
+  std::vector<BonePose> poses;
+  body.bone_poses(2.1, poses);
+  for (auto skin : {&skin_lbs, &skin_dqs}) {
+    Points one, two;
+    set_thread_count(1);
+    skin(body.rest_positions(), body.weights(), poses, one);
+    set_thread_count(2);
+    skin(body.rest_positions(), body.weights(), poses, two);
+    set_thread_count(0);
+    ASSERT_GT(one.rows(), 2048) << "more than two pieces";
+    EXPECT_TRUE(one == two);
+    // The last vertex (the last, short piece) skinned on its own.
+    const Eigen::Index last = one.rows() - 1;
+    Points rest_one = body.rest_positions().row(last);
+    SkinWeights w;
+    w.bone = body.weights().bone.row(last);
+    w.weight = body.weights().weight.row(last);
+    Points alone;
+    skin(rest_one, w, poses, alone);
+    EXPECT_TRUE(alone.row(0) == one.row(last));
+  }
 }
 
 TEST(SkinVelocity, AgreesWithFiniteDifferencesOfPositions) {
