@@ -1,5 +1,7 @@
 #include "collision/geometry.hpp"
 
+#include "mesh/exact_predicates.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -401,11 +403,10 @@ double orient3d(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
 
 namespace {
 
-int sign(double x) { return (x > 0) - (x < 0); }
-
-double orient2d(const Vec2& a, const Vec2& b, const Vec2& c) {
-  return (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
-}
+// The signs of the intersection tests are exact (mesh/exact_predicates.hpp): rounded ones can
+// contradict each other where the points are nearly coplanar and report crossings far from
+// any touching (two faces of a nearly flat sheet centimetres apart).
+int orient2d_sign(const Vec2& a, const Vec2& b, const Vec2& c) { return orientation_sign(a, b, c); }
 
 bool in_closed_box_2d(const Vec2& p, const Vec2& a, const Vec2& b) {
   return p.x() >= std::min(a.x(), b.x()) && p.x() <= std::max(a.x(), b.x()) && p.y() >= std::min(a.y(), b.y()) &&
@@ -413,8 +414,8 @@ bool in_closed_box_2d(const Vec2& p, const Vec2& a, const Vec2& b) {
 }
 
 bool segments_intersect_2d(const Vec2& p, const Vec2& q, const Vec2& a, const Vec2& b) {
-  const int o1 = sign(orient2d(p, q, a)), o2 = sign(orient2d(p, q, b));
-  const int o3 = sign(orient2d(a, b, p)), o4 = sign(orient2d(a, b, q));
+  const int o1 = orient2d_sign(p, q, a), o2 = orient2d_sign(p, q, b);
+  const int o3 = orient2d_sign(a, b, p), o4 = orient2d_sign(a, b, q);
   if (o1 * o2 < 0 && o3 * o4 < 0) return true;
   // Touching or collinear: an endpoint on the other segment.
   return (o1 == 0 && in_closed_box_2d(a, p, q)) || (o2 == 0 && in_closed_box_2d(b, p, q)) ||
@@ -422,7 +423,7 @@ bool segments_intersect_2d(const Vec2& p, const Vec2& q, const Vec2& a, const Ve
 }
 
 bool point_in_triangle_2d(const Vec2& p, const Vec2& a, const Vec2& b, const Vec2& c) {
-  const int s0 = sign(orient2d(a, b, p)), s1 = sign(orient2d(b, c, p)), s2 = sign(orient2d(c, a, p));
+  const int s0 = orient2d_sign(a, b, p), s1 = orient2d_sign(b, c, p), s2 = orient2d_sign(c, a, p);
   return !((s0 < 0 || s1 < 0 || s2 < 0) && (s0 > 0 || s1 > 0 || s2 > 0));
 }
 
@@ -445,20 +446,20 @@ bool coplanar_segment_triangle(const Vec3& p, const Vec3& q, const Vec3& a, cons
 bool segment_triangle_intersect(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
   const Vec3 normal = (b - a).cross(c - a);
   if (normal.squaredNorm() == 0) return false;
-  const int sp = sign(orient3d(a, b, c, p)), sq = sign(orient3d(a, b, c, q));
+  const int sp = orient3d_sign(a, b, c, p), sq = orient3d_sign(a, b, c, q);
   if (sp * sq > 0) return false;
   if (sp == 0 && sq == 0) return coplanar_segment_triangle(p, q, a, b, c, normal);
   // p and q on opposite sides (or one on the plane): the line pq meets the plane within the
   // segment, and meets the closed triangle exactly when it passes each edge on the same side.
-  const int s0 = sign(orient3d(p, q, a, b)), s1 = sign(orient3d(p, q, b, c)), s2 = sign(orient3d(p, q, c, a));
+  const int s0 = orient3d_sign(p, q, a, b), s1 = orient3d_sign(p, q, b, c), s2 = orient3d_sign(p, q, c, a);
   return !((s0 < 0 || s1 < 0 || s2 < 0) && (s0 > 0 || s1 > 0 || s2 > 0));
 }
 
 bool triangles_intersect(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, const Vec3& e, const Vec3& f) {
   // Quick rejection: one triangle strictly on one side of the other's plane.
-  const int sd = sign(orient3d(a, b, c, d)), se = sign(orient3d(a, b, c, e)), sf = sign(orient3d(a, b, c, f));
+  const int sd = orient3d_sign(a, b, c, d), se = orient3d_sign(a, b, c, e), sf = orient3d_sign(a, b, c, f);
   if ((sd > 0 && se > 0 && sf > 0) || (sd < 0 && se < 0 && sf < 0)) return false;
-  const int sa = sign(orient3d(d, e, f, a)), sb = sign(orient3d(d, e, f, b)), sc = sign(orient3d(d, e, f, c));
+  const int sa = orient3d_sign(d, e, f, a), sb = orient3d_sign(d, e, f, b), sc = orient3d_sign(d, e, f, c);
   if ((sa > 0 && sb > 0 && sc > 0) || (sa < 0 && sb < 0 && sc < 0)) return false;
   // Two closed triangles that meet have an edge of one meeting the other: the ends of their
   // common segment lie on the triangles' boundaries, and a coplanar overlap either crosses

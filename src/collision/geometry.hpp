@@ -77,9 +77,9 @@ double orient3d(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
 
 /// Whether the closed segment pq meets the closed triangle (a, b, c), touching included (an
 /// endpoint on the triangle, the segment through an edge or a vertex, a segment lying in the
-/// triangle's plane across it). The signs are computed in double precision: a configuration
-/// within rounding of touching may be decided either way. A triangle of zero area (no plane)
-/// meets nothing here.
+/// triangle's plane across it). The orientation signs are exact (mesh/exact_predicates.hpp),
+/// so the answer is that of the points as given, nearly coplanar ones included. A triangle of
+/// zero area (no plane) meets nothing here.
 bool segment_triangle_intersect(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c);
 
 /// Whether the closed triangles (a, b, c) and (d, e, f) have a point in common. Touching counts
@@ -87,7 +87,7 @@ bool segment_triangle_intersect(const Vec3& p, const Vec3& q, const Vec3& a, con
 /// overlap or share a boundary point. Two triangles sharing a vertex or an edge of a mesh
 /// therefore always intersect; callers counting a mesh's intersections leave such pairs out.
 /// A triangle of zero area counts through its edges (it meets a triangle its edges meet); two
-/// of them never intersect. Rounding as in segment_triangle_intersect.
+/// of them never intersect. Exact, as segment_triangle_intersect.
 bool triangles_intersect(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, const Vec3& e, const Vec3& f);
 
 }  // namespace weft

@@ -69,6 +69,9 @@ int sign_of(const Expansion& e) {
 // proved by Shewchuk (3 eps and 10 eps, eps = 2^-53) since the evaluation order differs a little.
 constexpr double kOrientBound = 1e-15;
 constexpr double kIncircleBound = 4e-15;
+// orient3d: Shewchuk's bound is 7 eps over the permanent of the rounded differences; the
+// differences' own rounding is inside it. Ten times that.
+constexpr double kOrient3dBound = 1e-14;
 
 }  // namespace
 
@@ -81,6 +84,27 @@ int orientation_sign(const Vec2& a, const Vec2& b, const Vec2& c) {
   if (det < -bound) return -1;
   const Expansion exact = minus(product(difference(a.x(), c.x()), difference(b.y(), c.y())),
                                 product(difference(a.y(), c.y()), difference(b.x(), c.x())));
+  return sign_of(exact);
+}
+
+int orient3d_sign(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  // det [u; v; w] with u = b - a, v = c - a, w = d - a, expanded along u.
+  const double ux = b.x() - a.x(), uy = b.y() - a.y(), uz = b.z() - a.z();
+  const double vx = c.x() - a.x(), vy = c.y() - a.y(), vz = c.z() - a.z();
+  const double wx = d.x() - a.x(), wy = d.y() - a.y(), wz = d.z() - a.z();
+  const double det = ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx);
+  const double permanent = std::abs(ux) * (std::abs(vy * wz) + std::abs(vz * wy)) +
+                           std::abs(uy) * (std::abs(vz * wx) + std::abs(vx * wz)) +
+                           std::abs(uz) * (std::abs(vx * wy) + std::abs(vy * wx));
+  const double bound = kOrient3dBound * permanent;
+  if (det > bound) return 1;
+  if (det < -bound) return -1;
+  const Expansion eux = difference(b.x(), a.x()), euy = difference(b.y(), a.y()), euz = difference(b.z(), a.z());
+  const Expansion evx = difference(c.x(), a.x()), evy = difference(c.y(), a.y()), evz = difference(c.z(), a.z());
+  const Expansion ewx = difference(d.x(), a.x()), ewy = difference(d.y(), a.y()), ewz = difference(d.z(), a.z());
+  const Expansion exact = plus(plus(product(eux, minus(product(evy, ewz), product(evz, ewy))),
+                                    product(euy, minus(product(evz, ewx), product(evx, ewz)))),
+                               product(euz, minus(product(evx, ewy), product(evy, ewx))));
   return sign_of(exact);
 }
 

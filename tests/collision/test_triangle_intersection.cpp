@@ -70,6 +70,32 @@ TEST(TrianglesIntersect, ZeroAreaTriangleCountsThroughItsEdges) {
   EXPECT_FALSE(meets_base(Vec3(2, 0.2, -1), Vec3(2, 0.2, 1), Vec3(2, 0.2, 0.5)));
 }
 
+// Two faces of a nearly flat sheet, 1.9 cm apart in its plane, whose vertices' heights differ
+// by a few 1e-9 m (the rounding of a frame written with nine digits): they are far from
+// touching, and exact signs say so whatever the jitter. With signs rounded in double precision,
+// the nearly coplanar orientations contradict each other and some jitters reported a crossing
+// (two such pairs in a frame of the body-drape run).
+TEST(TrianglesIntersect, NearlyCoplanarFacesApartNeverIntersect) {
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> jitter(-3, 3);
+  const double h = 0.941968088;
+  const double xs[2][3][2] = {{{-0.54375, -0.54375}, {-0.54375, -0.5625}, {-0.5625, -0.5625}},
+                              {{-0.525, -0.5625}, {-0.525, -0.58125}, {-0.54375, -0.58125}}};
+  int reported = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    Vec3 v[2][3];
+    for (int t = 0; t < 2; ++t)
+      for (int k = 0; k < 3; ++k) v[t][k] = Vec3(xs[t][k][0], h + 1e-9 * jitter(rng), xs[t][k][1]);
+    reported += triangles_intersect(v[0][0], v[0][1], v[0][2], v[1][0], v[1][1], v[1][2]) ? 1 : 0;
+  }
+  EXPECT_EQ(reported, 0);
+  // The same faces moved to overlap (the second shifted onto the first) do meet.
+  const Vec3 shift(-0.01875, 0, 0.01875);
+  EXPECT_TRUE(triangles_intersect(Vec3(xs[0][0][0], h, xs[0][0][1]), Vec3(xs[0][1][0], h + 1e-9, xs[0][1][1]),
+                                  Vec3(xs[0][2][0], h - 1e-9, xs[0][2][1]), Vec3(xs[1][0][0], h, xs[1][0][1]) + shift,
+                                  Vec3(xs[1][1][0], h, xs[1][1][1]) + shift, Vec3(xs[1][2][0], h, xs[1][2][1]) + shift));
+}
+
 TEST(SegmentTriangleIntersect, Cases) {
   EXPECT_TRUE(segment_triangle_intersect(Vec3(0.2, 0.2, -1), Vec3(0.2, 0.2, 1), kA, kB, kC));
   EXPECT_TRUE(segment_triangle_intersect(Vec3(0.2, 0.2, 0), Vec3(0.2, 0.2, 1), kA, kB, kC));  // endpoint on it

@@ -93,6 +93,43 @@ TEST(PanelMesherPredicates, OrientationAtTheRoundingLevel) {
   EXPECT_GT(within_rounding, 100);  // cases a plain double evaluation cannot decide
 }
 
+// orient3d_sign (the intersection tests' sign, collision/geometry.cpp) on nearly coplanar
+// points of the grid in space: d = a + j (b - a) + k (c - a), nudged by at most one step; the
+// determinant's products reach 2^69 steps^3, past what doubles hold exactly.
+TEST(PanelMesherPredicates, Orient3dOfNearlyCoplanarPoints) {
+  struct P3 {
+    long x, y, z;
+  };
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<long> coordinate(-(1L << 20), 1L << 20), step(-1, 1), scale(-40, 40);
+  auto vec = [](const P3& p, const Vec3& offset) -> Vec3 { return offset + Vec3(p.x * kStep, p.y * kStep, p.z * kStep); };
+  auto reference = [](const P3& a, const P3& b, const P3& c, const P3& d) {
+    const Int ux = b.x - a.x, uy = b.y - a.y, uz = b.z - a.z, vx = c.x - a.x, vy = c.y - a.y, vz = c.z - a.z,
+              wx = d.x - a.x, wy = d.y - a.y, wz = d.z - a.z;
+    return sign(ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx));
+  };
+  const std::array<Vec3, 3> offsets{Vec3(0, 0, 0), Vec3(0.25, -0.375, 0.5), Vec3(4096, -8192, 1024)};
+  int coplanar = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    const P3 a{coordinate(rng), coordinate(rng), coordinate(rng)};
+    const P3 b{a.x + coordinate(rng) / 4096, a.y + coordinate(rng) / 4096, a.z + coordinate(rng) / 4096};
+    const P3 c{a.x + coordinate(rng) / 4096, a.y + coordinate(rng) / 4096, a.z + coordinate(rng) / 4096};
+    const long j = scale(rng), k = scale(rng);
+    const P3 d{a.x + j * (b.x - a.x) + k * (c.x - a.x) + step(rng), a.y + j * (b.y - a.y) + k * (c.y - a.y) + step(rng),
+               a.z + j * (b.z - a.z) + k * (c.z - a.z) + step(rng)};
+    const int expected = reference(a, b, c, d);
+    coplanar += expected == 0;
+    for (const Vec3& offset : offsets) {
+      const Vec3 pa = vec(a, offset), pb = vec(b, offset), pc = vec(c, offset), pd = vec(d, offset);
+      ASSERT_EQ(orient3d_sign(pa, pb, pc, pd), expected) << "trial " << trial;
+      ASSERT_EQ(orient3d_sign(pb, pa, pc, pd), -expected);  // swapping two points flips it
+      ASSERT_EQ(orient3d_sign(pd, pb, pc, pa), -expected);  // so does swapping a and d
+      ASSERT_EQ(orient3d_sign(pb, pc, pa, pd), expected);   // a cyclic shift of a, b, c keeps it
+    }
+  }
+  EXPECT_GT(coplanar, 50);  // the exactly coplanar case is well represented
+}
+
 TEST(PanelMesherPredicates, InCircleOfNearlyCocircularPoints) {
   // Points with integer coordinates on the circle x^2 + y^2 = 5^4 * 13^2 (many exist: 5 and 13
   // are sums of two squares), shifted to random centres and nudged by at most one step.
