@@ -165,33 +165,9 @@ ClothModel build_cloth_model(TriMesh mesh, const TriangleMaterials& materials, c
   return m;
 }
 
-ClothSystem::Constants ClothSystem::make_constants(const ClothModel& model, DampingSettings damping) {
-  Constants c;
-  c.damping = damping;
-  // kappa_b = dt^2 S and lambda_b = dt gamma S, so lambda >= 2 zeta sqrt(kappa) means
-  // gamma >= 2 zeta / sqrt(S): a constant per stencil (METHOD.md 4).
-  const double zeta = c.damping.damping_ratio;
-  c.bending_damping.resize(model.bending.size());
-  c.bending_slot_damping.assign(model.pattern.num_blocks(), 0.0);
-  for (size_t e = 0; e < model.bending.size(); ++e) {
-    const double S = model.bending_mass_sums[e];
-    const double gamma = (zeta > 0 && S > 0) ? 2.0 * zeta / std::sqrt(S) : 0.0;
-    c.bending_damping[e] = gamma;
-    const auto& Q = model.bending[e].Q;
-    const Eigen::Index k = Q.rows();
-    for (Eigen::Index a = 0; a < k; ++a)
-      for (Eigen::Index b = 0; b < k; ++b) c.bending_slot_damping[model.bending_slots[e][k * a + b]] += gamma * Q(a, b);
-  }
-  c.linear_moduli = true;
-  for (const Material& mat : model.materials) {
-    MaterialConstants mc;
-    mc.material = &mat;
-    mc.linear = membrane::LinearCurves<double>::of(mat);
-    mc.viscosity = mat.viscosity_Ns_m;
-    c.material_constants.push_back(mc);
-    c.linear_moduli = c.linear_moduli && mat.weft.is_linear() && mat.warp.is_linear() && mat.shear.is_linear();
-  }
-  c.mixed = model.materials.size() > 1;
+// Sets the membrane pass's pieces and groups (Constants::membrane_pieces, membrane_groups) and
+// returns the order the pass takes the triangles in.
+std::vector<int> ClothSystem::group_membrane_pieces(const ClothModel& model, Constants& c) {
   // The membrane pass's pieces, grouped by a greedy colouring of the pieces that share a
   // vertex (a grid's rows of triangles take two groups), and the order the pass takes the
   // triangles in: group by group, piece by piece, then the last count % 4 triangles.
@@ -227,6 +203,37 @@ ClothSystem::Constants ClothSystem::make_constants(const ClothModel& model, Damp
   for (const auto& [begin, end] : c.membrane_pieces)
     for (int t = begin; t < end; ++t) pass_order.push_back(t);
   for (int t = batched; t < count; ++t) pass_order.push_back(t);
+  return pass_order;
+}
+
+ClothSystem::Constants ClothSystem::make_constants(const ClothModel& model, DampingSettings damping) {
+  Constants c;
+  c.damping = damping;
+  // kappa_b = dt^2 S and lambda_b = dt gamma S, so lambda >= 2 zeta sqrt(kappa) means
+  // gamma >= 2 zeta / sqrt(S): a constant per stencil (METHOD.md 4).
+  const double zeta = c.damping.damping_ratio;
+  c.bending_damping.resize(model.bending.size());
+  c.bending_slot_damping.assign(model.pattern.num_blocks(), 0.0);
+  for (size_t e = 0; e < model.bending.size(); ++e) {
+    const double S = model.bending_mass_sums[e];
+    const double gamma = (zeta > 0 && S > 0) ? 2.0 * zeta / std::sqrt(S) : 0.0;
+    c.bending_damping[e] = gamma;
+    const auto& Q = model.bending[e].Q;
+    const Eigen::Index k = Q.rows();
+    for (Eigen::Index a = 0; a < k; ++a)
+      for (Eigen::Index b = 0; b < k; ++b) c.bending_slot_damping[model.bending_slots[e][k * a + b]] += gamma * Q(a, b);
+  }
+  c.linear_moduli = true;
+  for (const Material& mat : model.materials) {
+    MaterialConstants mc;
+    mc.material = &mat;
+    mc.linear = membrane::LinearCurves<double>::of(mat);
+    mc.viscosity = mat.viscosity_Ns_m;
+    c.material_constants.push_back(mc);
+    c.linear_moduli = c.linear_moduli && mat.weft.is_linear() && mat.warp.is_linear() && mat.shear.is_linear();
+  }
+  c.mixed = model.materials.size() > 1;
+  const std::vector<int> pass_order = group_membrane_pieces(model, c);
 
   // Packed triangles; the first triangle (in the pass's order) to touch a block slot assigns it.
   std::vector<char> written(model.pattern.num_blocks(), 0);

@@ -197,6 +197,9 @@ class ClothSystem : public System {
   std::vector<double> membrane_kappa_max(const VecX& x, double dt) const;
 
  private:
+  /// Sets c's membrane pieces and groups; returns the order the membrane pass takes the
+  /// triangles in (the pieces group by group, then the last count % 4 triangles).
+  static std::vector<int> group_membrane_pieces(const ClothModel& model, Constants& c);
   /// The viscous power at (x, v); the batched triangles' deformation gradients U, V from
   /// `frames` (assemble_membranes_batched's StepAssembly::element_data) when not null.
   double viscous_power_with(const VecX& x, const VecX& v, const double* frames) const;
