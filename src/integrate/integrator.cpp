@@ -204,8 +204,10 @@ void Integrator::step(State& s, double dt, StepStatistics& stats) {
   State start = s;
   const std::vector<char> pulling = d_.pulling, stuck = d_.stuck;
   d_.last_step_ok = true;
+  const long failures = stats.cg_failures;
   single_step(s, dt, stats);
   if (d_.last_step_ok || d_.retry_depth >= kMaxStepHalvings) return;
+  stats.cg_failures = failures;  // the attempt taken again does not count
   s = start;  // copied into s's own storage (State: x and v keep theirs)
   d_.pulling = pulling;
   d_.stuck = stuck;
@@ -307,11 +309,15 @@ void Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
   for (;;) {
     const double alpha = c_.guard_alphas[d_.guard_rung];
     stats.guard_seconds += seconds_since(tg);
+    const long failures = stats.cg_failures;
     linear_step(s, dt, alpha, 0.0, dt, stats);
     tg = Clock::now();
     if (!puts_energy_in(s)) break;
     stats.guard_seconds += seconds_since(tg);
     tg = Clock::now();
+    // The attempt is discarded unless it is the last resort kept below; a discarded attempt's
+    // solves that stopped at the iteration cap are not counted as failures.
+    if (splits < kGuardMaxSplits || d_.guard_rung < top) stats.cg_failures = failures;
     if (splits < kGuardMaxSplits) {
       // Halving the step divides kappa by 4 and the elements' turn within the step by 2 while
       // keeping the step second order: on the stiff swing it dissipates a third of what
@@ -379,6 +385,7 @@ void Integrator::guarded_bdf2_step(State& s, double dt, StepStatistics& stats) {
   d_.guard_raised_now = false;
   for (;;) {
     stats.guard_seconds += seconds_since(tg);
+    const long failures = stats.cg_failures;
     if (d_.guard_rung == backward_euler) {
       linear_step(s, dt, 1.0, 0.0, dt, stats);
     } else {
@@ -386,6 +393,7 @@ void Integrator::guarded_bdf2_step(State& s, double dt, StepStatistics& stats) {
     }
     tg = Clock::now();
     if (!puts_energy_in(s)) break;
+    stats.cg_failures = failures;  // the attempt is discarded
     s = d_.guard_start;
     d_.pulling = pulling;
     d_.stuck = stuck;
@@ -415,6 +423,7 @@ void Integrator::backward_euler_parts(State& s, double dt, StepStatistics& stats
   d_.guard_start = s;
   const std::vector<char> pulling = d_.pulling, stuck = d_.stuck;
   stats.guard_seconds += seconds_since(tg);
+  const long failures = stats.cg_failures;
   linear_step(s, dt, 1.0, 0.0, dt, stats);
   tg = Clock::now();
   if (splits >= kGuardMaxSplits || !puts_energy_in(s)) {
@@ -422,6 +431,7 @@ void Integrator::backward_euler_parts(State& s, double dt, StepStatistics& stats
     stats.guard_seconds += seconds_since(tg);
     return;
   }
+  stats.cg_failures = failures;  // the attempt is discarded
   s = d_.guard_start;
   d_.pulling = pulling;
   d_.stuck = stuck;

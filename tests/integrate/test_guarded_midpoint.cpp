@@ -89,6 +89,18 @@ TEST(GuardedMidpoint, StiffSpinningSpringGainsEnergyOnlyWithoutTheGuard) {
   EXPECT_LT(guarded.end, guarded.start);
 }
 
+// A solve that stops at the iteration cap counts as failed (summary.json's solver_failures,
+// the solver_capped status) only in an attempt the guard keeps: with no iteration allowed every
+// solve stops at the cap, and the spinning spring makes the guard take steps again.
+TEST(GuardedMidpoint, OnlyTheKeptAttemptsSolvesCountAsFailed) {
+  IntegratorSettings settings = midpoint(0.02, true);
+  settings.cg_max_iterations = 0;
+  const StepStatistics st = spin(settings).stats;
+  EXPECT_GT(st.cg_solves, st.guard_parts);  // attempts were taken again
+  EXPECT_GT(st.cg_failures, 0);
+  EXPECT_LE(st.cg_failures, st.guard_parts);  // one solve per part kept: no contacts
+}
+
 TEST(GuardedMidpoint, SameResultsAsThePlainStepWhereTheGuardNeverActs) {
   // On a linear system Implicit Midpoint's energy changes by exactly the viscous work it
   // books: only rounding is left for the guard to see.
@@ -163,6 +175,15 @@ TEST(GuardedBdf2, StiffSpinningSpringGainsEnergyOnlyWithoutTheGuard) {
   EXPECT_GT(guarded.stats.guard_redone_steps, 0) << "larger alphas, then backward Euler";
   EXPECT_GT(guarded.stats.guard_split_steps, 0) << "backward Euler halves where it too puts energy in";
   EXPECT_LE(guarded.highest, guarded.start * (1 + 200 * kGuardTolerance));
+}
+
+TEST(GuardedBdf2, OnlyTheKeptAttemptsSolvesCountAsFailed) {
+  IntegratorSettings settings = bdf2_alpha(0.02, true);
+  settings.cg_max_iterations = 0;
+  const StepStatistics st = spin(settings).stats;
+  EXPECT_GT(st.cg_solves, st.guard_parts);
+  EXPECT_GT(st.cg_failures, 0);
+  EXPECT_LE(st.cg_failures, st.guard_parts);
 }
 
 TEST(GuardedBdf2, SameResultsAsThePlainStepWhereTheGuardNeverActs) {
