@@ -235,13 +235,7 @@ Scene irregular_cloth_scene(int n, unsigned seed) {
       }
     }
   out.close();
-  Scene scene = test::cloth_step_scene(n);
-  scene.cloth.grid.reset();
-  scene.cloth.obj_path = path;
-  scene.cloth.rotation_deg = Vec3::Zero();
-  scene.cloth.pin_grid_nodes.clear();
-  scene.cloth.pin_vertices = {number[0], number[n - 1]};
-  return scene;
+  return test::cloth_step_scene_from_obj(n, path, {number[0], number[n - 1]});
 }
 
 TEST(Ssor, OperatorsMatchDense) {

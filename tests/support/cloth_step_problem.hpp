@@ -4,6 +4,9 @@
 // or of another scene's cloth.
 // A = M - cd D - ck K and b are assembled as the integrator does (METHOD.md 1-2).
 #include <memory>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "sim/simulation_core.hpp"
 
@@ -33,6 +36,18 @@ inline Scene cloth_step_scene(int n) {
   set_method(s, "implicit-midpoint", std::nullopt, "test");
   s.integrator.dt = 0.005;
   s.integrator.cg_tolerance = 1e-6;
+  return s;
+}
+
+/// The same cloth read from the OBJ at `obj_path` (already laid out horizontally: no turn),
+/// pinned at the vertices `pins` instead of the grid's corners.
+inline Scene cloth_step_scene_from_obj(int n, const std::string& obj_path, std::vector<int> pins) {
+  Scene s = cloth_step_scene(n);
+  s.cloth.grid.reset();
+  s.cloth.obj_path = obj_path;
+  s.cloth.rotation_deg = Vec3::Zero();
+  s.cloth.pin_grid_nodes.clear();
+  s.cloth.pin_vertices = std::move(pins);
   return s;
 }
 

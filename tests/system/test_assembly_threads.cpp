@@ -41,13 +41,7 @@ Scene shuffled_cloth_scene(int n, unsigned seed) {
     for (int i = 0; i < n; ++i) out << "v " << double(i) / (n - 1) << " 1 " << double(j) / (n - 1) << "\n";
   for (const auto& f : faces) out << "f " << f[0] + 1 << " " << f[1] + 1 << " " << f[2] + 1 << "\n";
   out.close();
-  Scene s = test::cloth_step_scene(n);
-  s.cloth.grid.reset();
-  s.cloth.obj_path = path;
-  s.cloth.rotation_deg = Vec3::Zero();
-  s.cloth.pin_grid_nodes.clear();
-  s.cloth.pin_vertices = {0, n - 1};
-  return s;
+  return test::cloth_step_scene_from_obj(n, path, {0, n - 1});
 }
 
 struct Assembled {
