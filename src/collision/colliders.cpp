@@ -829,6 +829,11 @@ namespace {
 // A collider vertex deeper than this behind a cloth face is taken to be on the face's other
 // side (under an arm, say), not poking through it.
 constexpr double kMaxPokeDepth = 0.02;
+// A face is lifted along its own normal only where its vertices' nearest surface normals lean
+// to the side it is lifted to: the sum of their cosines with it above kFaceSideAgreement, none
+// below kFaceSideLeast (a face across a chin, one vertex under the jaw, is lifted over it).
+constexpr double kFaceSideAgreement = 0.2;
+constexpr double kFaceSideLeast = -0.5;
 }  // namespace
 
 void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit, std::vector<FacePoke>& out) {
@@ -864,37 +869,74 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
       const Vec3 n = c.end_vertex_normal(vertex);
       const PointTriangleClosest q = closest_point_triangle(p, node(x, t[0]), node(x, t[1]), node(x, t[2]));
       if (q.feature.kind == FeatureKind::kVertex) continue;  // a neighbouring face's
-      const double height = (q.point - p).dot(n);              // of the face above the vertex
-      if (height >= limit || height < -kMaxPokeDepth) continue;
+      const bool on_edge = q.feature.kind == FeatureKind::kEdge;
+      // Two ways to measure the face's height over the vertex: along the vertex's normal, and,
+      // for a vertex whose normal says little about the face (a nose's tip, a finger's side,
+      // where the collider is finer than the cloth), along the face's own normal, turned to
+      // the cloth's side in the check below.
+      PokeTest& test = poke_tests_[m];
+      test.poke = {f, vertex, q.weights, (q.point - p).dot(n), n, on_edge};
       // A vertex under one of the face's edges (the edge across a ridge, the faces on both
       // sides clear of it): the edge itself, found from both its faces, each move measured
       // where the last left it. Only where the edge passes over the vertex, not beside it (the
       // rim of a sleeve around an arm).
-      if (q.feature.kind == FeatureKind::kEdge && (q.point - p - height * n).norm() > 0.5 * thickness) continue;
-      poke_tests_[m] = {f, vertex, q.weights, height, n, q.feature.kind == FeatureKind::kEdge};
-      poke_qualifies_[m] = 1;
+      const double height = test.poke.height;
+      test.by_vertex_normal = height < limit && height >= -kMaxPokeDepth &&
+                              !(on_edge && (q.point - p - height * n).norm() > 0.5 * thickness);
+      const Vec3 face_normal = (node(x, t[1]) - node(x, t[0])).cross(node(x, t[2]) - node(x, t[0]));
+      const double area2 = face_normal.norm();
+      test.face_normal = area2 > 0 ? Vec3(face_normal / area2) : Vec3::Zero();
+      test.face_height = (q.point - p).dot(test.face_normal);
+      test.by_face_normal = area2 > 0 && std::abs(test.face_height) < std::max(limit, kMaxPokeDepth) &&
+                            !(on_edge && (q.point - p - test.face_height * test.face_normal).norm() > 0.5 * thickness);
+      poke_qualifies_[m] = test.by_vertex_normal || test.by_face_normal;
     }
   });
+  auto side_normal = [&](int i) -> const Vec3& {
+    if (!side_normal_known_[i]) {
+      SurfacePoint sp;
+      side_normal_known_[i] = 1;
+      side_normal_[i] = c.closest(node(x, i), kMaxPokeDepth + thickness, true, i, sp) ? sp.normal : Vec3::Zero();
+    }
+    return side_normal_[i];
+  };
   for (size_t m = 0; m < count; ++m) {
     if (!poke_qualifies_[m]) continue;
-    const FacePoke& poke = poke_tests_[m];
-    const auto& t = triangles_[poke.face];
+    const PokeTest& test = poke_tests_[m];
+    const auto& t = triangles_[test.poke.face];
     // The face must lie on the vertex's side of the collider: its own vertices' nearest
     // surface normals face the same way (not a face on the far side of a thin part). Lifting
     // faces more freely (those wrapped round an arm) moves so many vertices that the cloth's
     // elastic energy blows up: on coarse cloth (triangles as wide as an arm) edges can still
     // cut the body (docs/collisions.md).
-    bool same_side = true;
-    for (int k = 0; k < 3 && same_side; ++k) {
-      const int i = t[k];
-      if (!side_normal_known_[i]) {
-        SurfacePoint sp;
-        side_normal_known_[i] = 1;
-        side_normal_[i] = c.closest(node(x, i), kMaxPokeDepth + thickness, true, i, sp) ? sp.normal : Vec3::Zero();
-      }
-      same_side = side_normal_[i].dot(poke.normal) > 0.5;
+    bool same_side = test.by_vertex_normal;
+    for (int k = 0; k < 3 && same_side; ++k) same_side = side_normal(t[k]).dot(test.poke.normal) > 0.5;
+    if (same_side) {
+      out.push_back(test.poke);
+      continue;
     }
-    if (same_side) out.push_back(poke);
+    if (!test.by_face_normal) continue;
+    // Measured along the face's normal, turned to the side its vertices' nearest surface
+    // normals lean to: they must lean that way together, none strongly against it (a face
+    // across a chin, one vertex under the jaw, is lifted over the chin), and the collider's
+    // vertex must face that side too (not the inner side of an arm beside the face, which
+    // lies in front of the face, not through it).
+    Vec3 sum = Vec3::Zero();
+    for (int k = 0; k < 3; ++k) sum += side_normal(t[k]);
+    const bool flip = sum.dot(test.face_normal) < 0;
+    const Vec3 normal = flip ? Vec3(-test.face_normal) : test.face_normal;
+    const double height = flip ? -test.face_height : test.face_height;
+    if (height >= limit || height < -kMaxPokeDepth || test.poke.normal.dot(normal) <= 0) continue;
+    double agreement = 0, least = 1;
+    for (int k = 0; k < 3; ++k) {
+      agreement += side_normal(t[k]).dot(normal);
+      least = std::min(least, side_normal(t[k]).dot(normal));
+    }
+    if (agreement <= kFaceSideAgreement || least <= kFaceSideLeast) continue;
+    FacePoke poke = test.poke;
+    poke.normal = normal;
+    poke.height = height;
+    out.push_back(poke);
   }
 }
 

@@ -102,11 +102,13 @@ class ColliderContacts : public ContactHandler {
   void query_nodes(const Query& query);
   double prepared_t_ = -1, prepared_dt_ = -1;  ///< the step the colliders are prepared for
   /// Moves cloth faces that a mesh collider's vertex (a nose, a finger) came within the
-  /// thickness of, or poked through, back out along that vertex's normal.
+  /// thickness of, or poked through, back out along the poke's normal (FacePoke).
   void push_faces_off_vertices(const Collider& c, VecX& x1, VecX& v1, double dt, ContactReport& report);
   /// A cloth face above a mesh collider's vertex: the face's closest point to the vertex lies
   /// inside the face or on one of its edges (right over the vertex), `height` above the vertex
-  /// along the vertex's normal `normal`.
+  /// along `normal`: the vertex's normal, or, where the face's vertices lie on another side
+  /// of the collider than that normal says (a nose's tip finer than the face), the face's own
+  /// normal turned to the side they lie on.
   struct FacePoke {
     int face = 0, vertex = 0;
     Vec3 weights = Vec3::Zero();
@@ -116,7 +118,8 @@ class ColliderContacts : public ContactHandler {
   };
   /// The pokes of collider c's vertices at the step's end into the cloth at x lower than
   /// `limit`, at most kMaxPokeDepth behind the face, the face on the vertex's side of the
-  /// collider (its own vertices' nearest surface normals facing the same way).
+  /// collider (its own vertices' nearest surface normals facing the same way as the vertex's
+  /// normal, or else leaning together to one side of the face, which the vertex faces).
   void face_pokes(const Collider& c, const VecX& x, double limit, std::vector<FacePoke>& out);
   std::vector<FacePoke> pokes_;
   /// Holds the vertices of cloth faces that sag over collider c's vertices (step start).
@@ -125,7 +128,15 @@ class ColliderContacts : public ContactHandler {
   std::vector<double> face_held_height_;  ///< per node: the lowest poke holding it (inf: none)
   std::vector<std::pair<int, int>> poke_candidates_;
   /// Per candidate of face_pokes: the poke, if its geometry qualifies (before the side check).
-  std::vector<FacePoke> poke_tests_;
+  /// A candidate's geometry, measured both ways.
+  struct PokeTest {
+    FacePoke poke;                 ///< measured along the vertex's normal
+    bool by_vertex_normal = false;  ///< its height is within the limits
+    Vec3 face_normal = Vec3::Zero();
+    double face_height = 0;        ///< the height along face_normal (either side)
+    bool by_face_normal = false;   ///< within the limits on one side
+  };
+  std::vector<PokeTest> poke_tests_;
   std::vector<char> poke_qualifies_;
   /// Lifts cloth faces that sag between their vertices to within half the thickness of a
   /// round collider (sphere, capsule) back to the thickness.

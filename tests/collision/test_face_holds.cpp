@@ -89,3 +89,100 @@ TEST(FaceHolds, APinnedVertexOfTheFaceGetsNoContact) {
   ASSERT_EQ(out.size(), 2u);
   for (const NodeContact& k : out) EXPECT_NE(k.node, 1);
 }
+
+namespace {
+
+// A slab (top at y = -0.02, 30 cm square) and a thin spike leaning 70 degrees from the
+// vertical, its apex at (0, 0, 0) and `direction_y` = +1 pointing up out of the slab's side
+// (-1: hanging down from above, apex at the origin pointing down): a tip finer than a cloth
+// face (a nose), whose vertex normal (cosine 0.34 with the vertical) says little about the
+// side the cloth lies on, which the slab's normal (+y) says. `length`: the spike's, apex to base.
+std::unique_ptr<Collider> slab_and_spike(double thickness, double direction_y, double length) {
+  const double lean = 70 * M_PI / 180, radius = 0.003;
+  const Vec3 d(std::sin(lean), direction_y * std::cos(lean), 0);
+  const Vec3 u = d.cross(Vec3::UnitZ()).normalized(), w = d.cross(u);
+  Points p(12, 3);
+  const double s = 0.15;
+  p.row(0) << -s, -0.04, -s;
+  p.row(1) << s, -0.04, -s;
+  p.row(2) << s, -0.04, s;
+  p.row(3) << -s, -0.04, s;
+  p.row(4) << -s, -0.02, -s;
+  p.row(5) << s, -0.02, -s;
+  p.row(6) << s, -0.02, s;
+  p.row(7) << -s, -0.02, s;
+  p.row(8) << 0, 0, 0;  // the apex
+  for (int k = 0; k < 3; ++k) {
+    const double a = 2 * M_PI * k / 3;
+    p.row(9 + k) = (-length * d + radius * (std::cos(a) * u + std::sin(a) * w)).transpose();
+  }
+  Triangles t(16, 3);
+  // The box, wound outwards.
+  t << 0, 1, 2, 0, 2, 3, 4, 6, 5, 4, 7, 6, 0, 4, 5, 0, 5, 1, 1, 5, 6, 1, 6, 2, 2, 6, 7, 2, 7, 3, 3, 7, 4, 3, 4, 0,
+      // The spike: three sides and its base.
+      8, 9, 10, 8, 10, 11, 8, 11, 9, 9, 11, 10;
+  // Wind the spike's faces outwards whichever way it points.
+  for (int f = 12; f < 16; ++f) {
+    const Vec3 a = p.row(t(f, 0)), b = p.row(t(f, 1)), c = p.row(t(f, 2));
+    const Vec3 centre = (p.row(8) + p.row(9) + p.row(10) + p.row(11)).transpose() / 4;
+    if ((b - a).cross(c - a).dot((a + b + c) / 3 - centre) < 0) std::swap(t(f, 1), t(f, 2));
+  }
+  ColliderSpec spec;
+  spec.shape = ColliderShape::kMesh;
+  spec.thickness = thickness;
+  spec.friction = 0.4;
+  return make_mesh_collider(spec, t, [p](double, Points& out) { out = p; }, true);
+}
+
+// One step's fail-safe on `cloth` (static: it ends where it starts) against c: the cloth's end
+// positions, and the nodes moved in `moves`.
+VecX fail_safe(Collider& c, const OneFace& cloth, long& moves) {
+  ColliderContacts contacts({&c}, cloth.mass, cloth.fixed, {{0, 1, 2}});
+  VecX x1 = cloth.x, v1 = cloth.v;
+  ContactReport report;
+  contacts.finish_step(cloth.x, x1, v1, 0.0, 0.005, report);
+  moves = report.fail_safe_moves;
+  return x1;
+}
+
+}  // namespace
+
+TEST(FacePokes, ATipFinerThanTheFaceIsPushedOutAlongTheFacesNormal) {
+  // The spike's apex 1 mm through a horizontal face whose vertices lie 1.9 cm above the slab:
+  // the apex's normal leans 70 degrees away from the side the face's vertices lie on, so only
+  // the face's own normal (turned to that side) tells where the face must go.
+  const double thickness = 0.004, dt = 0.005;
+  auto c = slab_and_spike(thickness, 1, 0.025);
+  OneFace cloth(-0.001, 0.0);
+  long moves = 0;
+  const VecX x1 = fail_safe(*c, cloth, moves);
+  EXPECT_EQ(moves, 3);
+  // The face's point over the apex ends at the thickness above it, the face still horizontal
+  // (the apex lies at its centre: the three vertices rise alike).
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(x1[3 * k + 1], thickness, 1e-12);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_DOUBLE_EQ(x1[3 * k], cloth.x[3 * k]);
+    EXPECT_DOUBLE_EQ(x1[3 * k + 2], cloth.x[3 * k + 2]);
+  }
+  // In the solve the face is held the same way, along +y.
+  std::vector<NodeContact> out;
+  ColliderContacts holding({c.get()}, cloth.mass, cloth.fixed, {{0, 1, 2}});
+  holding.detect(cloth.x, cloth.v, 0.0, dt, out);
+  ASSERT_EQ(out.size(), 3u);
+  for (const NodeContact& k : out) {
+    EXPECT_LT((k.normal - Vec3::UnitY()).norm(), 1e-12);
+    EXPECT_NEAR(k.normal_displacement, thickness + 0.001, 1e-12);
+  }
+}
+
+TEST(FacePokes, ATipInFrontOfTheFaceFacingAwayFromItIsNoPoke) {
+  // The spike hangs down from above, its apex 1 mm above the face (on the side the face's
+  // vertices lie on, the inner side of an arm beside the cloth, say), pointing at it: along
+  // the face's normal the apex is 1 mm in front, which is no poke through the face.
+  // Its base 15 cm away, beyond the face.
+  auto c = slab_and_spike(0.004, -1, 0.15);
+  OneFace cloth(-0.001, 0.0);
+  long moves = 0;
+  EXPECT_EQ(fail_safe(*c, cloth, moves), cloth.x);
+  EXPECT_EQ(moves, 0);
+}
