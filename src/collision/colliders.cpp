@@ -871,9 +871,9 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
       if (q.feature.kind == FeatureKind::kVertex) continue;  // a neighbouring face's
       const bool on_edge = q.feature.kind == FeatureKind::kEdge;
       // Two ways to measure the face's height over the vertex: along the vertex's normal, and,
-      // for a vertex whose normal says little about the face (a nose's tip, a finger's side,
-      // where the collider is finer than the cloth), along the face's own normal, turned to
-      // the cloth's side in the check below.
+      // for a vertex whose normal says little about the face (a nose's tip, a chin, where the
+      // collider is finer than the cloth) and which lies right under the face's inside, along
+      // the face's own normal, turned to the cloth's side in the check below.
       PokeTest& test = poke_tests_[m];
       test.poke = {f, vertex, q.weights, (q.point - p).dot(n), n, on_edge};
       // A vertex under one of the face's edges (the edge across a ridge, the faces on both
@@ -887,8 +887,7 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
       const double area2 = face_normal.norm();
       test.face_normal = area2 > 0 ? Vec3(face_normal / area2) : Vec3::Zero();
       test.face_height = (q.point - p).dot(test.face_normal);
-      test.by_face_normal = area2 > 0 && std::abs(test.face_height) < std::max(limit, kMaxPokeDepth) &&
-                            !(on_edge && (q.point - p - test.face_height * test.face_normal).norm() > 0.5 * thickness);
+      test.by_face_normal = area2 > 0 && !on_edge && std::abs(test.face_height) < std::max(limit, kMaxPokeDepth);
       poke_qualifies_[m] = test.by_vertex_normal || test.by_face_normal;
     }
   });
