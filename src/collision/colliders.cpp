@@ -62,6 +62,8 @@ namespace {
 
 /// Nodes predicted to end within this multiple of the thickness are held.
 constexpr double kHoldMargin = 1.1;
+// The first, small search of a mesh collider's nearest-point query, in thicknesses.
+constexpr double kNearSearch = 2.5;
 
 // The closest surface point of a shape in its own (t = 0) placement.
 struct Closest {
@@ -454,22 +456,37 @@ class MeshCollider : public Collider {
   bool closest(const Vec3& p, double reach, bool end, int node, SurfacePoint& out) const override {
     const Points& x = end ? end_ : start_;
     const AabbTree& tree = end ? tree_end_ : tree_start_;
-    Box box;
-    box.add(p - Vec3::Constant(reach));
-    box.add(p + Vec3::Constant(reach));
     double best = std::numeric_limits<double>::infinity();
     int best_face = -1;
     PointTriangleClosest hit{};
-    tree.for_each_overlapping(box, [&](int f) {
-      const auto& t = list_[f];
-      const PointTriangleClosest c = closest_point_triangle(p, x.row(t[0]).transpose(), x.row(t[1]).transpose(),
-                                                            x.row(t[2]).transpose());
-      if (c.distance < best) {
-        best = c.distance;
-        best_face = f;
-        hit = c;
+    // The nearest triangle within `radius`: every triangle whose box meets the cube around p.
+    auto search = [&](double radius) {
+      Box box;
+      box.add(p - Vec3::Constant(radius));
+      box.add(p + Vec3::Constant(radius));
+      tree.for_each_overlapping(box, [&](int f) {
+        const auto& t = list_[f];
+        const PointTriangleClosest c = closest_point_triangle(p, x.row(t[0]).transpose(), x.row(t[1]).transpose(),
+                                                              x.row(t[2]).transpose());
+        if (c.distance < best) {
+          best = c.distance;
+          best_face = f;
+          hit = c;
+        }
+      });
+    };
+    // Most queries come from nodes near the surface: a small cube first, which holds the
+    // nearest triangle whenever it lies within its radius (then the same triangle, found in
+    // the same order, as the whole reach would give), and the whole reach only if not.
+    const double near = kNearSearch * spec().thickness;
+    if (near < reach) {
+      search(near);
+      if (best_face >= 0 && best > near) {
+        best = std::numeric_limits<double>::infinity();
+        best_face = -1;
       }
-    });
+    }
+    if (best_face < 0) search(reach);
     if (best_face < 0 || best > reach) return false;
     const Vec3 pseudo = pseudo_normal(best_face, hit.feature, end);
     const Vec3 away = p - hit.point;
@@ -839,56 +856,64 @@ constexpr double kFaceSideLeast = -0.5;
 void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit, std::vector<FacePoke>& out) {
   out.clear();
   const double thickness = c.spec().thickness;
-  if (tree_.triangle_count() == 0) tree_ = AabbTree(triangles_, x.data());
-  tree_.refit(x.data(), std::max(limit, thickness));
+  const double margin = std::max(limit, thickness);
   const Points& body = *c.end_vertices();
   const auto& body_triangles = *c.triangle_list();
-  // Each (cloth face, collider vertex) pair once: the pairs of overlapping boxes give the
-  // candidates.
-  std::vector<std::pair<int, int>>& candidates = poke_candidates_;
-  candidates.clear();
-  tree_.for_each_pair(*c.end_tree(), [&](int f, int b) {
-    for (int k = 0; k < 3; ++k) candidates.emplace_back(f, body_triangles[b][k]);
-  });
+  const AabbTree& body_tree = *c.end_tree();
   side_normal_known_.assign(fixed_.size(), 0);
   side_normal_.resize(fixed_.size());
-  parallel_sort(candidates);
-  candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
-  // The candidates' geometry on every thread, each into its own entry; then, in order, the
-  // side check (its nearest-normal queries are kept per node and made only when needed).
-  const size_t count = candidates.size();
-  poke_tests_.resize(count);
-  poke_qualifies_.assign(count, 0);
-  constexpr size_t kChunk = 512;
-  parallel_chunks((count + kChunk - 1) / kChunk, [&](size_t k) {
-    for (size_t m = k * kChunk, end = std::min(count, m + kChunk); m < end; ++m) {
-      const auto [f, vertex] = candidates[m];
+  // Each (cloth face, collider vertex) pair once: the vertices of the collider's triangles
+  // whose boxes overlap the face's (grown by the margin), faces in order and each face's
+  // vertices in increasing order. Their geometry on every thread, each chunk of faces keeping
+  // the candidates that qualify, joined in order; then, in order, the side check (its
+  // nearest-normal queries are kept per node and made only when needed).
+  const int faces = static_cast<int>(triangles_.size());
+  constexpr int kChunk = 128;
+  const size_t chunks = (faces + kChunk - 1) / kChunk;
+  if (chunk_tests_.size() < chunks) chunk_tests_.resize(chunks);
+  parallel_chunks(chunks, [&](size_t k) {
+    std::vector<PokeTest>& found = chunk_tests_[k];
+    found.clear();
+    std::vector<int> vertices;
+    for (int f = static_cast<int>(k) * kChunk, last = std::min(faces, f + kChunk); f < last; ++f) {
       const auto& t = triangles_[f];
       if (fixed_[t[0]] && fixed_[t[1]] && fixed_[t[2]]) continue;
-      const Vec3 p = body.row(vertex).transpose();
-      const Vec3 n = c.end_vertex_normal(vertex);
-      const PointTriangleClosest q = closest_point_triangle(p, node(x, t[0]), node(x, t[1]), node(x, t[2]));
-      if (q.feature.kind == FeatureKind::kVertex) continue;  // a neighbouring face's
-      const bool on_edge = q.feature.kind == FeatureKind::kEdge;
-      // Two ways to measure the face's height over the vertex: along the vertex's normal, and,
-      // for a vertex whose normal says little about the face (a nose's tip, a chin, where the
-      // collider is finer than the cloth) and which lies right under the face's inside, along
-      // the face's own normal, turned to the cloth's side in the check below.
-      PokeTest& test = poke_tests_[m];
-      test.poke = {f, vertex, q.weights, (q.point - p).dot(n), n, on_edge};
-      // A vertex under one of the face's edges (the edge across a ridge, the faces on both
-      // sides clear of it): the edge itself, found from both its faces, each move measured
-      // where the last left it. Only where the edge passes over the vertex, not beside it (the
-      // rim of a sleeve around an arm).
-      const double height = test.poke.height;
-      test.by_vertex_normal = height < limit && height >= -kMaxPokeDepth &&
-                              !(on_edge && (q.point - p - height * n).norm() > 0.5 * thickness);
-      const Vec3 face_normal = (node(x, t[1]) - node(x, t[0])).cross(node(x, t[2]) - node(x, t[0]));
-      const double area2 = face_normal.norm();
-      test.face_normal = area2 > 0 ? Vec3(face_normal / area2) : Vec3::Zero();
-      test.face_height = (q.point - p).dot(test.face_normal);
-      test.by_face_normal = area2 > 0 && !on_edge && std::abs(test.face_height) < std::max(limit, kMaxPokeDepth);
-      poke_qualifies_[m] = test.by_vertex_normal || test.by_face_normal;
+      Box box;
+      for (int j = 0; j < 3; ++j) box.add(node(x, t[j]));
+      box.lo -= Vec3::Constant(margin);
+      box.hi += Vec3::Constant(margin);
+      vertices.clear();
+      body_tree.for_each_overlapping(box, [&](int b) {
+        for (int j = 0; j < 3; ++j) vertices.push_back(body_triangles[b][j]);
+      });
+      std::sort(vertices.begin(), vertices.end());
+      vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+      for (const int vertex : vertices) {
+        const Vec3 p = body.row(vertex).transpose();
+        const Vec3 n = c.end_vertex_normal(vertex);
+        const PointTriangleClosest q = closest_point_triangle(p, node(x, t[0]), node(x, t[1]), node(x, t[2]));
+        if (q.feature.kind == FeatureKind::kVertex) continue;  // a neighbouring face's
+        const bool on_edge = q.feature.kind == FeatureKind::kEdge;
+        // Two ways to measure the face's height over the vertex: along the vertex's normal, and,
+        // for a vertex whose normal says little about the face (a nose's tip, a chin, where the
+        // collider is finer than the cloth) and which lies right under the face's inside, along
+        // the face's own normal, turned to the cloth's side in the check below.
+        PokeTest test;
+        test.poke = {f, vertex, q.weights, (q.point - p).dot(n), n, on_edge};
+        // A vertex under one of the face's edges (the edge across a ridge, the faces on both
+        // sides clear of it): the edge itself, found from both its faces, each move measured
+        // where the last left it. Only where the edge passes over the vertex, not beside it (the
+        // rim of a sleeve around an arm).
+        const double height = test.poke.height;
+        test.by_vertex_normal = height < limit && height >= -kMaxPokeDepth &&
+                                !(on_edge && (q.point - p - height * n).norm() > 0.5 * thickness);
+        const Vec3 face_normal = (node(x, t[1]) - node(x, t[0])).cross(node(x, t[2]) - node(x, t[0]));
+        const double area2 = face_normal.norm();
+        test.face_normal = area2 > 0 ? Vec3(face_normal / area2) : Vec3::Zero();
+        test.face_height = (q.point - p).dot(test.face_normal);
+        test.by_face_normal = area2 > 0 && !on_edge && std::abs(test.face_height) < std::max(limit, kMaxPokeDepth);
+        if (test.by_vertex_normal || test.by_face_normal) found.push_back(test);
+      }
     }
   });
   auto side_normal = [&](int i) -> const Vec3& {
@@ -899,9 +924,7 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
     }
     return side_normal_[i];
   };
-  for (size_t m = 0; m < count; ++m) {
-    if (!poke_qualifies_[m]) continue;
-    const PokeTest& test = poke_tests_[m];
+  auto check = [&](const PokeTest& test) {
     const auto& t = triangles_[test.poke.face];
     // The face must lie on the vertex's side of the collider: its own vertices' nearest
     // surface normals face the same way (not a face on the far side of a thin part). Lifting
@@ -912,9 +935,9 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
     for (int k = 0; k < 3 && same_side; ++k) same_side = side_normal(t[k]).dot(test.poke.normal) > 0.5;
     if (same_side) {
       out.push_back(test.poke);
-      continue;
+      return;
     }
-    if (!test.by_face_normal) continue;
+    if (!test.by_face_normal) return;
     // Measured along the face's normal, turned to the side its vertices' nearest surface
     // normals lean to: they must lean that way together, none strongly against it (a face
     // across a chin, one vertex under the jaw, is lifted over the chin), and the collider's
@@ -925,18 +948,20 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
     const bool flip = sum.dot(test.face_normal) < 0;
     const Vec3 normal = flip ? Vec3(-test.face_normal) : test.face_normal;
     const double height = flip ? -test.face_height : test.face_height;
-    if (height >= limit || height < -kMaxPokeDepth || test.poke.normal.dot(normal) <= 0) continue;
+    if (height >= limit || height < -kMaxPokeDepth || test.poke.normal.dot(normal) <= 0) return;
     double agreement = 0, least = 1;
     for (int k = 0; k < 3; ++k) {
       agreement += side_normal(t[k]).dot(normal);
       least = std::min(least, side_normal(t[k]).dot(normal));
     }
-    if (agreement <= kFaceSideAgreement || least <= kFaceSideLeast) continue;
+    if (agreement <= kFaceSideAgreement || least <= kFaceSideLeast) return;
     FacePoke poke = test.poke;
     poke.normal = normal;
     poke.height = height;
     out.push_back(poke);
-  }
+  };
+  for (size_t chunk = 0; chunk < chunks; ++chunk)
+    for (const PokeTest& test : chunk_tests_[chunk]) check(test);
 }
 
 void ColliderContacts::push_faces_off_vertices(const Collider& c, VecX& x1, VecX& v1, double /*dt*/,

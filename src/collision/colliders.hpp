@@ -126,8 +126,6 @@ class ColliderContacts : public ContactHandler {
   void hold_faces_over_vertices(const Collider& c, const VecX& x, const VecX& v, double dt, std::vector<NodeContact>& out);
   VecX predicted_;                        ///< x + dt v at the step's start
   std::vector<double> face_held_height_;  ///< per node: the lowest poke holding it (inf: none)
-  std::vector<std::pair<int, int>> poke_candidates_;
-  /// Per candidate of face_pokes: the poke, if its geometry qualifies (before the side check).
   /// A candidate's geometry, measured both ways.
   struct PokeTest {
     FacePoke poke;                 ///< measured along the vertex's normal
@@ -136,8 +134,9 @@ class ColliderContacts : public ContactHandler {
     double face_height = 0;        ///< the height along face_normal (either side)
     bool by_face_normal = false;   ///< within the limits on one side
   };
-  std::vector<PokeTest> poke_tests_;
-  std::vector<char> poke_qualifies_;
+  /// Per chunk of cloth faces in face_pokes: the candidates whose geometry qualifies (before
+  /// the side check).
+  std::vector<std::vector<PokeTest>> chunk_tests_;
   /// Lifts cloth faces that sag between their vertices to within half the thickness of a
   /// round collider (sphere, capsule) back to the thickness.
   void lift_faces_off_round(const Collider& c, VecX& x1, VecX& v1, ContactReport& report);
@@ -146,7 +145,6 @@ class ColliderContacts : public ContactHandler {
   void lift_face(const std::array<int, 3>& t, const Vec3& weights, double lift, const Vec3& n, VecX& x1, VecX& v1,
                  ContactReport& report);
   std::vector<std::array<int, 3>> triangles_;
-  AabbTree tree_;  ///< over the cloth's triangles
   std::vector<char> side_normal_known_;  ///< per node, this step: side_normal_ computed
   std::vector<Vec3> side_normal_;        ///< the collider's normal nearest the node (0: none near)
 };

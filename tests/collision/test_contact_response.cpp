@@ -295,6 +295,30 @@ TEST(MeshCollider, ClosedMeshTellsInsideFromOutsideEverywhere) {
   }
 }
 
+TEST(MeshCollider, TheNearestPointIsFoundBeyondTheFirstSmallSearch) {
+  // The query looks within 2.5 thicknesses first: there only a small triangle in the corner of
+  // that cube, 1.56 cm from the point, lies; the nearest, a wide one 1.2 cm away along x, lies
+  // outside the cube and must still be the answer.
+  Points p(6, 3);
+  p << 0.012, -0.05, -0.05, 0.012, 0.05, -0.05, 0.012, 0.0, 0.08,  // wide, in the plane x = 1.2 cm
+      0.009, 0.009, 0.009, 0.0095, 0.009, 0.009, 0.009, 0.0095, 0.009;  // small, in the corner
+  Triangles t(2, 3);
+  t << 0, 1, 2, 3, 4, 5;
+  ColliderSpec spec;
+  spec.shape = ColliderShape::kMesh;
+  spec.thickness = 0.004;
+  const auto mesh = make_mesh_collider(spec, t, [&](double, Points& out) { out = p; }, false);
+  mesh->prepare(0, 0.01);
+  SurfacePoint a;
+  ASSERT_TRUE(mesh->closest(Vec3::Zero(), 0.03, false, 0, a));
+  EXPECT_NEAR(std::abs(a.distance), 0.012, 1e-12);
+  EXPECT_NEAR(a.point.x(), 0.012, 1e-12);
+  // Within the small search the nearest is the corner's triangle; beyond the reach, nothing.
+  ASSERT_TRUE(mesh->closest(Vec3(0.009, 0.009, 0.0085), 0.03, false, 1, a));
+  EXPECT_NEAR(std::abs(a.distance), 0.0005, 1e-12);
+  EXPECT_FALSE(mesh->closest(Vec3::Zero(), 0.011, false, 2, a));
+}
+
 // Clamps: a clamped vertex is on its clamp's path at every frame (turning and travelling),
 // whatever the method, and the energy balance closes with the clamps' work booked to the
 // contacts: work in = elastic + kinetic + gravity change + what damping and the method took.
