@@ -330,6 +330,9 @@ std::optional<double> vertex_face_ccd(const Vec3& p_t0, const Vec3& p_t1, const 
   const double tolerance = 1e-9 * (thickness + reach);
   const double d_start = distance(0);
   if (d_start <= thickness + tolerance) return 0.0;
+  // The end's distance is at least d_start - reach: far enough apart at the start, the bound
+  // below holds without it (by a margin of the tolerance, which rounding cannot cross).
+  if (d_start - reach > thickness + 2 * tolerance) return std::nullopt;
   const double d_end = distance(1);
   if (0.5 * (d_start + d_end - reach) > thickness + tolerance) return std::nullopt;
 
@@ -368,6 +371,7 @@ std::optional<double> edge_edge_ccd(const Vec3& p0_t0, const Vec3& p0_t1, const 
   const double tolerance = 1e-9 * (thickness + reach);
   const double d_start = distance(0);
   if (d_start <= thickness + tolerance) return 0.0;
+  if (d_start - reach > thickness + 2 * tolerance) return std::nullopt;  // as for vertex_face_ccd
   const double d_end = distance(1);
   if (0.5 * (d_start + d_end - reach) > thickness + tolerance) return std::nullopt;
 
