@@ -17,18 +17,19 @@ void two_sum(double a, double b, double& sum, double& error) {
 }
 
 // e += b, exactly (zero components dropped; the result stays non-overlapping and ordered).
+// In place: the k-th component kept comes from the k-th component read or a later one, so it
+// is written where nothing still to be read lies (no allocation but for the expansion's growth).
 void grow(Expansion& e, double b) {
-  Expansion out;
-  out.reserve(e.size() + 1);
   double q = b;
-  for (double component : e) {
+  size_t kept = 0;
+  for (size_t i = 0; i < e.size(); ++i) {
     double sum, error;
-    two_sum(q, component, sum, error);
-    if (error != 0.0) out.push_back(error);
+    two_sum(q, e[i], sum, error);
+    if (error != 0.0) e[kept++] = error;
     q = sum;
   }
-  if (q != 0.0) out.push_back(q);
-  e.swap(out);
+  e.resize(kept);
+  if (q != 0.0) e.push_back(q);
 }
 
 Expansion difference(double a, double b) {
