@@ -106,9 +106,9 @@ class ColliderContacts : public ContactHandler {
   void push_faces_off_vertices(const Collider& c, VecX& x1, VecX& v1, double dt, ContactReport& report);
   /// A cloth face above a mesh collider's vertex: the face's closest point to the vertex lies
   /// inside the face or on one of its edges (right over the vertex), `height` above the vertex
-  /// along `normal`: the vertex's normal, or, where the face's vertices lie on another side
-  /// of the collider than that normal says (a nose's tip finer than the face), the face's own
-  /// normal turned to the side they lie on.
+  /// along `normal`: the vertex's normal, or, for a vertex right under the face's inside
+  /// where the face's vertices lie on another side of the collider than that normal says (a
+  /// nose's tip finer than the face), the face's own normal turned to the side they lie on.
   struct FacePoke {
     int face = 0, vertex = 0;
     Vec3 weights = Vec3::Zero();
@@ -132,7 +132,7 @@ class ColliderContacts : public ContactHandler {
     bool by_vertex_normal = false;  ///< its height is within the limits
     Vec3 face_normal = Vec3::Zero();
     double face_height = 0;        ///< the height along face_normal (either side)
-    bool by_face_normal = false;   ///< within the limits on one side
+    bool by_face_normal = false;   ///< under the face's inside, within the limits on one side
   };
   /// Per chunk of cloth faces in face_pokes: the candidates whose geometry qualifies (before
   /// the side check).
