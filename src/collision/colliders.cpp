@@ -643,6 +643,7 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
   std::vector<int>& slot = slot_;  // the node's contact in out
   slot.assign(n, -1);
   touching_.assign(n, 0);
+  touching_normal_.assign(n, Vec3::Zero());
   prepared_t_ = t;
   prepared_dt_ = dt;
   for (Collider* c : colliders_) {
@@ -673,6 +674,7 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
       contact.penetrating = s.distance < 0;
       best_gap_[i] = gap;
       touching_[i] = 1;
+      touching_normal_[i] = s.normal;
       if (slot[i] >= 0) {
         out[slot[i]] = contact;
       } else {
@@ -725,6 +727,7 @@ void ColliderContacts::hold_faces_over_vertices(const Collider& c, const VecX& x
       contact.friction = c.spec().friction;
       face_held_height_[i] = poke.height;
       touching_[i] = 1;
+      touching_normal_[i] = poke.normal;
       if (slot_[i] >= 0) {
         out[slot_[i]] = contact;
       } else {
@@ -763,6 +766,7 @@ void ColliderContacts::detect_end(const VecX& x0, const VecX& x1, double /*t*/, 
       contact.penetrating = s.distance < 0;
       best_gap_[i] = s.distance;
       touching_[i] = 1;
+      touching_normal_[i] = s.normal;
       if (slot[i] >= 0) {
         out[slot[i]] = contact;
       } else {
@@ -780,6 +784,7 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
     prepared_t_ = t;
     prepared_dt_ = dt;
     touching_.assign(n, 0);  // no detection for this step (explicit methods)
+    touching_normal_.assign(n, Vec3::Zero());
   }
   for (Collider* c : colliders_) {
     const double thickness = c->spec().thickness;
@@ -804,6 +809,7 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
         report.work += 0.5 * mass_[i] * (node(v1, i).squaredNorm() - v_old.squaredNorm());
       }
       touching_[i] = 1;
+      touching_normal_[i] = s.normal;
       ++report.fail_safe_moves;
     }
     if (c->end_tree() && !triangles_.empty()) push_faces_off_vertices(*c, x1, v1, dt, report);

@@ -86,6 +86,9 @@ class ColliderContacts : public ContactHandler {
   /// Per node: held against a collider or moved by the fail-safe in the step last detected
   /// (cloth-cloth contact treats such nodes as immovable, so it cannot push them into a collider).
   const std::vector<char>& touching() const { return touching_; }
+  /// Per node: the normal of the collider surface it is held against or was moved off along
+  /// (zero where touching() is not set).
+  const std::vector<Vec3>& touching_normals() const { return touching_normal_; }
 
  private:
   std::vector<Collider*> colliders_;
@@ -94,6 +97,7 @@ class ColliderContacts : public ContactHandler {
   std::vector<double> best_gap_;  ///< per node: the gap of its contact so far
   std::vector<int> slot_;         ///< per node: its contact's index in the output, or -1
   std::vector<char> touching_;    ///< touching()
+  std::vector<Vec3> touching_normal_;  ///< touching_normals()
   /// Per node, the last query_nodes: whether it found a surface point, and the point.
   std::vector<char> found_;
   std::vector<SurfacePoint> surface_;

@@ -366,7 +366,16 @@ bool SelfContacts::apply(const Stencil& s, double target, bool with_friction) {
   for (int k = 0; k < 4; ++k) {
     const int i = s.node[k];
     if (step_inverse_mass_[i] == 0) continue;
-    node(u_, i) += (s.weight[k] * step_inverse_mass_[i] * scale) * change;
+    Vec3 du = (s.weight[k] * step_inverse_mass_[i] * scale) * change;
+    const Vec3& n = step_held_normal_[i];
+    const double inward = -du.dot(n);
+    if (inward > 0) {
+      // Held against a collider: past its room, the part into the collider is the collider's.
+      const double taken = std::min(inward, inward_budget_[i]);
+      inward_budget_[i] -= taken;
+      du += (inward - taken) * n;
+    }
+    node(u_, i) += du;
     changed_[i] = 1;
   }
   return true;
@@ -464,9 +473,17 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
   const int n = static_cast<int>(fixed_.size());
   u_ = (x1 - x0) / dt;
   step_inverse_mass_ = inverse_mass_;
+  step_held_normal_.assign(n, Vec3::Zero());
+  inward_budget_.assign(n, kHeldInwardRoom * thickness_ / dt);
+  const bool with_normals = held_normal_ && held_normal_->size() == static_cast<size_t>(n);
   if (held_ && held_->size() == static_cast<size_t>(n))
-    for (int i = 0; i < n; ++i)
-      if ((*held_)[i] && node(u_, i).norm() <= kHeldRestSpeed) step_inverse_mass_[i] = 0;
+    for (int i = 0; i < n; ++i) {
+      if (!(*held_)[i]) continue;
+      if (node(u_, i).norm() <= kHeldRestSpeed)
+        step_inverse_mass_[i] = 0;
+      else if (with_normals)
+        step_held_normal_[i] = (*held_normal_)[i];
+    }
   u_start_ = u_;
   changed_.assign(n, 1);
 

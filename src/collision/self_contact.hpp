@@ -25,6 +25,9 @@ constexpr double kHeldRestSpeed = 0.1;
 constexpr double kMaxVelocityChangeRatio = 2;
 /// The distance continuous detection keeps primitives apart, as a fraction of the thickness.
 constexpr double kCollisionDistanceFraction = 0.1;
+/// The most the fail-safe's impulses may move a node held against a collider into it in one
+/// step, as a fraction of the cloth's thickness (see SelfContacts::set_held_nodes).
+constexpr double kHeldInwardRoom = 0.25;
 /// The time (s) over which a repulsion restores the missing thickness (at least a step): layers
 /// are lifted back within a few dozen 5 ms steps without jumping, and the push's speed does
 /// not grow as the step shrinks.
@@ -82,7 +85,17 @@ class SelfContacts : public ContactHandler {
   /// two would pump energy into the layers). Faster ones keep their mass: a node the collider's
   /// prediction carries onto the collider through cloth lying in between must not act as a
   /// moving wall on that cloth.
-  void set_held_nodes(const std::vector<char>* flags) { held_ = flags; }
+  ///
+  /// `normals` (n entries, or null: none): the collider's normal at each held node, pointing
+  /// out of it. The faster held nodes, which keep their mass, are then moved towards the
+  /// collider by the impulses of one step by at most kHeldInwardRoom times the thickness: past
+  /// that, an impulse's share that would push one further in is dropped (the collider takes
+  /// it). Where the walking body drives the layer it holds into the layer outside, the
+  /// repulsions would otherwise push the held layer back into the body by half their change.
+  void set_held_nodes(const std::vector<char>* flags, const std::vector<Vec3>* normals = nullptr) {
+    held_ = flags;
+    held_normal_ = normals;
+  }
 
   double thickness() const { return thickness_; }
   double friction() const { return friction_; }
@@ -139,6 +152,9 @@ class SelfContacts : public ContactHandler {
   std::vector<std::vector<int>> owned_vertices_, owned_edges_;  ///< per triangle
   VecX inverse_mass_;                        ///< 0 for pinned nodes
   const std::vector<char>* held_ = nullptr;
+  const std::vector<Vec3>* held_normal_ = nullptr;
+  std::vector<Vec3> step_held_normal_;  ///< per node this step: its collider's normal (0: free)
+  std::vector<double> inward_budget_;   ///< per node this step: the inward speed still allowed
   std::vector<char> fixed_;
   std::vector<int> group_;  ///< set_vertex_groups; identity by default
   /// Whether triangle t holds v or a vertex of its group.

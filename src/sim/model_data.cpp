@@ -190,7 +190,7 @@ std::unique_ptr<SimulationData> make_data(const SimulationModel& M) {
   if (scene.cloth.self_collision) {
     D.self_contacts = std::make_unique<SelfContacts>(cloth.mesh.triangles, cloth.initial_positions(), cloth.mass,
                                                      M.held_still, scene.cloth.thickness, scene.cloth.friction);
-    if (D.contacts) D.self_contacts->set_held_nodes(&D.contacts->touching());
+    if (D.contacts) D.self_contacts->set_held_nodes(&D.contacts->touching(), &D.contacts->touching_normals());
     if (!M.seam_groups.empty()) D.self_contacts->set_vertex_groups(M.seam_groups);
     integrator.add_contact_handler(D.self_contacts.get());
   }

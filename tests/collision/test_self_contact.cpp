@@ -127,6 +127,53 @@ TEST(SelfContact, ImpulsesKeepMomentumAndAddNoKineticEnergy) {
   }
 }
 
+TEST(SelfContact, NodesHeldAgainstAColliderArePushedIntoItByAtMostTheirRoom) {
+  // A large triangle held against a collider below it (normal +y), carried up by it at
+  // 0.35 m/s, under a heavy small triangle 2.5 mm above (thickness 3 mm): the repulsion gives
+  // the light held face most of the change, which would push it 1.4 mm back down in the step.
+  // Told the collider's normal, the fail-safe moves it down by at most kHeldInwardRoom times
+  // the thickness.
+  std::vector<std::array<int, 3>> triangles = {{0, 1, 2}, {3, 4, 5}};
+  VecX x0(18);
+  node(x0, 0) = Vec3(-0.1, 0, -0.1);
+  node(x0, 1) = Vec3(0.1, 0, -0.1);
+  node(x0, 2) = Vec3(0, 0, 0.1);
+  node(x0, 3) = Vec3(0, 0.0025, -0.03);
+  node(x0, 4) = Vec3(0.01, 0.0025, -0.03);
+  node(x0, 5) = Vec3(0, 0.0025, -0.02);
+  VecX mass(6);
+  mass << 1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2;
+  const std::vector<char> fixed(6, 0);
+  const std::vector<char> held = {1, 1, 1, 0, 0, 0};
+  const std::vector<Vec3> normals = {Vec3::UnitY(), Vec3::UnitY(), Vec3::UnitY(), Vec3::Zero(), Vec3::Zero(),
+                                     Vec3::Zero()};
+  const double dt = 0.005, rise = 0.35;
+  auto run = [&](bool with_normals, VecX& x1) {
+    SelfContacts self(triangles, x0, mass, fixed, kThickness, 0.0);
+    self.set_held_nodes(&held, with_normals ? &normals : nullptr);
+    VecX v = VecX::Zero(18);
+    for (int i = 0; i < 3; ++i) node(v, i) = Vec3(0, rise, 0);
+    x1 = x0 + dt * v;
+    ContactReport report;
+    self.finish_step(x0, x1, v, 0, dt, report);
+    EXPECT_GT(report.fail_safe_moves, 0);
+  };
+  VecX free_x1, held_x1;
+  run(false, free_x1);
+  run(true, held_x1);
+  const double room = kHeldInwardRoom * kThickness;
+  for (int i = 0; i < 3; ++i) {
+    SCOPED_TRACE(i);
+    const double carried = node(x0, i).y() + dt * rise;  // where the collider put it
+    EXPECT_LT(node(free_x1, i).y(), carried - 1e-3) << "without the normals the repulsion pushes it down";
+    EXPECT_GE(node(held_x1, i).y(), carried - room - 1e-12);
+    EXPECT_LT(node(held_x1, i).y(), carried) << "its room is used";
+  }
+  // The layer above is pushed up at least as much as without the normals.
+  for (int i = 3; i < 6; ++i) EXPECT_GE(node(held_x1, i).y(), node(free_x1, i).y() - 1e-15);
+  EXPECT_EQ(self_intersections(held_x1.data(), triangles).count, 0u);
+}
+
 TEST(SelfContact, APairWithinTheThicknessStopsApproachingAndIsPushedOut) {
   // A small triangle 2 mm above a large pinned one (thickness 3 mm), sinking at 0.1 m/s: 0.5 mm
   // in the step, not enough to reach it, but within the thickness it must stop approaching.
