@@ -920,7 +920,8 @@ void Integrator::contact_velocities(State& s, double dt, double dt_b) {
       // exactly friction * impulse / m per step, as with the other methods.)
       const double stop = (dt_b / dt) * c.friction * std::max(normal_impulse, 0.0) / m[i];
       const bool stops = c.friction > 0 && slide <= stop;
-      v_new = c.surface_velocity + (stops ? 0.0 : 1 - stop / slide) * ut;
+      // (Not sliding at all, ut is zero and so is what friction takes off it.)
+      v_new = c.surface_velocity + (stops || !(slide > 0) ? 0.0 : 1 - stop / slide) * ut;
       d_.stuck[i] = stops ? 1 : 0;
     }
     node(s.v, i) = v_new;

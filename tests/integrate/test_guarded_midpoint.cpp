@@ -89,6 +89,38 @@ TEST(GuardedMidpoint, StiffSpinningSpringGainsEnergyOnlyWithoutTheGuard) {
   EXPECT_LT(guarded.end, guarded.start);
 }
 
+// A contact that lifts a node 10 cm off the line of its spring in one step, whatever the step's
+// size.
+class LiftingWall : public ContactHandler {
+ public:
+  static constexpr double kHeight = 0.1;
+  void detect(const VecX& x, const VecX& /*v*/, double /*t*/, double /*dt*/, std::vector<NodeContact>& out) override {
+    NodeContact c;
+    c.node = 0;
+    c.normal = Vec3::UnitY();
+    c.normal_displacement = std::max(0.0, kHeight - x[1]);
+    out.push_back(c);
+  }
+  void detect_end(const VecX&, const VecX&, double, double, const std::vector<char>&, std::vector<NodeContact>&) override {}
+  void finish_step(const VecX&, VecX&, VecX&, double, double, ContactReport&) override {}
+};
+
+// A frictionless contact on a node that does not slide: the node leaves the step at the
+// surface's velocity (friction's share of a zero sliding speed is zero, not 0/0).
+TEST(GuardedMidpoint, AFrictionlessContactOnANodeThatDoesNotSlideLeavesItAtTheSurfacesVelocity) {
+  SpringSystem sys(VecX::Constant(1, 1.0), {Spring{0, -1, 1e4, 1.0, 0.0}});
+  State s;
+  s.x = Vec3(1, 0, 0);
+  s.v = Vec3::Zero();
+  Integrator in(sys, midpoint(0.01, false));
+  LiftingWall wall;
+  in.add_contact_handler(&wall);
+  StepStatistics st;
+  in.step(s, 0.01, st);
+  EXPECT_NEAR(s.x[1], LiftingWall::kHeight, 1e-9);
+  EXPECT_EQ(s.v, VecX(Vec3::Zero()));
+}
+
 // A solve that stops at the iteration cap counts as failed (summary.json's solver_failures,
 // the solver_capped status) only in an attempt the guard keeps: with no iteration allowed every
 // solve stops at the cap, and the spinning spring makes the guard take steps again.
