@@ -75,6 +75,7 @@ struct StepStatistics {
   long guard_raised_steps = 0;   ///< accepted steps taken (in part) with an alpha above the scene's
   double guard_max_alpha = 0;    ///< the largest alpha of an accepted guarded step (0: none)
   long guard_split_steps = 0;    ///< guarded steps (or parts) taken again as two halves
+  long guard_futile_splits = 0;  ///< halvings given up because the first half put in as much
   long guard_parts = 0;          ///< parts the guarded steps were taken in, halvings included
   double guard_seconds = 0;      ///< the guard's own work: saving the start, the energy check
   long newton_iterations = 0;    ///< Newton iterations (one linear solve each) beyond the linearised step

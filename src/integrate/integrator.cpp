@@ -301,48 +301,83 @@ void Integrator::guarded_parts(State& s, double dt, StepStatistics& stats) {
   }
 }
 
-void Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int splits) {
+bool Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int splits, double parent_gain) {
   auto tg = Clock::now();
   d_.guard_start = s;
   const std::vector<char> pulling = d_.pulling, stuck = d_.stuck;
   const int top = static_cast<int>(c_.guard_alphas.size()) - 1;
-  for (;;) {
+  bool may_halve = splits < kGuardMaxSplits;
+  for (bool first = true;; first = false) {
     const double alpha = c_.guard_alphas[d_.guard_rung];
     stats.guard_seconds += seconds_since(tg);
     const long failures = stats.cg_failures;
     linear_step(s, dt, alpha, 0.0, dt, stats);
     tg = Clock::now();
     if (!puts_energy_in(s)) break;
+    const double gain = d_.guard_gain;
     stats.guard_seconds += seconds_since(tg);
     tg = Clock::now();
-    // The attempt is discarded unless it is the last resort kept below; a discarded attempt's
-    // solves that stopped at the iteration cap are not counted as failures.
-    if (splits < kGuardMaxSplits || d_.guard_rung < top) stats.cg_failures = failures;
-    if (splits < kGuardMaxSplits) {
-      // Halving the step divides kappa by 4 and the elements' turn within the step by 2 while
-      // keeping the step second order: on the stiff swing it dissipates a third of what
-      // raising alpha does (docs/guarded-midpoint.md).
+    // Only contacts (held nodes in the solve, or the fail-safes' moves) put energy in at a
+    // rate halving does not slow; without them the step halves as far as it may.
+    const bool contacts_acted = !d_.contacts.empty() || s.contact_work != d_.guard_start.contact_work;
+    if (first && contacts_acted && gain > kGuardFutileShare * parent_gain) {
+      // The first half of a halved step put in more than kGuardFutileShare of what the whole
+      // step did: halving does not slow the rate at which energy goes in (a contact pressing
+      // the cloth, not the midpoint's stiff turning elements), and the caller takes its whole
+      // step at larger alphas instead.
+      stats.cg_failures = failures;
       s = d_.guard_start;
       d_.pulling = pulling;
       d_.stuck = stuck;
-      ++stats.guard_split_steps;
-      d_.guard_depth = std::max(d_.guard_depth, splits + 1);
-      guarded_step(s, 0.5 * dt, stats, splits + 1);
-      guarded_step(s, 0.5 * dt, stats, splits + 1);
-      return;
+      stats.guard_seconds += seconds_since(tg);
+      return false;
     }
-    if (d_.guard_rung == top) break;
-    // Still putting energy in at a sixteenth of the step: a larger alpha, which stays raised
-    // for a few steps.
+    // The attempt is discarded unless it is the last resort kept below; a discarded attempt's
+    // solves that stopped at the iteration cap are not counted as failures.
+    if (may_halve || d_.guard_rung < top) stats.cg_failures = failures;
+    if (!may_halve && d_.guard_rung == top) {
+      if (!contacts_acted) break;
+      // The last resort, kept: neither halving nor alpha removed what this step puts in (a
+      // contact pressing the cloth). The next steps start whole again, as parts this fine
+      // would only repeat it at more cost.
+      d_.guard_depth = 0;
+      d_.guard_depth_calm_steps = 0;
+      break;
+    }
     s = d_.guard_start;
     d_.pulling = pulling;
     d_.stuck = stuck;
+    if (may_halve) {
+      // Halving the step divides kappa by 4 and the elements' turn within the step by 2 while
+      // keeping the step second order: on the stiff swing it dissipates a third of what
+      // raising alpha does (docs/guarded-midpoint.md).
+      const int depth = d_.guard_depth;
+      d_.guard_depth = std::max(d_.guard_depth, splits + 1);
+      if (guarded_step(s, 0.5 * dt, stats, splits + 1, gain)) {
+        ++stats.guard_split_steps;
+        // The second half likewise; where it puts in as much as the whole did, it is taken
+        // whole at larger alphas.
+        if (!guarded_step(s, 0.5 * dt, stats, splits + 1, gain)) {
+          ++stats.guard_futile_splits;
+          guarded_step(s, 0.5 * dt, stats, kGuardMaxSplits);
+        }
+        return true;
+      }
+      // Halving did not help: s is back at the start; the whole step again at the next
+      // alpha (at the last one, that attempt is kept whatever it puts in).
+      d_.guard_depth = depth;
+      may_halve = false;
+      ++stats.guard_futile_splits;
+      if (d_.guard_rung == top) continue;
+    }
+    // Still putting energy in: a larger alpha, which stays raised for a few steps.
     ++d_.guard_rung;
     d_.guard_calm_steps = 0;
     ++stats.guard_redone_steps;
   }
   stats.guard_seconds += seconds_since(tg);
   accept_guarded(c_.guard_alphas[d_.guard_rung], stats);
+  return true;
 }
 
 bool Integrator::puts_energy_in(const State& s) {
@@ -354,6 +389,7 @@ bool Integrator::puts_energy_in(const State& s) {
   const double e1 = kinetic_energy(s.v) + elastic1 + gravity1;
   const double gain = (e1 - e0) + (s.viscous_dissipated - d_.guard_start.viscous_dissipated) -
                       (s.contact_work - d_.guard_start.contact_work);
+  d_.guard_gain = gain;
   // A non-finite end is a step that put energy in too.
   return !(gain <= kGuardTolerance * scale);
 }

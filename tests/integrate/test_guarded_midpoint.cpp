@@ -90,7 +90,9 @@ TEST(GuardedMidpoint, StiffSpinningSpringGainsEnergyOnlyWithoutTheGuard) {
 }
 
 // A contact that lifts a node 10 cm off the line of its spring in one step, whatever the step's
-// size.
+// size. The spring is at its rest length, so the linearised step sees no sideways stiffness and
+// books none of the stretch's elastic energy as the contact's work: the step puts that energy
+// in, and a half step puts in all of it again.
 class LiftingWall : public ContactHandler {
  public:
   static constexpr double kHeight = 0.1;
@@ -104,6 +106,32 @@ class LiftingWall : public ContactHandler {
   void detect_end(const VecX&, const VecX&, double, double, const std::vector<char>&, std::vector<NodeContact>&) override {}
   void finish_step(const VecX&, VecX&, VecX&, double, double, ContactReport&) override {}
 };
+
+TEST(GuardedMidpoint, AStepAContactPutsEnergyIntoWhateverItsSizeIsNotHalved) {
+  const double k = 1e4;
+  SpringSystem sys(VecX::Constant(1, 1.0), {Spring{0, -1, k, 1.0, 0.0}});
+  State s;
+  s.x = Vec3(1, 0, 0);
+  s.v = Vec3::Zero();
+  Integrator in(sys, midpoint(0.01, true));
+  in.set_energy_scale(1.0);
+  LiftingWall wall;
+  in.add_contact_handler(&wall);
+  StepStatistics st;
+  in.step(s, 0.01, st);
+  EXPECT_NEAR(s.x[1], LiftingWall::kHeight, 1e-9);
+  // The stretch's energy, far above the guard's tolerance of 1e-4 J, whatever the step's size.
+  const double stretch = std::sqrt(1 + LiftingWall::kHeight * LiftingWall::kHeight) - 1;
+  EXPECT_GT(0.5 * k * stretch * stretch, 1000 * kGuardTolerance);
+  // The first half put in as much as the whole step: no halving; the whole step is taken
+  // again at a larger alpha (whose own numerical dissipation of the lift outweighs the
+  // stretch), in one part, and the next step starts whole.
+  EXPECT_EQ(st.guard_futile_splits, 1);
+  EXPECT_EQ(st.guard_split_steps, 0);
+  EXPECT_EQ(st.guard_parts, 1);
+  EXPECT_GE(st.guard_redone_steps, 1);
+  EXPECT_EQ(in.data().guard_depth, 0);
+}
 
 // A frictionless contact on a node that does not slide: the node leaves the step at the
 // surface's velocity (friction's share of a zero sliding speed is zero, not 0/0).
@@ -119,6 +147,14 @@ TEST(GuardedMidpoint, AFrictionlessContactOnANodeThatDoesNotSlideLeavesItAtTheSu
   in.step(s, 0.01, st);
   EXPECT_NEAR(s.x[1], LiftingWall::kHeight, 1e-9);
   EXPECT_EQ(s.v, VecX(Vec3::Zero()));
+}
+
+// Without contacts a step that puts energy in is halved as far as it may, whatever its halves
+// put in: the stiff spinning spring's steps are.
+TEST(GuardedMidpoint, WithoutContactsAStepIsHalvedAsBefore) {
+  const Spin guarded = spin(midpoint(0.02, true));
+  EXPECT_EQ(guarded.stats.guard_futile_splits, 0);
+  EXPECT_GT(guarded.stats.guard_split_steps, 0);
 }
 
 // A solve that stops at the iteration cap counts as failed (summary.json's solver_failures,
