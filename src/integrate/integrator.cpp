@@ -321,10 +321,10 @@ bool Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
     // rate halving does not slow; without them the step halves as far as it may.
     const bool contacts_acted = !d_.contacts.empty() || s.contact_work != d_.guard_start.contact_work;
     if (first && contacts_acted && gain > kGuardFutileShare * parent_gain) {
-      // The first half of a halved step put in more than kGuardFutileShare of what the whole
-      // step did: halving does not slow the rate at which energy goes in (a contact pressing
-      // the cloth, not the midpoint's stiff turning elements), and the caller takes its whole
-      // step at larger alphas instead.
+      // A half of a halved step put in more than kGuardFutileShare of what the whole step
+      // did: halving does not slow the rate at which energy goes in (a contact pushing the
+      // cloth, not the midpoint's stiff turning elements), and the caller takes the step (or
+      // this half) whole at larger alphas instead.
       stats.cg_failures = failures;
       s = d_.guard_start;
       d_.pulling = pulling;
