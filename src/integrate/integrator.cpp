@@ -305,6 +305,11 @@ bool Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
   auto tg = Clock::now();
   d_.guard_start = s;
   const std::vector<char> pulling = d_.pulling, stuck = d_.stuck;
+  const auto restart = [&] {  // back to the step's start, its contact flags included
+    s = d_.guard_start;
+    d_.pulling = pulling;
+    d_.stuck = stuck;
+  };
   const int top = static_cast<int>(c_.guard_alphas.size()) - 1;
   bool may_halve = splits < kGuardMaxSplits;
   for (bool first = true;; first = false) {
@@ -326,9 +331,7 @@ bool Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
       // cloth, not the midpoint's stiff turning elements), and the caller takes the step (or
       // this half) whole at larger alphas instead.
       stats.cg_failures = failures;
-      s = d_.guard_start;
-      d_.pulling = pulling;
-      d_.stuck = stuck;
+      restart();
       stats.guard_seconds += seconds_since(tg);
       return false;
     }
@@ -344,9 +347,7 @@ bool Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
       d_.guard_depth_calm_steps = 0;
       break;
     }
-    s = d_.guard_start;
-    d_.pulling = pulling;
-    d_.stuck = stuck;
+    restart();
     if (may_halve) {
       // Halving the step divides kappa by 4 and the elements' turn within the step by 2 while
       // keeping the step second order: on the stiff swing it dissipates a third of what
