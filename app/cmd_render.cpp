@@ -4,9 +4,12 @@
 #include <signal.h>
 #include <sys/wait.h>
 
+#include <array>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -33,7 +36,9 @@ namespace {
 
 struct RenderArgs {
   std::string dir, out, frames, size = "960x720", camera, color = "none";
-  bool video = false, no_ground = false, no_caption = false;
+  std::string beside;  ///< a second run drawn to the right of the first, frame by frame
+  std::string labels;  ///< "LEFT,RIGHT" over the two halves (default: the folders' names)
+  bool video = false, no_ground = false, no_caption = false, follow = false;
   std::optional<double> fps;
   int samples = 3;
   std::optional<double> uv_scale;  ///< default: the run's, from summary.json
@@ -172,6 +177,7 @@ bool ffmpeg_on_path() { return std::system("command -v ffmpeg > /dev/null 2>&1")
 // What the first pass over the frames learns: the framing, the ground, the colour maps' range.
 struct RunSurvey {
   render::Bounds framed;  ///< the cloth and the colliders other than planes, over every frame
+  std::map<long, render::Bounds> framed_per_frame;  ///< the same for each frame (--follow)
   render::Bounds all;
   std::optional<double> horizontal_plane_y;
   double viscosity_peak = 0;
@@ -194,6 +200,31 @@ int run_render(const RenderArgs& a) {
   const auto files = weft::find_run_frames(dir, "weft render");
   const std::vector<long> selected =
       !a.frames.empty() ? parse_frames(a.frames, files) : a.video ? parse_frames("all", files) : spread_frames(files);
+  // A second run beside the first: the same frames, framed and coloured alike.
+  std::map<long, weft::RunFrameFiles> beside_files;
+  std::array<std::string, 2> labels;
+  if (!a.beside.empty()) {
+    beside_files = weft::find_run_frames(fs::path(a.beside), "weft render --beside");
+    for (long number : selected)
+      if (!beside_files.count(number))
+        throw InputError("--beside " + a.beside + ": no frame " + std::to_string(number) + " (it has frames " +
+                         std::to_string(beside_files.begin()->first) + " to " + std::to_string(beside_files.rbegin()->first) +
+                         "; choose frames both runs have with --frames)");
+    auto name = [](const std::string& d) {
+      const fs::path p = fs::path(d).lexically_normal();
+      return (p.has_filename() ? p.filename() : p.parent_path().filename()).string();
+    };
+    labels = {name(a.dir), name(a.beside)};
+    if (!a.labels.empty()) {
+      const size_t comma = a.labels.find(',');
+      if (comma == std::string::npos || a.labels.find(',', comma + 1) != std::string::npos)
+        throw InputError("--labels '" + a.labels + "': expected LEFT,RIGHT (two labels, one comma)");
+      labels = {a.labels.substr(0, comma), a.labels.substr(comma + 1)};
+    }
+  } else if (!a.labels.empty()) {
+    throw InputError("--labels: only with --beside (they name the two runs drawn side by side)");
+  }
+  const int panels = a.beside.empty() ? 1 : 2;
 
   // The run's frame interval, for the captions' times and the video's rate, and the metres per
   // unit of its texture coordinates, for the strain.
@@ -225,11 +256,18 @@ int run_render(const RenderArgs& a) {
   progress.quiet_for(1.0);
   RunSurvey survey;
   size_t done = 0;
-  const size_t work = files.size() + selected.size();
-  for (const auto& [number, f] : files) {
+  const size_t work = files.size() + beside_files.size() + panels * selected.size();
+  std::vector<std::pair<long, const weft::RunFrameFiles*>> surveyed;
+  for (const auto& [number, f] : files) surveyed.emplace_back(number, &f);
+  for (const auto& [number, f] : beside_files) surveyed.emplace_back(number, &f);
+  // The strain's percentile sampler is sized for the frames of both runs.
+  const size_t frames_surveyed = surveyed.size();
+  for (const auto& [number, fp] : surveyed) {
+    const weft::RunFrameFiles& f = *fp;
     const weft::RunFrameMesh cloth = weft::read_frame_mesh(f.cloth);
     const render::Bounds cb = render::bounds_of(cloth.xyz);
     survey.framed.add(cb);
+    survey.framed_per_frame[number].add(cb);
     survey.all.add(cb);
     if (a.color == "viscosity") {
       if (cloth.added_viscosity.empty())
@@ -243,7 +281,7 @@ int run_render(const RenderArgs& a) {
                          "coordinates (weft run --format obj); this frame has none");
       const std::vector<double> strain = render::vertex_strain(cloth.xyz, cloth.triangles, cloth.corner_texcoords, uv_scale);
       // As many values in all as the viewer's (frames x vertices), so that it samples the same ones.
-      if (!survey.strain) survey.strain.emplace(files.size() * strain.size());
+      if (!survey.strain) survey.strain.emplace(frames_surveyed * strain.size());
       survey.strain->add(strain);
     }
     for (const auto& [name, path] : f.colliders) {
@@ -254,6 +292,7 @@ int run_render(const RenderArgs& a) {
         survey.horizontal_plane_y = survey.horizontal_plane_y ? std::min(*survey.horizontal_plane_y, body.xyz[1]) : body.xyz[1];
       } else if (!is_plane(body)) {
         survey.framed.add(bb);
+        survey.framed_per_frame[number].add(bb);
       }
     }
     progress.update(static_cast<double>(++done) / static_cast<double>(work));
@@ -274,6 +313,25 @@ int run_render(const RenderArgs& a) {
     framed.add(Vec3(framed.centre().x(), reach, framed.centre().z()));
   }
   options.camera = given_camera ? *given_camera : render::frame_camera(framed, width, height);
+  // --follow: the camera keeps its view and moves with the objects, framing the largest of the
+  // frames' boxes (each reaching towards the ground as above) about its own centre.
+  std::map<long, Vec3> follow_centre;
+  if (a.follow) {
+    render::Bounds extent;
+    for (const auto& [number, box] : survey.framed_per_frame) {
+      render::Bounds b = box;
+      if (b.empty()) continue;
+      if (options.ground_y) {
+        const double reach = std::max(*options.ground_y, b.lo.y() - 0.5 * (b.hi.y() - b.lo.y()));
+        b.add(Vec3(b.centre().x(), reach, b.centre().z()));
+      }
+      follow_centre[number] = b.centre();
+      extent.add(b.lo - b.centre());
+      extent.add(b.hi - b.centre());
+    }
+    if (!given_camera && !extent.empty()) options.camera = render::frame_camera(extent, width, height);
+  }
+  const render::Camera base_camera = options.camera;
   options.scene_bounds = survey.framed;
   if (a.color == "viscosity") {
     render::ColourBar bar{"added viscosity N s/m", "0", format_number("%.3g", survey.viscosity_peak), {}};
@@ -307,7 +365,7 @@ int run_render(const RenderArgs& a) {
   FILE* pipe = nullptr;
   if (a.video) {
     const std::string command = "ffmpeg -hide_banner -loglevel error -y -f rawvideo -pix_fmt rgb24 -s " +
-                                std::to_string(width) + "x" + std::to_string(height) + " -framerate " +
+                                std::to_string(panels * width) + "x" + std::to_string(height) + " -framerate " +
                                 format_number("%.6g", *fps) + " -i - -an -c:v libx264 -preset medium -crf 20 " +
                                 "-pix_fmt yuv420p -movflags +faststart -f mp4 " + shell_quote(video_temporary.string());
     ::signal(SIGPIPE, SIG_IGN);  // a failed ffmpeg is reported by a failed write, not a signal
@@ -322,7 +380,14 @@ int run_render(const RenderArgs& a) {
   std::vector<fs::path> written;
   for (long number : selected) {
     const auto frame_start = std::chrono::steady_clock::now();
-    const weft::RunFrameFiles& f = files.at(number);
+    if (a.follow && follow_centre.count(number)) {
+      // A camera given is where it is at the first frame drawn; the framing one is about the origin.
+      const Vec3 shift = follow_centre.at(number) -
+                         (given_camera && follow_centre.count(selected.front()) ? follow_centre.at(selected.front()) : Vec3(Vec3::Zero()));
+      options.camera.eye = base_camera.eye + shift;
+      options.camera.target = base_camera.target + shift;
+    }
+    auto draw = [&](const weft::RunFrameFiles& f) {
     const weft::RunFrameMesh cloth = weft::read_frame_mesh(f.cloth);
     std::vector<weft::RunFrameMesh> colliders;
     for (const auto& [name, path] : f.colliders) {
@@ -345,7 +410,28 @@ int run_render(const RenderArgs& a) {
     if (!a.no_caption)
       options.caption = (frame_interval ? "t = " + format_number("%.2f", static_cast<double>(number) * *frame_interval) + " s   " : "") +
                         "frame " + std::to_string(number);
-    const weft::RgbImage image = render::render_picture(meshes, options);
+    weft::RgbImage picture = render::render_picture(meshes, options);
+    progress.update(static_cast<double>(++done) / static_cast<double>(work));
+    return picture;
+    };
+    weft::RgbImage image = draw(files.at(number));
+    if (panels == 2) {
+      // The two runs side by side, each labelled at its top left.
+      const weft::RgbImage right = draw(beside_files.at(number));
+      weft::RgbImage both(2 * width, height);
+      for (int y = 0; y < height; ++y) {
+        std::memcpy(both.at(0, y), image.at(0, y), 3 * static_cast<size_t>(width));
+        std::memcpy(both.at(width, y), right.at(0, y), 3 * static_cast<size_t>(width));
+      }
+      const int scale = std::max(2, height / 240);
+      // The bitmap font has lowercase letters only.
+      for (int k = 0; k < 2; ++k) {
+        std::string text = labels[k];
+        for (char& ch : text) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+        render::draw_label(both, k * width + 4 * scale, 4 * scale, text, scale, {40, 40, 40});
+      }
+      image = std::move(both);
+    }
     if (pipe) {
       if (std::fwrite(image.pixels.data(), 1, image.pixels.size(), pipe) != image.pixels.size()) {
         ::pclose(pipe);
@@ -366,7 +452,6 @@ int run_render(const RenderArgs& a) {
       written.push_back(path);
     }
     seconds_per_frame.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_start).count());
-    progress.update(static_cast<double>(++done) / static_cast<double>(work));
   }
   progress.finish();
   if (pipe) {
@@ -388,7 +473,7 @@ int run_render(const RenderArgs& a) {
   std::sort(sorted.begin(), sorted.end());
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   std::printf("%s %zu frame%s (%dx%d) in %.1f s, %.3f s per frame (median): %s\n", a.video ? "video of" : "rendered",
-              selected.size(), selected.size() == 1 ? "" : "s", width, height, total, sorted[sorted.size() / 2],
+              selected.size(), selected.size() == 1 ? "" : "s", panels * width, height, total, sorted[sorted.size() / 2],
               a.video ? video_path.c_str() : (out / "frame_NNNNN.png").c_str());
   return weft::app::kExitOk;
 }
@@ -417,12 +502,22 @@ weft::app::RegisterCommand reg{{"", "render", "Draw a run's frames as PNG pictur
     sub.add_option("--samples", a->samples, "Anti-aliasing: samples per pixel along each side, 1 to 8 (default 3)");
     sub.add_flag("--no-ground", a->no_ground, "Leave out the ground and the shadows");
     sub.add_flag("--no-caption", a->no_caption, "Leave out the caption (time and frame)");
+    sub.add_flag("--follow", a->follow,
+                 "Move the camera with the cloth and bodies from frame to frame (the same view, framing the largest "
+                 "frame): for a body that walks away from where it started. A --camera given is where it is at the first "
+                 "frame drawn, and moves along");
+    sub.add_option("--beside", a->beside,
+                   "A second run's output folder, drawn to the right of DIR's frame by frame (the same frames, "
+                   "camera, ground and colour scale): two methods side by side");
+    sub.add_option("--labels", a->labels, "With --beside: LEFT,RIGHT, the names drawn over the two halves, in "
+                   "lowercase (default: the two folders' names)");
     sub.footer(
         "Draws the cloth (two-sided, a fabric colour or a colour map) and the colliders (grey) of each chosen frame\n"
         "with a software rasteriser (no GPU or display needed), over a ground at y = 0 (or the lowest point, or a\n"
         "horizontal plane collider) with the key light's shadows, and writes IMG_DIR/frame_NNNNN.png; with --video\n"
         "the frames go through ffmpeg into IMG_DIR/render.mp4 (ffmpeg must be on the PATH). Every file is written\n"
-        "under a temporary name and renamed into place. The colour maps, colours and shading are the viewer's; the\n"
+        "under a temporary name and renamed into place. With --beside, each picture (or the video) is twice as\n"
+        "wide: DIR's frame on the left, the other run's on the right. The colour maps, colours and shading are the viewer's; the\n"
         "strain's scale reaches the 99th percentile of |strain| over the run, and the command prints it.\n"
         "Exit status: 0 done, 2 bad input (a missing folder, an unreadable frame, a bad option; nothing written),\n"
         "4 a picture or the video could not be written.");

@@ -265,3 +265,86 @@ TEST_F(RenderCommand, AnObjClothAtRestShowsNoStrainWithTheRunsUvScale) {
 }
 
 }  // namespace
+
+namespace {
+
+// Pixels (of the same-sized pictures a and b, from row `from` down) whose colours differ by more
+// than `tolerance` in some channel.
+int differing_pixels(const weft::test::PngInfo& a, unsigned ax, const weft::test::PngInfo& b, unsigned bx, unsigned width,
+                     unsigned from, int tolerance = 0) {
+  int count = 0;
+  for (unsigned y = from; y < a.height; ++y)
+    for (unsigned x = 0; x < width; ++x) {
+      const std::uint8_t* p = a.pixels.data() + 3 * (static_cast<size_t>(y) * a.width + ax + x);
+      const std::uint8_t* q = b.pixels.data() + 3 * (static_cast<size_t>(y) * b.width + bx + x);
+      bool differs = false;
+      for (int c = 0; c < 3; ++c) differs = differs || std::abs(p[c] - q[c]) > tolerance;
+      count += differs;
+    }
+  return count;
+}
+
+}  // namespace
+
+TEST_F(RenderCommand, BesideDrawsTwoRunsSideBySideWithOneCameraAndLabels) {
+  const fs::path run = run_folder(), copy = folder_ / "copy", out = folder_ / "both", alone = folder_ / "alone";
+  fs::copy(run, copy, fs::copy_options::recursive);
+  const std::string common = " --size 160x120 --frames 2 --no-ground --no-caption";
+  const auto r = weft("render " + quoted(run) + " --beside " + quoted(copy) + " --labels 'Left,right' --out " + quoted(out) + common);
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
+  ASSERT_EQ(weft("render " + quoted(run) + " --out " + quoted(alone) + common).exit_code, 0);
+  const auto both = read_png(out / "frame_00002.png"), one = read_png(alone / "frame_00002.png");
+  ASSERT_TRUE(both.signature_ok);
+  ASSERT_EQ(both.width, 320u);
+  ASSERT_EQ(both.height, 120u);
+  // Below the labels (7 font pixels at scale 2 from row 8), each half is the run drawn alone:
+  // the same frames frame the same camera.
+  const unsigned below_labels = 24;
+  EXPECT_EQ(differing_pixels(both, 0, one, 0, 160, below_labels), 0);
+  EXPECT_EQ(differing_pixels(both, 160, one, 0, 160, below_labels), 0);
+  EXPECT_GT(cloth_pixels(one), 160 * 120 / 10);
+  // The labels are drawn over each half (and only there: the rows below are the pictures').
+  EXPECT_GT(differing_pixels(both, 0, one, 0, 160, 0), 0);
+  EXPECT_GT(differing_pixels(both, 160, one, 0, 160, 0), 0);
+}
+
+TEST_F(RenderCommand, BesideRefusesRunsWithoutTheFramesAndBadLabels) {
+  const fs::path run = run_folder(), other = folder_ / "other", out = folder_ / "pictures";
+  fs::copy(run, other, fs::copy_options::recursive);
+  fs::remove(other / "frames" / "frame_00004.obj");
+  const std::string dir = quoted(run) + " --out " + quoted(out);
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {dir + " --beside " + quoted(folder_ / "nowhere"), "nowhere: no such folder"},
+      {dir + " --beside " + quoted(other) + " --frames 3,4", "no frame 4 (it has frames 0 to 3; choose frames both runs have"},
+      {dir + " --labels a,b", "--labels: only with --beside"},
+      {dir + " --beside " + quoted(other) + " --frames 0 --labels ab", "--labels 'ab': expected LEFT,RIGHT"},
+      {dir + " --beside " + quoted(other) + " --frames 0 --labels a,b,c", "--labels 'a,b,c': expected LEFT,RIGHT"},
+  };
+  for (const auto& [arguments, message] : cases) {
+    const auto r = weft("render " + arguments);
+    EXPECT_EQ(r.exit_code, 2) << arguments;
+    EXPECT_NE(r.error_output.find(message), std::string::npos) << arguments << " -> " << r.error_output;
+    EXPECT_FALSE(fs::exists(out)) << arguments << ": wrote something";
+  }
+}
+
+TEST_F(RenderCommand, FollowKeepsTheViewOfAMovingCloth) {
+  // The square moves 4 cm towards the camera from frame 0 to frame 4: the fixed camera sees it
+  // grow; the following one moves with it and sees the same picture.
+  const fs::path run = run_folder(), fixed = folder_ / "fixed", follow = folder_ / "follow";
+  const std::string common = " --size 160x120 --frames 0,4 --no-ground --no-caption";
+  ASSERT_EQ(weft("render " + quoted(run) + " --out " + quoted(fixed) + common).exit_code, 0);
+  const auto r = weft("render " + quoted(run) + " --out " + quoted(follow) + common + " --follow");
+  ASSERT_EQ(r.exit_code, 0) << r.error_output;
+  const auto f0 = read_png(follow / "frame_00000.png"), f4 = read_png(follow / "frame_00004.png");
+  const auto s0 = read_png(fixed / "frame_00000.png"), s4 = read_png(fixed / "frame_00004.png");
+  const int area = cloth_pixels(f0);
+  ASSERT_GT(area, 160 * 120 / 10);
+  // Rasterising the same view from a camera moved by 4 cm may round an edge pixel or two
+  // differently; the fixed camera's pictures differ all along the square's outline.
+  const int followed = differing_pixels(f0, 0, f4, 0, 160, 0, 8);
+  const int fixed_camera = differing_pixels(s0, 0, s4, 0, 160, 0, 8);
+  EXPECT_LT(followed, area / 200 + 2);
+  EXPECT_GT(fixed_camera, 10 * (followed + 2));
+  EXPECT_GT(cloth_pixels(s4), cloth_pixels(s0));
+}
