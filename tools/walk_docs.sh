@@ -3,7 +3,8 @@
 # scenes/walk.json (all seven configurations, one thread; about 30 minutes on the 2-core
 # development machine), then puts its table between the page's walk-table markers and its
 # pictures in docs/img/walk/: Implicit Midpoint at 5 ms beside backward Euler at 2 ms at 1.6 s
-# and 3.2 s (`weft render --beside --follow`), and the liveliness plot.
+# and 3.2 s and as a video of the whole walk (`weft render --beside --follow`), and the
+# liveliness plot.
 # Run from the repository root after building. An OUT that already holds results.md is not
 # run again (delete it to rerun).
 set -e
@@ -18,6 +19,9 @@ $WEFT render "$OUT/im-5ms" --beside "$OUT/be-2ms" --labels "implicit midpoint 5 
 cp "$OUT/side-by-side/frame_00040.png" "$IMG/coat-im5-vs-be2-1.6s.png"
 cp "$OUT/side-by-side/frame_00080.png" "$IMG/coat-im5-vs-be2-3.2s.png"
 cp "$OUT/liveliness.png" "$IMG/coat-liveliness.png"
+$WEFT render "$OUT/im-5ms" --beside "$OUT/be-2ms" --labels "implicit midpoint 5 ms,backward euler 2 ms" \
+  --video --size 480x540 --samples 2 --follow --out "$OUT/side-by-side-video"
+cp "$OUT/side-by-side-video/render.mp4" "$IMG/coat-im5-vs-be2.mp4"
 python3 - "$OUT/results.md" docs/walk.md <<'PY'
 import sys
 results, page = sys.argv[1], sys.argv[2]
