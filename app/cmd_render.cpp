@@ -221,6 +221,9 @@ int run_render(const RenderArgs& a) {
         throw InputError("--labels '" + a.labels + "': expected LEFT,RIGHT (two labels, one comma)");
       labels = {a.labels.substr(0, comma), a.labels.substr(comma + 1)};
     }
+    // The bitmap font has lowercase letters only.
+    for (std::string& text : labels)
+      for (char& ch : text) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
   } else if (!a.labels.empty()) {
     throw InputError("--labels: only with --beside (they name the two runs drawn side by side)");
   }
@@ -307,11 +310,14 @@ int run_render(const RenderArgs& a) {
     options.ground_y = survey.horizontal_plane_y ? *survey.horizontal_plane_y : std::min(0.0, survey.framed.lo.y());
   // The framing reaches down towards the ground (by at most half the objects' height), so
   // that the cloth is seen above it.
-  render::Bounds framed = survey.framed;
-  if (options.ground_y) {
-    const double reach = std::max(*options.ground_y, framed.lo.y() - 0.5 * (framed.hi.y() - framed.lo.y()));
-    framed.add(Vec3(framed.centre().x(), reach, framed.centre().z()));
-  }
+  const auto towards_ground = [&](render::Bounds b) {
+    if (options.ground_y) {
+      const double reach = std::max(*options.ground_y, b.lo.y() - 0.5 * (b.hi.y() - b.lo.y()));
+      b.add(Vec3(b.centre().x(), reach, b.centre().z()));
+    }
+    return b;
+  };
+  const render::Bounds framed = towards_ground(survey.framed);
   options.camera = given_camera ? *given_camera : render::frame_camera(framed, width, height);
   // --follow: the camera keeps its view and moves with the objects, framing the largest of the
   // frames' boxes (each reaching towards the ground as above) about its own centre.
@@ -319,19 +325,18 @@ int run_render(const RenderArgs& a) {
   if (a.follow) {
     render::Bounds extent;
     for (const auto& [number, box] : survey.framed_per_frame) {
-      render::Bounds b = box;
-      if (b.empty()) continue;
-      if (options.ground_y) {
-        const double reach = std::max(*options.ground_y, b.lo.y() - 0.5 * (b.hi.y() - b.lo.y()));
-        b.add(Vec3(b.centre().x(), reach, b.centre().z()));
-      }
+      if (box.empty()) continue;
+      const render::Bounds b = towards_ground(box);
       follow_centre[number] = b.centre();
       extent.add(b.lo - b.centre());
       extent.add(b.hi - b.centre());
     }
     if (!given_camera && !extent.empty()) options.camera = render::frame_camera(extent, width, height);
   }
+  // A camera given is where it is at the first frame drawn; the framing one is about the origin.
   const render::Camera base_camera = options.camera;
+  const Vec3 follow_origin =
+      given_camera && follow_centre.count(selected.front()) ? follow_centre.at(selected.front()) : Vec3(Vec3::Zero());
   options.scene_bounds = survey.framed;
   if (a.color == "viscosity") {
     render::ColourBar bar{"added viscosity N s/m", "0", format_number("%.3g", survey.viscosity_peak), {}};
@@ -381,38 +386,36 @@ int run_render(const RenderArgs& a) {
   for (long number : selected) {
     const auto frame_start = std::chrono::steady_clock::now();
     if (a.follow && follow_centre.count(number)) {
-      // A camera given is where it is at the first frame drawn; the framing one is about the origin.
-      const Vec3 shift = follow_centre.at(number) -
-                         (given_camera && follow_centre.count(selected.front()) ? follow_centre.at(selected.front()) : Vec3(Vec3::Zero()));
+      const Vec3 shift = follow_centre.at(number) - follow_origin;
       options.camera.eye = base_camera.eye + shift;
       options.camera.target = base_camera.target + shift;
     }
     auto draw = [&](const weft::RunFrameFiles& f) {
-    const weft::RunFrameMesh cloth = weft::read_frame_mesh(f.cloth);
-    std::vector<weft::RunFrameMesh> colliders;
-    for (const auto& [name, path] : f.colliders) {
-      weft::RunFrameMesh body = weft::read_frame_mesh(path);
-      // The ground stands for a horizontal plane collider.
-      if (!(options.ground_y && is_horizontal_plane(body))) colliders.push_back(std::move(body));
-    }
-    std::vector<render::PictureMesh> meshes;
-    render::PictureMesh cloth_mesh{&cloth.xyz, &cloth.triangles, render::Surface::kCloth, {}, {}};
-    if (a.color == "viscosity") {
-      for (double v : cloth.added_viscosity)
-        cloth_mesh.vertex_colours.push_back(render::sequential_colour(survey.viscosity_peak > 0 ? v / survey.viscosity_peak : 0));
-    } else if (a.color == "strain") {
-      const double scale = survey.strain_scale > 0 ? 1 / survey.strain_scale : 0;
-      for (double s : render::vertex_strain(cloth.xyz, cloth.triangles, cloth.corner_texcoords, uv_scale))
-        cloth_mesh.vertex_colours.push_back(render::diverging_colour(s * scale));
-    }
-    meshes.push_back(std::move(cloth_mesh));
-    for (const auto& body : colliders) meshes.push_back({&body.xyz, &body.triangles, render::Surface::kCollider, {}, {}});
-    if (!a.no_caption)
-      options.caption = (frame_interval ? "t = " + format_number("%.2f", static_cast<double>(number) * *frame_interval) + " s   " : "") +
-                        "frame " + std::to_string(number);
-    weft::RgbImage picture = render::render_picture(meshes, options);
-    progress.update(static_cast<double>(++done) / static_cast<double>(work));
-    return picture;
+      const weft::RunFrameMesh cloth = weft::read_frame_mesh(f.cloth);
+      std::vector<weft::RunFrameMesh> colliders;
+      for (const auto& [name, path] : f.colliders) {
+        weft::RunFrameMesh body = weft::read_frame_mesh(path);
+        // The ground stands for a horizontal plane collider.
+        if (!(options.ground_y && is_horizontal_plane(body))) colliders.push_back(std::move(body));
+      }
+      std::vector<render::PictureMesh> meshes;
+      render::PictureMesh cloth_mesh{&cloth.xyz, &cloth.triangles, render::Surface::kCloth, {}, {}};
+      if (a.color == "viscosity") {
+        for (double v : cloth.added_viscosity)
+          cloth_mesh.vertex_colours.push_back(render::sequential_colour(survey.viscosity_peak > 0 ? v / survey.viscosity_peak : 0));
+      } else if (a.color == "strain") {
+        const double scale = survey.strain_scale > 0 ? 1 / survey.strain_scale : 0;
+        for (double s : render::vertex_strain(cloth.xyz, cloth.triangles, cloth.corner_texcoords, uv_scale))
+          cloth_mesh.vertex_colours.push_back(render::diverging_colour(s * scale));
+      }
+      meshes.push_back(std::move(cloth_mesh));
+      for (const auto& body : colliders) meshes.push_back({&body.xyz, &body.triangles, render::Surface::kCollider, {}, {}});
+      if (!a.no_caption)
+        options.caption = (frame_interval ? "t = " + format_number("%.2f", static_cast<double>(number) * *frame_interval) + " s   " : "") +
+                          "frame " + std::to_string(number);
+      weft::RgbImage picture = render::render_picture(meshes, options);
+      progress.update(static_cast<double>(++done) / static_cast<double>(work));
+      return picture;
     };
     weft::RgbImage image = draw(files.at(number));
     if (panels == 2) {
@@ -424,12 +427,7 @@ int run_render(const RenderArgs& a) {
         std::memcpy(both.at(width, y), right.at(0, y), 3 * static_cast<size_t>(width));
       }
       const int scale = std::max(2, height / 240);
-      // The bitmap font has lowercase letters only.
-      for (int k = 0; k < 2; ++k) {
-        std::string text = labels[k];
-        for (char& ch : text) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-        render::draw_label(both, k * width + 4 * scale, 4 * scale, text, scale, {40, 40, 40});
-      }
+      for (int k = 0; k < 2; ++k) render::draw_label(both, k * width + 4 * scale, 4 * scale, labels[k], scale, {40, 40, 40});
       image = std::move(both);
     }
     if (pipe) {
