@@ -64,6 +64,10 @@ namespace {
 constexpr double kHoldMargin = 1.1;
 // The first, small search of a mesh collider's nearest-point query, in thicknesses.
 constexpr double kNearSearch = 2.5;
+// In the fail-safe's later rounds (ContactReport::round), nodes and faces the other handlers
+// moved closer than kLaterRoundTrigger thicknesses are put back at kLaterRoundTarget.
+constexpr double kLaterRoundTrigger = 0.25;
+constexpr double kLaterRoundTarget = 0.5;
 
 // The closest surface point of a shape in its own (t = 0) placement.
 struct Closest {
@@ -786,6 +790,24 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
     touching_.assign(n, 0);  // no detection for this step (explicit methods)
     touching_normal_.assign(n, Vec3::Zero());
   }
+  // The first round puts back what ends within half the thickness, at the thickness; a later
+  // one only what the other handlers moved within a quarter of it, at half of it (the cloth's
+  // impulses may move a held node in by a quarter: docs/collisions.md, "One fail-safe after
+  // the other").
+  const bool later = report.round > 0 && report.left && report.left->size() == x1.size();
+  only_ = nullptr;
+  if (later) {
+    // The first round left every node it found at half a thickness or more, and its faces
+    // likewise: only what moved by the difference since can be closer than the trigger now.
+    double least = std::numeric_limits<double>::infinity();
+    for (const Collider* c : colliders_) least = std::min(least, c->spec().thickness);
+    const double reach = (0.5 - kLaterRoundTrigger) * least;
+    moved_.assign(n, 0);
+    for (int i = 0; i < n; ++i) moved_[i] = (node(x1, i) - node(*report.left, i)).squaredNorm() >= reach * reach;
+    only_ = &moved_;
+  }
+  trigger_ = later ? kLaterRoundTrigger : 0.5;
+  target_ = later ? kLaterRoundTarget : 1.0;
   for (Collider* c : colliders_) {
     const double thickness = c->spec().thickness;
     // A node held by a constraint ends at the thickness; one that ends well inside the layer
@@ -793,14 +815,15 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
     // velocity along the normal no faster towards the surface than the surface itself. (A
     // node's query reads only its own position, so all are made before any is moved.)
     query_nodes([&](int i, SurfacePoint& s) {
+      if (only_ && !(*only_)[i]) return false;
       const double reach = thickness + c->step_motion() + (node(x1, i) - node(x0, i)).norm();
       return c->closest(node(x1, i), reach, true, i, s);
     });
     for (int i = 0; i < n; ++i) {
       if (!found_[i]) continue;
       const SurfacePoint& s = surface_[i];
-      if (s.distance >= 0.5 * thickness) continue;
-      node(x1, i) += (thickness - s.distance) * s.normal;
+      if (s.distance >= trigger_ * thickness) continue;
+      node(x1, i) += (target_ * thickness - s.distance) * s.normal;
       const Vec3 v_old = node(v1, i);
       const double surface_speed = s.displacement.dot(s.normal) / dt;
       const double vn = v_old.dot(s.normal);
@@ -815,16 +838,18 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
     if (c->end_tree() && !triangles_.empty()) push_faces_off_vertices(*c, x1, v1, dt, report);
     lift_faces_off_round(*c, x1, v1, report);
   }
+  only_ = nullptr;
 }
 
 void ColliderContacts::lift_faces_off_round(const Collider& c, VecX& x1, VecX& v1, ContactReport& report) {
   const double thickness = c.spec().thickness;
   for (const auto& t : triangles_) {
+    if (only_ && !looks_at(t)) continue;
     SurfacePoint sp;
     Vec3 w;
     if (!c.closest_to_triangle(node(x1, t[0]), node(x1, t[1]), node(x1, t[2]), sp, w)) return;
-    if (sp.distance >= 0.5 * thickness) continue;
-    lift_face(t, w, thickness - sp.distance, sp.normal, x1, v1, report);
+    if (sp.distance >= trigger_ * thickness) continue;
+    lift_face(t, w, target_ * thickness - sp.distance, sp.normal, x1, v1, report);
   }
 }
 
@@ -883,7 +908,7 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
     std::vector<int> vertices;
     for (int f = static_cast<int>(k) * kChunk, last = std::min(faces, f + kChunk); f < last; ++f) {
       const auto& t = triangles_[f];
-      if (fixed_[t[0]] && fixed_[t[1]] && fixed_[t[2]]) continue;
+      if (!looks_at(t)) continue;
       Box box;
       for (int j = 0; j < 3; ++j) box.add(node(x, t[j]));
       box.lo -= Vec3::Constant(margin);
@@ -975,7 +1000,7 @@ void ColliderContacts::push_faces_off_vertices(const Collider& c, VecX& x1, VecX
   // As for vertices: a face resting at the thickness sags a little between its vertices over
   // a curved surface, so only a face closer than half the thickness is moved.
   const double thickness = c.spec().thickness;
-  face_pokes(c, x1, 0.5 * thickness, pokes_);
+  face_pokes(c, x1, trigger_ * thickness, pokes_);
   // Move the face's point over the vertex out to the thickness (the pokes in turn, each
   // measured where the earlier lifts left its face).
   for (const FacePoke& poke : pokes_) {
@@ -983,8 +1008,8 @@ void ColliderContacts::push_faces_off_vertices(const Collider& c, VecX& x1, VecX
     const Vec3 p = c.end_vertices()->row(poke.vertex).transpose();
     const Vec3 point = poke.weights[0] * node(x1, t[0]) + poke.weights[1] * node(x1, t[1]) + poke.weights[2] * node(x1, t[2]);
     const double height = (point - p).dot(poke.normal);
-    if (height >= 0.5 * thickness) continue;
-    lift_face(t, poke.weights, thickness - height, poke.normal, x1, v1, report);
+    if (height >= trigger_ * thickness) continue;
+    lift_face(t, poke.weights, target_ * thickness - height, poke.normal, x1, v1, report);
   }
 }
 

@@ -31,6 +31,11 @@ struct ContactReport {
   long fail_safe_moves = 0;   ///< nodes the fail-safe moved after the solve
   double work = 0;            ///< work the fail-safe's changes did on the cloth (J)
   bool ok = true;             ///< false: the step could not be made valid (retry it smaller)
+  /// In: the round of the fail-safes within the step (0: the first). Where several handlers
+  /// correct the step, each later round gives the first handler the positions it left the
+  /// nodes at in its last call (`left`), and it corrects only what the others undid since.
+  int round = 0;
+  const VecX* left = nullptr;
 };
 
 class ContactHandler {

@@ -985,8 +985,30 @@ void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics&
     d_.x_before_fail_safe = s.x;
     VecX& v_before = d_.v_before_group;
     v_before = s.v;
+    std::vector<ContactHandler*>& group = d_.handler_group;
+    group.clear();
     for (ContactHandler* h : d_.handlers)
-      if (h->prescribes_motion() == prescribed) h->finish_step(d_.x_start, s.x, s.v, t0, dt, report);
+      if (h->prescribes_motion() == prescribed) group.push_back(h);
+    for (size_t k = 0; k < group.size(); ++k) {
+      if (k == 1) d_.x_round = s.x;
+      group[k]->finish_step(d_.x_start, s.x, s.v, t0, dt, report);
+    }
+    // One handler's correction can undo another's (the cloth's impulses pushing a layer the
+    // colliders put back into a collider): the first handler looks again at the nodes the
+    // others moved, and while it moves some, the others correct after it again.
+    for (int round = 1; group.size() > 1 && round <= kFailSafeRounds; ++round) {
+      if (s.x == d_.x_round) break;
+      report.round = round;
+      report.left = &d_.x_round;
+      const long moves = report.fail_safe_moves;
+      group[0]->finish_step(d_.x_start, s.x, s.v, t0, dt, report);
+      if (report.fail_safe_moves == moves) break;
+      if (round == kFailSafeRounds) report.ok = false;
+      d_.x_round = s.x;
+      for (size_t k = 1; k < group.size(); ++k) group[k]->finish_step(d_.x_start, s.x, s.v, t0, dt, report);
+    }
+    report.round = 0;
+    report.left = nullptr;
     if (report.fail_safe_moves > 0) {
       double elastic, gravity;
       potential_energy(d_.x_before_fail_safe, elastic, gravity);

@@ -57,6 +57,10 @@ constexpr int kMaxContactPasses = 2;
 constexpr int kNewtonContactRounds = 2;
 /// How many times a step the contact handlers could not make valid is halved.
 constexpr int kMaxStepHalvings = 3;
+/// Rounds of the fail-safes after the first, where several handlers correct a step (the
+/// colliders' and the cloth's own): each gives the first handler the nodes the others moved.
+/// A step whose first handler still moves nodes in the last round is reported invalid.
+constexpr int kFailSafeRounds = 3;
 /// A contact is let go when it pulls with an impulse that would change its node's velocity by
 /// more than this (m/s): below, the node stays held (at most 0.2 m/s^2 of adhesion at 5 ms
 /// steps), which keeps resting contacts from being let go and taken back step after step.
@@ -155,6 +159,8 @@ class Integrator {
     bool guard_raised_now = false;  ///< a part of this step was taken above the scene's alpha
     VecX v_before_fail_safe;               ///< finish_contacts: the velocities before every correction
     VecX x_before_fail_safe, v_before_group;  ///< finish_contacts: the state before one group of handlers
+    VecX x_round;                           ///< finish_contacts: the positions the first handler left
+    std::vector<ContactHandler*> handler_group;  ///< finish_contacts: the handlers of one group
     StepAssembly newton_step;  ///< newton_iterate's assembly (step keeps the step start's)
     VecX newton_x, newton_v, newton_r, newton_r_trial, newton_dv_trial, newton_delta, newton_w;
     VecX newton_rhs;                ///< the residual filtered by the contacts
