@@ -61,7 +61,7 @@ struct StepStatistics {
   long cg_solves = 0;
   long cg_failures = 0;      ///< solves that hit the iteration cap
   double assembly_seconds = 0;
-  double solve_seconds = 0;
+  double solve_seconds = 0;      ///< the linear solves and their warm start (not the contacts within)
   long contacts = 0;             ///< node contacts held by linear solves, summed over steps
   long max_contacts = 0;         ///< the most in one step
   long released_contacts = 0;    ///< contacts let go because they pulled at the previous step
