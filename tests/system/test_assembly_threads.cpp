@@ -34,8 +34,11 @@ Scene shuffled_cloth_scene(int n, unsigned seed) {
       faces.push_back({a, d, c});
     }
   std::shuffle(faces.begin(), faces.end(), rng);
-  const std::string path =
-      (std::filesystem::temp_directory_path() / ("weft_shuffled_" + std::to_string(seed) + ".obj")).string();
+  // One file per test (ctest runs tests in parallel, and each removes its file at the end).
+  const std::string test_name = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("weft_shuffled_" + test_name + "_" + std::to_string(seed) + ".obj"))
+                               .string();
   std::ofstream out(path);
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) out << "v " << double(i) / (n - 1) << " 1 " << double(j) / (n - 1) << "\n";
