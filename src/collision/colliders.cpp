@@ -795,7 +795,7 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
   // impulses may move a held node in by a quarter: docs/collisions.md, "One fail-safe after
   // the other").
   const bool later = report.round > 0 && report.left && report.left->size() == x1.size();
-  only_ = nullptr;
+  moved_.clear();
   if (later) {
     // The first round left every node it found at half a thickness or more, and its faces
     // likewise: only what moved by the difference since can be closer than the trigger now.
@@ -804,7 +804,6 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
     const double reach = (0.5 - kLaterRoundTrigger) * least;
     moved_.assign(n, 0);
     for (int i = 0; i < n; ++i) moved_[i] = (node(x1, i) - node(*report.left, i)).squaredNorm() >= reach * reach;
-    only_ = &moved_;
   }
   trigger_ = later ? kLaterRoundTrigger : 0.5;
   target_ = later ? kLaterRoundTarget : 1.0;
@@ -815,7 +814,7 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
     // velocity along the normal no faster towards the surface than the surface itself. (A
     // node's query reads only its own position, so all are made before any is moved.)
     query_nodes([&](int i, SurfacePoint& s) {
-      if (only_ && !(*only_)[i]) return false;
+      if (!looks_at(i)) return false;
       const double reach = thickness + c->step_motion() + (node(x1, i) - node(x0, i)).norm();
       return c->closest(node(x1, i), reach, true, i, s);
     });
@@ -838,13 +837,13 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
     if (c->end_tree() && !triangles_.empty()) push_faces_off_vertices(*c, x1, v1, dt, report);
     lift_faces_off_round(*c, x1, v1, report);
   }
-  only_ = nullptr;
+  moved_.clear();  // detection's face holds look at every face
 }
 
 void ColliderContacts::lift_faces_off_round(const Collider& c, VecX& x1, VecX& v1, ContactReport& report) {
   const double thickness = c.spec().thickness;
   for (const auto& t : triangles_) {
-    if (only_ && !looks_at(t)) continue;
+    if (!looks_at(t)) continue;
     SurfacePoint sp;
     Vec3 w;
     if (!c.closest_to_triangle(node(x1, t[0]), node(x1, t[1]), node(x1, t[2]), sp, w)) return;

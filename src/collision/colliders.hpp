@@ -105,12 +105,12 @@ class ColliderContacts : public ContactHandler {
   template <class Query>
   void query_nodes(const Query& query);
   double prepared_t_ = -1, prepared_dt_ = -1;  ///< the step the colliders are prepared for
-  /// finish_step's round: the nodes it looks at (null: all), and the fractions of the
-  /// thickness below which a node or face is moved (`trigger_`) and to which (`target_`).
-  const std::vector<char>* only_ = nullptr;
-  std::vector<char> moved_;  ///< finish_step's later rounds: the nodes it looks at
+  /// finish_step's round: the nodes it looks at in a later round (empty: all free nodes), and
+  /// the fractions of the thickness below which a node or face is moved (`trigger_`) and to
+  /// which (`target_`).
+  std::vector<char> moved_;
   double trigger_ = 0.5, target_ = 1.0;
-  bool looks_at(int i) const { return !fixed_[i] && (!only_ || (*only_)[i]); }
+  bool looks_at(int i) const { return !fixed_[i] && (moved_.empty() || moved_[i]); }
   bool looks_at(const std::array<int, 3>& t) const { return looks_at(t[0]) || looks_at(t[1]) || looks_at(t[2]); }
   /// Moves cloth faces that a mesh collider's vertex (a nose, a finger) came within the
   /// thickness of, or poked through, back out along the poke's normal (FacePoke).
