@@ -626,6 +626,26 @@ ColliderContacts::ColliderContacts(std::vector<Collider*> colliders, const VecX&
                                    std::vector<std::array<int, 3>> triangles)
     : colliders_(std::move(colliders)), mass_(mass), fixed_(fixed), triangles_(std::move(triangles)) {
   for (Collider* c : colliders_) c->reserve_nodes(static_cast<int>(fixed_.size()));
+  for (const auto& t : triangles_)
+    for (int k = 0; k < 3; ++k) cloth_edges_.push_back({std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])});
+  std::sort(cloth_edges_.begin(), cloth_edges_.end());
+  cloth_edges_.erase(std::unique(cloth_edges_.begin(), cloth_edges_.end()), cloth_edges_.end());
+  owned_edges_.resize(colliders_.size());
+  for (size_t ci = 0; ci < colliders_.size(); ++ci) {
+    const auto* list = colliders_[ci]->triangle_list();
+    if (!list) continue;
+    std::vector<std::array<int, 3>> edges;  // (low, high, 3 f + k)
+    for (int f = 0; f < static_cast<int>(list->size()); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int a = (*list)[f][k], b = (*list)[f][(k + 1) % 3];
+        edges.push_back({std::min(a, b), std::max(a, b), 3 * f + k});
+      }
+    std::sort(edges.begin(), edges.end());
+    owned_edges_[ci].assign(list->size(), 0);
+    for (size_t j = 0; j < edges.size(); ++j)
+      if (j == 0 || edges[j][0] != edges[j - 1][0] || edges[j][1] != edges[j - 1][1])
+        owned_edges_[ci][edges[j][2] / 3] |= static_cast<unsigned char>(1u << (edges[j][2] % 3));
+  }
 }
 
 template <class Query>
@@ -807,7 +827,8 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
   }
   trigger_ = later ? kLaterRoundTrigger : 0.5;
   target_ = later ? kLaterRoundTarget : 1.0;
-  for (Collider* c : colliders_) {
+  for (size_t ci = 0; ci < colliders_.size(); ++ci) {
+    Collider* c = colliders_[ci];
     const double thickness = c->spec().thickness;
     // A node held by a constraint ends at the thickness; one that ends well inside the layer
     // was missed or pushed in by its neighbours: it is put back at the thickness, its
@@ -834,7 +855,10 @@ void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t,
       touching_normal_[i] = s.normal;
       ++report.fail_safe_moves;
     }
-    if (c->end_tree() && !triangles_.empty()) push_faces_off_vertices(*c, x1, v1, dt, report);
+    if (c->end_tree() && !triangles_.empty()) {
+      push_faces_off_vertices(*c, x1, v1, dt, report);
+      keep_edges_off_edges(ci, *c, x0, x1, v1, dt, report);
+    }
     lift_faces_off_round(*c, x1, v1, report);
   }
   moved_.clear();  // detection's face holds look at every face
@@ -853,7 +877,7 @@ void ColliderContacts::lift_faces_off_round(const Collider& c, VecX& x1, VecX& v
 }
 
 void ColliderContacts::lift_face(const std::array<int, 3>& t, const Vec3& weights, double lift, const Vec3& n, VecX& x1,
-                                 VecX& v1, ContactReport& report) {
+                                 VecX& v1, ContactReport& report, double surface_speed) {
   // The face's point with these weights moves by `lift` along n: vertex i by w_i lift / sum w^2.
   double w2 = 0;
   for (int k = 0; k < 3; ++k) w2 += fixed_[t[k]] ? 0.0 : weights[k] * weights[k];
@@ -864,8 +888,8 @@ void ColliderContacts::lift_face(const std::array<int, 3>& t, const Vec3& weight
     node(x1, i) += (weights[k] * lift / w2) * n;
     const Vec3 v_old = node(v1, i);
     const double vn = v_old.dot(n);
-    if (vn < 0) {
-      node(v1, i) -= vn * n;
+    if (vn < surface_speed) {
+      node(v1, i) += (surface_speed - vn) * n;
       report.work += 0.5 * mass_[i] * (node(v1, i).squaredNorm() - v_old.squaredNorm());
     }
     ++report.fail_safe_moves;
@@ -1009,6 +1033,85 @@ void ColliderContacts::push_faces_off_vertices(const Collider& c, VecX& x1, VecX
     const double height = (point - p).dot(poke.normal);
     if (height >= trigger_ * thickness) continue;
     lift_face(t, poke.weights, target_ * thickness - height, poke.normal, x1, v1, report);
+  }
+}
+
+namespace {
+// The most lifts one cloth edge gets in one pass (it is checked again after each).
+constexpr int kEdgeLiftsPerEdge = 3;
+}  // namespace
+
+void ColliderContacts::keep_edges_off_edges(size_t collider, const Collider& c, const VecX& x0, VecX& x1, VecX& v1,
+                                            double dt, ContactReport& report) {
+  const Points* start = c.start_vertices();
+  const Points* end = c.end_vertices();
+  const auto* list = c.triangle_list();
+  if (!start || !end || !list || collider >= owned_edges_.size()) return;
+  const auto& owned = owned_edges_[collider];
+  const double thickness = c.spec().thickness;
+  const double gap = kEdgeCrossingGap * thickness;
+  const double target = kEdgeLiftHeight * target_ * thickness;
+  const double grow = gap + c.step_motion();
+  auto body = [](const Points& p, int v) -> Vec3 { return p.row(v).transpose(); };
+  for (const auto& e : cloth_edges_) {
+    if (!looks_at(e[0]) && !looks_at(e[1])) continue;
+    if (!found_[e[0]] && !found_[e[1]]) continue;  // neither end near the collider
+    for (int lift = 0; lift < kEdgeLiftsPerEdge; ++lift) {
+      const Vec3 a0 = node(x0, e[0]), b0 = node(x0, e[1]), a1 = node(x1, e[0]), b1 = node(x1, e[1]);
+      Box box;
+      box.add(a0);
+      box.add(b0);
+      box.add(a1);
+      box.add(b1);
+      box.lo -= Vec3::Constant(grow);
+      box.hi += Vec3::Constant(grow);
+      edge_candidates_.clear();
+      c.end_tree()->for_each_overlapping(box, [&](int f) {
+        for (int k = 0; k < 3; ++k)
+          if (owned[f] & (1u << k)) edge_candidates_.push_back({(*list)[f][k], (*list)[f][(k + 1) % 3]});
+      });
+      // The collider's edge the cloth edge meets first.
+      double first = 2;
+      std::array<int, 2> hit{-1, -1};
+      for (const auto& q : edge_candidates_) {
+        Box swept;
+        swept.add(body(*start, q[0]));
+        swept.add(body(*start, q[1]));
+        swept.add(body(*end, q[0]));
+        swept.add(body(*end, q[1]));
+        if (!swept.overlaps(box)) continue;
+        const auto when = edge_edge_ccd(a0, a1, b0, b1, body(*start, q[0]), body(*end, q[0]), body(*start, q[1]),
+                                        body(*end, q[1]), gap);
+        if (when && *when < first) {
+          first = *when;
+          hit = q;
+        }
+      }
+      if (hit[0] < 0) break;
+      // The pair at that time: its closest points and the normal from the collider's edge out.
+      const double u = first;
+      const Vec3 p0 = body(*start, hit[0]) + u * (body(*end, hit[0]) - body(*start, hit[0]));
+      const Vec3 p1 = body(*start, hit[1]) + u * (body(*end, hit[1]) - body(*start, hit[1]));
+      const SegmentSegmentClosest at = closest_points_segments(a0 + u * (a1 - a0), b0 + u * (b1 - b0), p0, p1);
+      Vec3 outward = (1 - at.t) * c.end_vertex_normal(hit[0]) + at.t * c.end_vertex_normal(hit[1]);
+      Vec3 normal = at.point_p - at.point_q;
+      if (normal.norm() > 1e-3 * gap) {
+        normal.normalize();
+        // The cloth edge already on the collider's inner side of this edge (the step started
+        // crossed): nothing this pass can tell about which way is out.
+        if (normal.dot(outward) < 0) break;
+      } else {
+        if (!(outward.norm() > 0)) break;
+        normal = outward.normalized();
+      }
+      const Vec3 q_end = (1 - at.t) * body(*end, hit[0]) + at.t * body(*end, hit[1]);
+      const Vec3 q_start = (1 - at.t) * body(*start, hit[0]) + at.t * body(*start, hit[1]);
+      const double height = ((1 - at.s) * a1 + at.s * b1 - q_end).dot(normal);
+      if (height >= target) break;
+      const std::array<int, 3> t{e[0], e[1], e[1]};
+      lift_face(t, Vec3(1 - at.s, at.s, 0), target - height, normal, x1, v1, report,
+                (q_end - q_start).dot(normal) / dt);
+    }
   }
 }
 

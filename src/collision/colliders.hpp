@@ -72,6 +72,13 @@ using SurfaceMotion = std::function<void(double t, Points& positions)>;
 std::unique_ptr<Collider> make_mesh_collider(const ColliderSpec& spec, const Triangles& triangles,
                                              SurfaceMotion motion, bool closed);
 
+/// The distance (in thicknesses) at which the colliders' fail-safe stops a cloth edge short of
+/// a mesh collider's edge, and the height (in thicknesses, halved in the fail-safe's later
+/// rounds) it then lifts the edge to. Small: every lift after the solve is energy the next
+/// solve and the guarded methods see (docs/collisions.md, "Fail-safe").
+constexpr double kEdgeCrossingGap = 0.1;
+constexpr double kEdgeLiftHeight = 0.15;
+
 /// Contact handling against colliders (integrate/contact.hpp) for a cloth of the given node
 /// masses and pins.
 class ColliderContacts : public ContactHandler {
@@ -148,13 +155,28 @@ class ColliderContacts : public ContactHandler {
   /// Per chunk of cloth faces in face_pokes: the candidates whose geometry qualifies (before
   /// the side check).
   std::vector<std::vector<PokeTest>> chunk_tests_;
+  /// Keeps cloth edges from passing across mesh collider `c`'s edges over the step (a cloth
+  /// edge over a ridge of the body, both its ends outside, neither's vertex in the other's
+  /// face): continuous detection of each cloth edge near the collider against the collider's
+  /// edges, both moving on straight lines from x0 to x1 and from the collider's start to its
+  /// end; a pair that comes within kEdgeCrossingGap thicknesses has the cloth edge's point
+  /// moved out along the pair's normal at that time to kEdgeLiftHeight thicknesses (half that
+  /// in later rounds), its normal velocity no slower than the collider's edge.
+  void keep_edges_off_edges(size_t collider, const Collider& c, const VecX& x0, VecX& x1, VecX& v1, double dt,
+                            ContactReport& report);
+  std::vector<std::array<int, 2>> cloth_edges_;  ///< each edge of the cloth's triangles once
+  /// Per collider with a triangle list, per triangle: a bit per edge k it owns (each edge of
+  /// the collider's surface owned by one of its triangles).
+  std::vector<std::vector<unsigned char>> owned_edges_;
+  std::vector<std::array<int, 2>> edge_candidates_;  ///< keep_edges_off_edges' scratch
   /// Lifts cloth faces that sag between their vertices to within half the thickness of a
   /// round collider (sphere, capsule) back to the thickness.
   void lift_faces_off_round(const Collider& c, VecX& x1, VecX& v1, ContactReport& report);
   /// Moves face t's point with barycentric `weights` by `lift` along n (its free vertices in
   /// proportion to their weights), no vertex then moving towards -n.
+  /// `surface_speed`: the least velocity along n a moved vertex keeps (the collider's there).
   void lift_face(const std::array<int, 3>& t, const Vec3& weights, double lift, const Vec3& n, VecX& x1, VecX& v1,
-                 ContactReport& report);
+                 ContactReport& report, double surface_speed = 0);
   std::vector<std::array<int, 3>> triangles_;
   std::vector<char> side_normal_known_;  ///< per node, this step: side_normal_ computed
   std::vector<Vec3> side_normal_;        ///< the collider's normal nearest the node (0: none near)
