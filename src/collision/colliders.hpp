@@ -74,10 +74,10 @@ std::unique_ptr<Collider> make_mesh_collider(const ColliderSpec& spec, const Tri
 
 /// The distance (in thicknesses) at which the colliders' fail-safe stops a cloth edge short of
 /// a mesh collider's edge, and the height (in thicknesses, halved in the fail-safe's later
-/// rounds) it then lifts the edge to. Small: every lift after the solve is energy the next
-/// solve and the guarded methods see (docs/collisions.md, "Fail-safe").
+/// rounds) it then lifts the edge to (smaller heights measured and not kept: docs/collisions.md,
+/// "Fail-safe").
 constexpr double kEdgeCrossingGap = 0.1;
-constexpr double kEdgeLiftHeight = 0.15;
+constexpr double kEdgeLiftHeight = 0.5;
 
 /// Contact handling against colliders (integrate/contact.hpp) for a cloth of the given node
 /// masses and pins.
