@@ -884,7 +884,7 @@ void ColliderContacts::lift_face(const std::array<int, 3>& t, const Vec3& weight
   if (!(w2 > 0)) return;
   for (int k = 0; k < 3; ++k) {
     const int i = t[k];
-    if (fixed_[i]) continue;
+    if (fixed_[i] || (k > 0 && i == t[k - 1])) continue;  // an edge given as (a, b, b): b once
     node(x1, i) += (weights[k] * lift / w2) * n;
     const Vec3 v_old = node(v1, i);
     const double vn = v_old.dot(n);
@@ -1046,7 +1046,7 @@ void ColliderContacts::keep_edges_off_edges(size_t collider, const Collider& c, 
   const Points* start = c.start_vertices();
   const Points* end = c.end_vertices();
   const auto* list = c.triangle_list();
-  if (!start || !end || !list || collider >= owned_edges_.size()) return;
+  if (!start || !end || !list) return;
   const auto& owned = owned_edges_[collider];
   const double thickness = c.spec().thickness;
   const double gap = kEdgeCrossingGap * thickness;
