@@ -219,24 +219,50 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
   find_proximities(x);
   has_contact_.assign(n, 0);
   for (const NodeContact& c : out) has_contact_[c.node] = 1;
+  // Each node's nearest pair within the thickness: as the vertex of a vertex-face pair, or as an
+  // end of an edge of an edge-edge pair that carries at least kEdgeHoldWeight of the edge's
+  // closest point (the nodes of both edges, each held against the other edge).
   closest_pair_.assign(n, -1);
+  closest_side_.assign(n, 0);
+  auto offer = [&](int i, int k, int side) {
+    if (fixed_[i] || has_contact_[i]) return;
+    const int c = closest_pair_[i];
+    if (c < 0 || pairs_[k].gap < pairs_[c].gap) {
+      closest_pair_[i] = k;
+      closest_side_[i] = static_cast<char>(side);
+    }
+  };
   for (size_t k = 0; k < pairs_.size(); ++k) {
     const Stencil& s = pairs_[k];
-    if (!s.vertex_face) continue;
-    const int i = s.node[0];
-    if (fixed_[i] || has_contact_[i]) continue;
-    if (closest_pair_[i] < 0 || s.gap < pairs_[closest_pair_[i]].gap) closest_pair_[i] = static_cast<int>(k);
+    const int kk = static_cast<int>(k);
+    if (s.vertex_face) {
+      offer(s.node[0], kk, 0);
+      continue;
+    }
+    // A pair with a node a collider holds is left to the fail-safe: where the walking body
+    // pinches the cloth between arm and torso, holding edges against edges the body drives
+    // over-constrained the solve (docs/collisions.md).
+    if (has_contact_[s.node[0]] || has_contact_[s.node[1]] || has_contact_[s.node[2]] || has_contact_[s.node[3]])
+      continue;
+    for (int j = 0; j < 4; ++j)
+      if (std::abs(s.weight[j]) >= kEdgeHoldWeight) offer(s.node[j], kk, j < 2 ? 0 : 1);
   }
   const double push = 1 / std::max(kRepulsionTime, dt);
   for (int i = 0; i < n; ++i) {
     if (closest_pair_[i] < 0) continue;
     const Stencil& s = pairs_[closest_pair_[i]];
+    // The other side of the pair: the face, or the other edge (weights of magnitudes summing to
+    // one); its point's velocity and the normal from it towards the node.
+    const bool first = closest_side_[i] == 0;
     NodeContact c;
     c.node = i;
-    c.normal = s.normal;
+    c.normal = first ? s.normal : Vec3(-s.normal);
     c.surface_velocity = Vec3::Zero();
-    for (int k = 1; k < 4; ++k) c.surface_velocity -= s.weight[k] * node(v, s.node[k]);
-    // The vertex follows a face that draws back, but is not driven by one that comes at it: the
+    for (int k = 0; k < 4; ++k) {
+      if (s.vertex_face ? k == 0 : (k < 2) == first) continue;
+      c.surface_velocity += std::abs(s.weight[k]) * node(v, s.node[k]);
+    }
+    // The node follows a surface that draws back, but is not driven by one that comes at it: the
     // constraint only ever pushes (one that pulls is let go), so following every approach of a
     // face that jitters would rectify the jitter into work on the cloth. An approaching face is
     // left to the fail-safe's impulses, which act on both sides and keep momentum.

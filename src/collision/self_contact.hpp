@@ -33,6 +33,10 @@ constexpr double kHeldInwardRoom = 0.25;
 /// not grow as the step shrinks.
 constexpr double kRepulsionTime = 0.05;
 
+/// An end of an edge in an edge-edge pair within the thickness is held in the solve when it
+/// carries at least this share of the edge's closest point (1 - s or s).
+constexpr double kEdgeHoldWeight = 0.25;
+
 /// Counts of what the fail-safe did (accumulated over the steps it ran; checkpoints keep them).
 struct SelfContactStatistics {
   long repulsions = 0;          ///< impulses on pairs within the thickness at the step's start
@@ -62,10 +66,13 @@ class SelfContacts : public ContactHandler {
   /// vertex of its own group, as if they were welded. Without it every vertex is its own.
   void set_vertex_groups(std::vector<int> group);
 
-  /// Vertices within the thickness of a cloth face at x (and held by no handler before this
-  /// one in `out`) held in the solve against their closest face as against a surface: no
-  /// approach along the pair's normal (a face drawing back is followed at its velocity at the
-  /// start), the missing thickness restored over kRepulsionTime, and the layers' friction. The
+  /// Nodes within the thickness of the cloth at x (and held by no handler before this one in
+  /// `out`) held in the solve against their nearest pair's other side as against a surface: a
+  /// vertex within the thickness of a face, and the ends of two edges within the thickness of
+  /// each other (each end carrying at least kEdgeHoldWeight of its edge's closest point, and
+  /// no node of the pair held by a collider), each against the other edge. No approach along
+  /// the pair's normal (a surface drawing back is followed at its velocity at the start), the
+  /// missing thickness restored over kRepulsionTime, and the layers' friction. The
   /// solve then sees the layers it would otherwise drive into each other: a correction after
   /// the solve alone undoes part of the solve's motion, and under backward Euler and BDF-2
   /// that fight pumped elastic energy into folded cloth until the run blew up.
@@ -176,7 +183,8 @@ class SelfContacts : public ContactHandler {
   std::vector<char> zone_dirty_;     ///< per zone root: grew since its motion was set
   std::vector<std::vector<int>> zone_members_;
   std::vector<char> has_contact_;    ///< detect: per node, a contact in `out` already
-  std::vector<int> closest_pair_;    ///< detect: per node, its closest vertex-face pair or -1
+  std::vector<int> closest_pair_;    ///< detect: per node, its closest pair or -1
+  std::vector<char> closest_side_;   ///< detect: 0, the node is on the pair's first primitive; 1, the second
 };
 
 }  // namespace weft

@@ -3,6 +3,7 @@
 // thickness stops approaching, and a scene with self-contact has no intersection in any frame.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -369,4 +370,83 @@ TEST(SelfContact, FinishingAStepAfterDetectingAtItsStartIsTheSameAsFinishingItAl
   EXPECT_EQ(alone.stats.collision_impulses, after.stats.collision_impulses);
   EXPECT_TRUE(alone.x == after.x) << "positions differ";
   EXPECT_TRUE(alone.v == after.v) << "velocities differ";
+}
+
+namespace {
+
+// Two triangles whose edges cross 1.4 mm apart (thickness 3 mm), each edge's ends and the
+// other triangle's vertices all farther than the thickness from the other triangle: the lower
+// one lies in the plane y = 0 with its edge (0, 1) along x through the origin, at x = `shift`
+// +- 0.05; the upper one stands in the plane x = 0 with its edge (3, 4) on the line y = 0.002 - z,
+// whose closest point to the x axis is halfway along it, (0, 0.001, 0.001): the pair's normal
+// is (0, 1, 1) / sqrt(2), its gap 0.001 sqrt(2).
+VecX crossing_edges(double shift) {
+  VecX x(18);
+  node(x, 0) = Vec3(shift - 0.05, 0, 0);
+  node(x, 1) = Vec3(shift + 0.05, 0, 0);
+  node(x, 2) = Vec3(0, 0, -0.05);
+  node(x, 3) = Vec3(0, 0.032, -0.03);
+  node(x, 4) = Vec3(0, -0.028, 0.03);
+  node(x, 5) = Vec3(0, 0.062, 0.03);
+  return x;
+}
+
+}  // namespace
+
+TEST(SelfContact, CrossingEdgesWithinTheThicknessAreHeldInTheSolveFromBothSides) {
+  // Edge-edge pairs have no vertex of one primitive over the other's face: unless the solve
+  // holds their ends, it drives such edges together and the fail-safe pushes them apart again
+  // at every step (folded cloth at rest then jitters).
+  const std::vector<std::array<int, 3>> triangles = {{0, 1, 2}, {3, 4, 5}};
+  const VecX mass = VecX::Constant(6, 1e-3);
+  const double dt = 0.005;
+  const VecX x = crossing_edges(0);
+  SelfContacts self(triangles, x, mass, std::vector<char>(6, 0), kThickness, 0.3);
+  // The upper edge comes down at 0.1 m/s.
+  VecX v = VecX::Zero(18);
+  for (int i = 3; i < 6; ++i) node(v, i) = Vec3(0, -0.1, 0);
+  std::vector<NodeContact> out;
+  self.detect(x, v, 0, dt, out);
+  ASSERT_EQ(out.size(), 4u) << "both ends of both edges (each carries half of its edge's closest point)";
+  for (const NodeContact& c : out) {
+    SCOPED_TRACE(c.node);
+    ASSERT_TRUE(c.node == 0 || c.node == 1 || c.node == 3 || c.node == 4);
+    const bool lower = c.node < 3;
+    // The normal points from the other edge to the node's.
+    EXPECT_NEAR(c.normal.dot(Vec3(0, 1, 1) / std::sqrt(2.0) * (lower ? -1 : 1)), 1, 1e-12);
+    // Neither side approaches the other: the lower edge does not follow the upper one coming
+    // at it, and the upper one, held against the resting lower edge, is pushed back out towards
+    // the thickness (over kRepulsionTime).
+    EXPECT_NEAR(c.surface_velocity.dot(c.normal), 0, 1e-12);
+    EXPECT_NEAR(c.normal_displacement, dt * (kThickness - 0.001 * std::sqrt(2.0)) / kRepulsionTime, 1e-12);
+    EXPECT_DOUBLE_EQ(c.friction, 0.3);
+  }
+}
+
+TEST(SelfContact, AnEdgeEndCarryingLittleOfTheClosestPointIsNotHeld) {
+  // The lower edge moved along x so that the upper one crosses it a tenth of the way from node
+  // 0 (weights 0.9 and 0.1): node 1 is left free, below kEdgeHoldWeight.
+  const std::vector<std::array<int, 3>> triangles = {{0, 1, 2}, {3, 4, 5}};
+  const VecX mass = VecX::Constant(6, 1e-3);
+  const VecX x = crossing_edges(0.04);
+  SelfContacts self(triangles, x, mass, std::vector<char>(6, 0), kThickness, 0.3);
+  std::vector<NodeContact> out;
+  self.detect(x, VecX::Zero(18), 0, 0.005, out);
+  std::vector<int> held;
+  for (const NodeContact& c : out) held.push_back(c.node);
+  std::sort(held.begin(), held.end());
+  EXPECT_EQ(held, (std::vector<int>{0, 3, 4}));
+}
+
+TEST(SelfContact, EdgesOfAPairWithANodeAColliderHoldsAreLeftToTheFailSafe) {
+  // Node 0 already held by a collider (a contact in `out` before the cloth's): the crossing
+  // edges' other ends get no hold in the solve either.
+  const std::vector<std::array<int, 3>> triangles = {{0, 1, 2}, {3, 4, 5}};
+  const VecX mass = VecX::Constant(6, 1e-3);
+  const VecX x = crossing_edges(0);
+  SelfContacts self(triangles, x, mass, std::vector<char>(6, 0), kThickness, 0.3);
+  std::vector<NodeContact> out(1);
+  out[0].node = 0;
+  self.detect(x, VecX::Zero(18), 0, 0.005, out);
+  EXPECT_EQ(out.size(), 1u);
 }
