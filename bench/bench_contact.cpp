@@ -86,12 +86,17 @@ void run(benchmark::State& bs, const Scene& scene) {
   bs.counters["vertices"] = sim.core().model().num_vertices();
 }
 
-void SphereDrop(benchmark::State& bs) { run(bs, sphere_drop(static_cast<int>(bs.range(0)), true)); }
+void SphereDrop(benchmark::State& bs) {
+  Scene s = sphere_drop(static_cast<int>(bs.range(0)), true);
+  s.integrator.preconditioner = Preconditioner::kSsor;  // pc 1
+  if (bs.range(1) == 2) s.integrator.preconditioner = Preconditioner::kMultigrid;  // pc 2
+  run(bs, s);
+}
 void SphereDropFree(benchmark::State& bs) { run(bs, sphere_drop(static_cast<int>(bs.range(0)), false)); }
 void BodyDrape(benchmark::State& bs) { run(bs, body_drape(static_cast<int>(bs.range(0)))); }
 
 }  // namespace
 
-BENCHMARK(SphereDrop)->Arg(65)->Arg(129)->ArgName("n")->Unit(benchmark::kMillisecond)->Iterations(kSteps);
+BENCHMARK(SphereDrop)->ArgsProduct({{65, 129}, {1, 2}})->ArgNames({"n", "pc"})->Unit(benchmark::kMillisecond)->Iterations(kSteps);
 BENCHMARK(SphereDropFree)->Arg(65)->Arg(129)->ArgName("n")->Unit(benchmark::kMillisecond)->Iterations(kSteps);
 BENCHMARK(BodyDrape)->Arg(65)->ArgName("n")->Unit(benchmark::kMillisecond)->Iterations(kSteps);
