@@ -62,6 +62,12 @@ namespace {
 
 /// Nodes predicted to end within this multiple of the thickness are held.
 constexpr double kHoldMargin = 1.1;
+// A face's nearest point with a barycentric weight above 1 less this is its vertex, which the
+// node's own contact holds (hold_faces_off_round).
+constexpr double kFaceHoldVertexWeight = 1e-6;
+// hold_faces_off_round holds a face whose nearest point dips at least this many thicknesses
+// below its vertices' predicted distances (half the fail-safe's trigger depth).
+constexpr double kFaceHoldDip = 0.25;
 // The first, small search of a mesh collider's nearest-point query, in thicknesses.
 constexpr double kNearSearch = 2.5;
 // In the fail-safe's later rounds (ContactReport::round), nodes and faces the other handlers
@@ -678,6 +684,7 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
       const double reach = 2 * thickness + dt * node(v, i).norm() + c->step_motion();
       return c->closest(node(x, i), reach, false, i, s);
     });
+    node_gap_.assign(n, std::numeric_limits<double>::infinity());
     for (int i = 0; i < n; ++i) {
       if (!found_[i]) continue;
       const Vec3 vi = node(v, i);
@@ -687,6 +694,7 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
       // at the thickness has gap = thickness: the margin keeps it held (its forces are not in
       // the prediction), and a held node that pulls away is released by the integrator.
       const double gap = s.distance + approach;
+      node_gap_[i] = gap;
       if (gap >= kHoldMargin * thickness) continue;
       if (slot[i] >= 0 && gap >= best_gap_[i]) continue;  // another collider is closer
       NodeContact contact;
@@ -707,6 +715,74 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
       }
     }
     if (c->end_tree() && c->start_vertices() && !triangles_.empty()) hold_faces_over_vertices(*c, x, v, dt, out);
+    if (!triangles_.empty()) hold_faces_off_round(*c, x, v, dt, out);
+  }
+}
+
+void ColliderContacts::place(std::vector<NodeContact>& out, int i, const Vec3& normal, double displacement,
+                             const Vec3& surface_velocity, double friction) {
+  NodeContact contact;
+  contact.node = i;
+  contact.normal = normal;
+  contact.normal_displacement = displacement;
+  contact.surface_velocity = surface_velocity;
+  contact.friction = friction;
+  touching_[i] = 1;
+  touching_normal_[i] = normal;
+  if (slot_[i] >= 0) {
+    out[slot_[i]] = contact;
+  } else {
+    slot_[i] = static_cast<int>(out.size());
+    out.push_back(contact);
+  }
+}
+
+void ColliderContacts::hold_faces_off_round(const Collider& c, const VecX& x, const VecX& v, double dt,
+                                            std::vector<NodeContact>& out) {
+  // A cloth face over a round collider (or a box's rounded edge) dips between its vertices
+  // towards the surface: by about r^2 / (2 R) for a face of circumradius r over a radius R,
+  // 3 mm for a 17 x 17 metre square over a sphere of 0.3 m. Holding only its vertices at the
+  // thickness leaves its inside within the thickness, which the fail-safe lifts after every
+  // solve and the next solve pulls back down. So a face whose nearest point to the surface at
+  // its predicted end (x + dt v) lies off its vertices, within the hold margin and a quarter of
+  // the thickness (kFaceHoldDip) or more below its vertices' own has its free
+  // vertices held as that point is: moved along the surface's normal there by what puts the
+  // point at the thickness at the step's end. A node takes the hold of its lowest face, or its
+  // own contact where that is lower.
+  const double thickness = c.spec().thickness;
+  predicted_ = x + dt * v;
+  for (const auto& t : triangles_) {
+    if (!found_[t[0]] && !found_[t[1]] && !found_[t[2]]) continue;  // no vertex near this collider
+    if (found_[t[0]] && found_[t[1]] && found_[t[2]]) {
+      // Over a convex surface whose normals at the vertices' nearest points are at most theta
+      // apart, a face of longest edge L dips at most about L theta / 2 below its vertices (a
+      // chord over an arc: L theta / 8): over a box's flat side, or finer than the curvature,
+      // it cannot dip enough to be held.
+      double cos_least = 1, longest2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        const int a = t[k], b = t[(k + 1) % 3];
+        cos_least = std::min(cos_least, surface_[a].normal.dot(surface_[b].normal));
+        longest2 = std::max(longest2, (node(predicted_, a) - node(predicted_, b)).squaredNorm());
+      }
+      const double theta2 = 2 * std::max(0.0, 1 - cos_least);  // theta^2, nearly, for small angles
+      if (longest2 * theta2 < 4 * kFaceHoldDip * kFaceHoldDip * thickness * thickness) continue;
+    }
+    SurfacePoint sp;
+    Vec3 w;
+    if (!c.closest_to_triangle(node(predicted_, t[0]), node(predicted_, t[1]), node(predicted_, t[2]), sp, w)) return;
+    if (sp.distance >= kHoldMargin * thickness || w.maxCoeff() > 1 - kFaceHoldVertexWeight) continue;
+    // Only a face dipping well below its vertices: a finer one, whose vertices' own holds keep
+    // it clear of the fail-safe's trigger, is left to them.
+    if (std::min({node_gap_[t[0]], node_gap_[t[1]], node_gap_[t[2]]}) - sp.distance < kFaceHoldDip * thickness) continue;
+    const Vec3 face_velocity = w[0] * node(v, t[0]) + w[1] * node(v, t[1]) + w[2] * node(v, t[2]);
+    const double displacement = dt * face_velocity.dot(sp.normal) + thickness - sp.distance;
+    for (int k = 0; k < 3; ++k) {
+      const int i = t[k];
+      if (fixed_[i]) continue;
+      if (slot_[i] >= 0 && sp.distance >= best_gap_[i]) continue;
+      best_gap_[i] = sp.distance;
+      place(out, i, sp.normal, displacement, sp.displacement / dt, c.spec().friction);
+    }
   }
 }
 
@@ -743,22 +819,9 @@ void ColliderContacts::hold_faces_over_vertices(const Collider& c, const VecX& x
       // A node held against the surface closer than the face is to the vertex keeps that
       // contact; otherwise the face's is the more pressing one (a node can have only one).
       if (slot_[i] >= 0 && !std::isfinite(face_held_height_[i]) && best_gap_[i] <= poke.height) continue;
-      NodeContact contact;
-      contact.node = i;
-      contact.normal = poke.normal;
-      contact.normal_displacement = lift;
-      contact.surface_velocity = surface_velocity;
-      contact.friction = c.spec().friction;
       face_held_height_[i] = poke.height;
-      touching_[i] = 1;
-      touching_normal_[i] = poke.normal;
-      if (slot_[i] >= 0) {
-        out[slot_[i]] = contact;
-      } else {
-        slot_[i] = static_cast<int>(out.size());
-        best_gap_[i] = poke.height;
-        out.push_back(contact);
-      }
+      if (slot_[i] < 0) best_gap_[i] = poke.height;
+      place(out, i, poke.normal, lift, surface_velocity, c.spec().friction);
     }
   }
 }

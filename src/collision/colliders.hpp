@@ -107,6 +107,8 @@ class ColliderContacts : public ContactHandler {
   std::vector<Vec3> touching_normal_;  ///< touching_normals()
   /// Per node, the last query_nodes: whether it found a surface point, and the point.
   std::vector<char> found_;
+  /// Per node, detect's last collider: its predicted distance at the step's end (inf: none).
+  std::vector<double> node_gap_;
   std::vector<SurfacePoint> surface_;
   /// Runs `query(i, surface_[i])` for the free nodes i on every thread, its result in found_[i].
   template <class Query>
@@ -169,6 +171,12 @@ class ColliderContacts : public ContactHandler {
   /// the collider's surface owned by one of its triangles).
   std::vector<std::vector<unsigned char>> owned_edges_;
   std::vector<std::array<int, 2>> edge_candidates_;  ///< keep_edges_off_edges' scratch
+  /// Puts node i's contact into `out` (replacing the one it has there) and marks it touching.
+  void place(std::vector<NodeContact>& out, int i, const Vec3& normal, double displacement,
+             const Vec3& surface_velocity, double friction);
+  /// Holds the vertices of cloth faces that dip between them towards a round collider (or a
+  /// box's rounded edge) within the hold margin at their predicted end (step start).
+  void hold_faces_off_round(const Collider& c, const VecX& x, const VecX& v, double dt, std::vector<NodeContact>& out);
   /// Lifts cloth faces that sag between their vertices to within half the thickness of a
   /// round collider (sphere, capsule) back to the thickness.
   void lift_faces_off_round(const Collider& c, VecX& x1, VecX& v1, ContactReport& report);
