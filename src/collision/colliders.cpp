@@ -475,6 +475,10 @@ class MeshCollider : public Collider {
       box.add(p - Vec3::Constant(radius));
       box.add(p + Vec3::Constant(radius));
       tree.for_each_overlapping(box, [&](int f) {
+        // A triangle whose box lies farther than the nearest so far cannot be nearer.
+        const Box& b = tree.triangle_box(f);
+        const Vec3 gap = (b.lo - p).cwiseMax(p - b.hi).cwiseMax(0.0);
+        if (gap.squaredNorm() > best * best) return;
         const auto& t = list_[f];
         const PointTriangleClosest c = closest_point_triangle(p, x.row(t[0]).transpose(), x.row(t[1]).transpose(),
                                                               x.row(t[2]).transpose());
