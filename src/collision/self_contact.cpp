@@ -60,12 +60,14 @@ SelfContacts::SelfContacts(const std::vector<std::array<int, 3>>& triangles, con
       if (v < 0 || v >= n) throw std::invalid_argument("SelfContacts: a triangle's vertex is out of range");
       if (!seen[v]) {
         seen[v] = 1;
-        owned_vertices_[f].push_back(v);
+        Owned& o = owned_vertices_[f];
+        o.item[o.count++] = v;
       }
       const int w = triangles[f][(k + 1) % 3];
       const auto key = std::minmax(v, w);
       if (edge_id.emplace(key, static_cast<int>(edges_.size())).second) {
-        owned_edges_[f].push_back(static_cast<int>(edges_.size()));
+        Owned& o = owned_edges_[f];
+        o.item[o.count++] = static_cast<int>(edges_.size());
         edges_.push_back({key.first, key.second});
       }
     }
@@ -74,16 +76,27 @@ SelfContacts::SelfContacts(const std::vector<std::array<int, 3>>& triangles, con
   tree_ = AabbTree(triangles_, rest_positions.data());
   group_.resize(n);
   std::iota(group_.begin(), group_.end(), 0);
+  set_primitive_groups();
+}
+
+void SelfContacts::set_primitive_groups() {
+  triangle_group_.resize(triangles_.size());
+  for (size_t f = 0; f < triangles_.size(); ++f)
+    for (int k = 0; k < 3; ++k) triangle_group_[f][k] = group_[triangles_[f][k]];
+  edge_group_.resize(edges_.size());
+  for (size_t e = 0; e < edges_.size(); ++e) edge_group_[e] = {group_[edges_[e][0]], group_[edges_[e][1]]};
 }
 
 void SelfContacts::set_vertex_groups(std::vector<int> group) {
   if (group.size() != fixed_.size()) throw std::invalid_argument("SelfContacts: one group per vertex");
   group_ = std::move(group);
+  set_primitive_groups();
 }
 
-bool SelfContacts::holds(const std::array<int, 3>& t, int v) const {
+bool SelfContacts::holds(int f, int v) const {
   const int g = group_[v];
-  return group_[t[0]] == g || group_[t[1]] == g || group_[t[2]] == g;
+  const auto& t = triangle_group_[f];
+  return t[0] == g || t[1] == g || t[2] == g;
 }
 
 template <class VertexFace, class EdgeEdge>
@@ -127,19 +140,20 @@ void SelfContacts::for_each_candidate(const VecX& xa, const VecX& xb, double mar
     Stencil s;
     for (size_t c = k * kCandidateChunk, end = std::min(count, c + kCandidateChunk); c < end; ++c) {
       const int g = triangle_pairs_[c][0], h = triangle_pairs_[c][1];
+      const Box& box_g = tree_.triangle_box(g);
+      const Box& box_h = tree_.triangle_box(h);
       for (int pass = 0; pass < 2; ++pass) {
         const int a = pass ? h : g, b = pass ? g : h;
+        const Box& box_b = pass ? box_g : box_h;
         for (int v : owned_vertices_[a])
-          if (!holds(triangles_[b], v) && vb[v].overlaps(tree_.triangle_box(b)) && vertex_face(v, b, s))
-            out.push_back(s);
+          if (!holds(b, v) && vb[v].overlaps(box_b) && vertex_face(v, b, s)) out.push_back(s);
       }
       for (int e : owned_edges_[g]) {
-        const auto& p = edges_[e];
         const Box& be = eb[e];
-        if (!be.overlaps(tree_.triangle_box(h))) continue;
+        if (!be.overlaps(box_h)) continue;
+        const int p0 = edge_group_[e][0], p1 = edge_group_[e][1];
         for (int e2 : owned_edges_[h]) {
-          const auto& q = edges_[e2];
-          const int p0 = group_[p[0]], p1 = group_[p[1]], q0 = group_[q[0]], q1 = group_[q[1]];
+          const int q0 = edge_group_[e2][0], q1 = edge_group_[e2][1];
           if (p0 == q0 || p0 == q1 || p1 == q0 || p1 == q1) continue;
           if (be.overlaps(eb[e2]) && edge_edge(e, e2, s)) out.push_back(s);
         }

@@ -156,7 +156,15 @@ class SelfContacts : public ContactHandler {
 
   std::vector<std::array<int, 3>> triangles_;
   std::vector<std::array<int, 2>> edges_;
-  std::vector<std::vector<int>> owned_vertices_, owned_edges_;  ///< per triangle
+  /// Up to three vertices or edges a triangle owns, stored in place (the candidate loops read
+  /// them for every pair of triangles).
+  struct Owned {
+    std::array<int, 3> item{};
+    int count = 0;
+    const int* begin() const { return item.data(); }
+    const int* end() const { return item.data() + count; }
+  };
+  std::vector<Owned> owned_vertices_, owned_edges_;  ///< per triangle
   VecX inverse_mass_;                        ///< 0 for pinned nodes
   const std::vector<char>* held_ = nullptr;
   const std::vector<Vec3>* held_normal_ = nullptr;
@@ -164,8 +172,12 @@ class SelfContacts : public ContactHandler {
   std::vector<double> inward_budget_;   ///< per node this step: the inward speed still allowed
   std::vector<char> fixed_;
   std::vector<int> group_;  ///< set_vertex_groups; identity by default
-  /// Whether triangle t holds v or a vertex of its group.
-  bool holds(const std::array<int, 3>& t, int v) const;
+  /// Whether triangle f holds v or a vertex of its group.
+  bool holds(int f, int v) const;
+  /// The groups of each triangle's vertices and of each edge's ends (from group_).
+  std::vector<std::array<int, 3>> triangle_group_;
+  std::vector<std::array<int, 2>> edge_group_;
+  void set_primitive_groups();
   double thickness_, friction_;
   AabbTree tree_;
   SelfContactStatistics stats_;
