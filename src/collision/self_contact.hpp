@@ -1,6 +1,6 @@
 #pragma once
-// Cloth-cloth contact (docs/collisions.md, "Self-collision"): vertex-face constraints in the
-// solve for layers already within the thickness, then, after the solve, a fail-safe on
+// Cloth-cloth contact (docs/collisions.md, "Self-collision"): vertex-face and edge-edge holds
+// in the solve for layers already within the thickness, then, after the solve, a fail-safe on
 // the step's displacement in the spirit of Bridson, Fedkiw and Anderson 2002 (repulsions,
 // continuous-collision impulses, rigid impact zones) that ends every accepted step with no
 // cloth-cloth contact found by continuous detection along the straight trajectories.
@@ -48,8 +48,8 @@ struct SelfContactStatistics {
   double seconds = 0;           ///< time in the fail-safe
 };
 
-/// Cloth-cloth contact handling (integrate/contact.hpp) for one cloth mesh: vertex-face
-/// constraints in the solve (detect), then the fail-safe after it (finish_step). It keeps no
+/// Cloth-cloth contact handling (integrate/contact.hpp) for one cloth mesh: vertex-face and
+/// edge-edge holds in the solve (detect), then the fail-safe after it (finish_step). It keeps no
 /// state between steps but its statistics.
 class SelfContacts : public ContactHandler {
  public:
