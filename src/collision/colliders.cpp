@@ -205,11 +205,16 @@ class AnalyticCollider : public Collider {
     return true;
   }
 
+  bool answers_triangles() const override {
+    const ColliderShape shape = spec().shape;
+    return shape == ColliderShape::kBox || shape == ColliderShape::kSphere || shape == ColliderShape::kCapsule;
+  }
+
   bool closest_to_triangle(const Vec3& a, const Vec3& b, const Vec3& c, SurfacePoint& out,
                            Vec3& weights) const override {
     const ColliderSpec& s = spec();
+    if (!answers_triangles()) return false;
     if (s.shape == ColliderShape::kBox) return box_closest_to_triangle(a, b, c, out, weights);
-    if (s.shape != ColliderShape::kSphere && s.shape != ColliderShape::kCapsule) return false;
     // In the shape's frame at the step's end: the triangle's point nearest the centre (or the
     // axis: alternate projections between the segment and the triangle, both convex).
     const Vec3 la = end_inverse_ * a, lb = end_inverse_ * b, lc = end_inverse_ * c;
@@ -680,6 +685,7 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
   touching_normal_.assign(n, Vec3::Zero());
   prepared_t_ = t;
   prepared_dt_ = dt;
+  predicted_ = x + dt * v;  // the face holds' positions
   for (Collider* c : colliders_) {
     c->prepare(t, t + dt);
     const double thickness = c->spec().thickness;
@@ -718,8 +724,8 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
         out.push_back(contact);
       }
     }
-    if (c->end_tree() && c->start_vertices() && !triangles_.empty()) hold_faces_over_vertices(*c, x, v, dt, out);
-    if (!triangles_.empty()) hold_faces_off_round(*c, x, v, dt, out);
+    if (c->end_tree() && c->start_vertices() && !triangles_.empty()) hold_faces_over_vertices(*c, x, dt, out);
+    if (!triangles_.empty()) hold_faces_off_round(*c, v, dt, out);
   }
 }
 
@@ -741,7 +747,7 @@ void ColliderContacts::place(std::vector<NodeContact>& out, int i, const Vec3& n
   }
 }
 
-void ColliderContacts::hold_faces_off_round(const Collider& c, const VecX& x, const VecX& v, double dt,
+void ColliderContacts::hold_faces_off_round(const Collider& c, const VecX& v, double dt,
                                             std::vector<NodeContact>& out) {
   // A cloth face over a round collider (or a box's rounded edge) dips between its vertices
   // towards the surface: by about r^2 / (2 R) for a face of circumradius r over a radius R,
@@ -753,8 +759,8 @@ void ColliderContacts::hold_faces_off_round(const Collider& c, const VecX& x, co
   // vertices held as that point is: moved along the surface's normal there by what puts the
   // point at the thickness at the step's end. A node takes the hold of its lowest face, or its
   // own contact where that is lower.
+  if (!c.answers_triangles()) return;
   const double thickness = c.spec().thickness;
-  predicted_ = x + dt * v;
   for (const auto& t : triangles_) {
     if (!found_[t[0]] && !found_[t[1]] && !found_[t[2]]) continue;  // no vertex near this collider
     if (found_[t[0]] && found_[t[1]] && found_[t[2]]) {
@@ -773,7 +779,7 @@ void ColliderContacts::hold_faces_off_round(const Collider& c, const VecX& x, co
     }
     SurfacePoint sp;
     Vec3 w;
-    if (!c.closest_to_triangle(node(predicted_, t[0]), node(predicted_, t[1]), node(predicted_, t[2]), sp, w)) return;
+    c.closest_to_triangle(node(predicted_, t[0]), node(predicted_, t[1]), node(predicted_, t[2]), sp, w);
     if (sp.distance >= kHoldMargin * thickness || w.maxCoeff() > 1 - kFaceHoldVertexWeight) continue;
     // Only a face dipping well below its vertices: a finer one, whose vertices' own holds keep
     // it clear of the fail-safe's trigger, is left to them.
@@ -790,7 +796,7 @@ void ColliderContacts::hold_faces_off_round(const Collider& c, const VecX& x, co
   }
 }
 
-void ColliderContacts::hold_faces_over_vertices(const Collider& c, const VecX& x, const VecX& v, double dt,
+void ColliderContacts::hold_faces_over_vertices(const Collider& c, const VecX& x, double dt,
                                                 std::vector<NodeContact>& out) {
   // A cloth face that sags over a ridge of a mesh collider (a shoulder, a knuckle: the
   // collider's vertex between the face's vertices) is held like a node: its vertices, unless
@@ -799,7 +805,6 @@ void ColliderContacts::hold_faces_over_vertices(const Collider& c, const VecX& x
   // fail-safe would otherwise lift such faces after every solve and the solve pull them back,
   // putting elastic energy in at each step.
   const double thickness = c.spec().thickness;
-  predicted_ = x + dt * v;
   face_pokes(c, predicted_, kHoldMargin * thickness, pokes_);
   const Points& start = *c.start_vertices();
   const Points& end = *c.end_vertices();

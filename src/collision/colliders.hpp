@@ -39,6 +39,8 @@ class Collider {
   /// How far any point of the surface moves over the prepared step (m); 0 for a collider
   /// whose queries answer at any distance.
   virtual double step_motion() const { return 0; }
+  /// Whether closest_to_triangle answers (a round collider or a box).
+  virtual bool answers_triangles() const { return false; }
   /// For a round collider (sphere, capsule) or a box: the surface point nearest the triangle (a, b, c)
   /// at the step's end, with the triangle's point nearest it (its barycentric weights in
   /// `weights`); false for other colliders.
@@ -143,7 +145,7 @@ class ColliderContacts : public ContactHandler {
   void face_pokes(const Collider& c, const VecX& x, double limit, std::vector<FacePoke>& out);
   std::vector<FacePoke> pokes_;
   /// Holds the vertices of cloth faces that sag over collider c's vertices (step start).
-  void hold_faces_over_vertices(const Collider& c, const VecX& x, const VecX& v, double dt, std::vector<NodeContact>& out);
+  void hold_faces_over_vertices(const Collider& c, const VecX& x, double dt, std::vector<NodeContact>& out);
   VecX predicted_;                        ///< x + dt v at the step's start
   std::vector<double> face_held_height_;  ///< per node: the lowest poke holding it (inf: none)
   /// A candidate's geometry, measured both ways.
@@ -176,7 +178,7 @@ class ColliderContacts : public ContactHandler {
              const Vec3& surface_velocity, double friction);
   /// Holds the vertices of cloth faces that dip between them towards a round collider (or a
   /// box's rounded edge) within the hold margin at their predicted end (step start).
-  void hold_faces_off_round(const Collider& c, const VecX& x, const VecX& v, double dt, std::vector<NodeContact>& out);
+  void hold_faces_off_round(const Collider& c, const VecX& v, double dt, std::vector<NodeContact>& out);
   /// Lifts cloth faces that sag between their vertices to within half the thickness of a
   /// round collider (sphere, capsule) back to the thickness.
   void lift_faces_off_round(const Collider& c, VecX& x1, VecX& v1, ContactReport& report);
