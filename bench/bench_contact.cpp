@@ -15,6 +15,7 @@
 #include <string>
 
 #include "sim/simulation_core.hpp"
+#include "weft/threads.hpp"
 
 using namespace weft;
 
@@ -71,6 +72,7 @@ Scene body_drape(int n) {
 }
 
 void run(benchmark::State& bs, const Scene& scene) {
+  set_thread_count(1);  // the targets are for one thread
   Simulation sim(scene);
   sim.advance_to(0.3);
   StepStatistics stats;

@@ -50,6 +50,14 @@ class AabbTree {
   /// Calls f(triangle) for every triangle whose box overlaps `box`.
   template <class F>
   void for_each_overlapping(const Box& box, F&& f) const;
+  /// The triangle nearest p within `reach`, by `distance(triangle)` (its distance from p, no
+  /// less than the distance from p to its box), or -1 if none is within it. Of triangles at
+  /// the same distance, the first in the tree's order (the order for_each_overlapping visits
+  /// them in), so the answer depends on neither the search's order nor on `reach` beyond the
+  /// nearest distance. `nearest` is set to that distance. Boxes farther than the nearest
+  /// triangle found so far are not opened, the nearer child first.
+  template <class Distance>
+  int nearest(const Vec3& p, double reach, Distance&& distance, double& nearest) const;
   /// Calls f(i, j) once for every unordered pair of distinct triangles (in either order) whose
   /// boxes overlap. Neighbours in the mesh are included: callers filter them.
   template <class F>
@@ -101,6 +109,60 @@ void AabbTree::for_each_overlapping(const Box& box, F&& f) const {
     stack[top++] = n.right;
     stack[top++] = i + 1;
   }
+}
+
+namespace detail {
+// The squared distance from p to the box (0 inside it).
+inline double box_distance2(const Box& b, const Vec3& p) {
+  return (b.lo - p).cwiseMax(p - b.hi).cwiseMax(0.0).squaredNorm();
+}
+}  // namespace detail
+
+template <class Distance>
+int AabbTree::nearest(const Vec3& p, double reach, Distance&& distance, double& nearest) const {
+  nearest = reach;
+  if (nodes_.empty()) return -1;
+  int best_slot = -1;
+  double best2 = reach * reach;
+  struct Entry {
+    int node;
+    double distance2;
+  };
+  Entry stack[128];
+  int top = 0;
+  stack[top++] = {0, detail::box_distance2(nodes_[0].box, p)};
+  while (top > 0) {
+    const Entry e = stack[--top];
+    if (e.distance2 > best2) continue;
+    const Node& n = nodes_[e.node];
+    if (n.leaf()) {
+      for (int k = n.begin; k < n.end; ++k) {
+        if (detail::box_distance2(boxes_[k], p) > best2) continue;
+        const double d = distance(order_[k]);
+        if (d < nearest || (d == nearest && (best_slot < 0 || k < best_slot))) {
+          nearest = d;
+          best2 = d * d;
+          best_slot = k;
+        }
+      }
+      continue;
+    }
+    const Entry left{e.node + 1, detail::box_distance2(nodes_[e.node + 1].box, p)};
+    const Entry right{n.right, detail::box_distance2(nodes_[n.right].box, p)};
+    // The nearer child on top, opened first.
+    if (left.distance2 <= right.distance2) {
+      if (right.distance2 <= best2) stack[top++] = right;
+      if (left.distance2 <= best2) stack[top++] = left;
+    } else {
+      if (left.distance2 <= best2) stack[top++] = left;
+      if (right.distance2 <= best2) stack[top++] = right;
+    }
+  }
+  if (best_slot < 0) {
+    nearest = reach;
+    return -1;
+  }
+  return order_[best_slot];
 }
 
 template <class F>

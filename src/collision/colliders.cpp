@@ -68,8 +68,6 @@ constexpr double kFaceHoldVertexWeight = 1e-6;
 // hold_faces_off_round holds a face whose nearest point dips at least this many thicknesses
 // below its vertices' predicted distances (half the fail-safe's trigger depth).
 constexpr double kFaceHoldDip = 0.25;
-// The first, small search of a mesh collider's nearest-point query, in thicknesses.
-constexpr double kNearSearch = 2.5;
 // In the fail-safe's later rounds (ContactReport::round), nodes and faces the other handlers
 // moved closer than kLaterRoundTrigger thicknesses are put back at kLaterRoundTarget.
 constexpr double kLaterRoundTrigger = 0.25;
@@ -393,9 +391,9 @@ class AnalyticCollider : public Collider {
   Eigen::Isometry3d start_inverse_ = Eigen::Isometry3d::Identity(), end_inverse_ = Eigen::Isometry3d::Identity();
 };
 
-// A triangle mesh collider. The closest point is found among the triangles whose boxes (the
-// tree refitted to the surface at the query's time) meet a box of the reach about the point;
-// its side from the pseudo-normal of the feature it lies on (the face's normal, the sum of an
+// A triangle mesh collider. The closest point is the nearest triangle's within the reach (a
+// search of the tree refitted to the surface at the query's time, AabbTree::nearest); its
+// side from the pseudo-normal of the feature it lies on (the face's normal, the sum of an
 // edge's two faces' normals, the angle-weighted normals of a vertex's faces), which tells
 // inside from outside at every point of a closed surface.
 class MeshCollider : public Collider {
@@ -471,42 +469,17 @@ class MeshCollider : public Collider {
   bool closest(const Vec3& p, double reach, bool end, int node, SurfacePoint& out) const override {
     const Points& x = end ? end_ : start_;
     const AabbTree& tree = end ? tree_end_ : tree_start_;
-    double best = std::numeric_limits<double>::infinity();
-    int best_face = -1;
-    PointTriangleClosest hit{};
-    // The nearest triangle within `radius`: every triangle whose box meets the cube around p.
-    auto search = [&](double radius) {
-      Box box;
-      box.add(p - Vec3::Constant(radius));
-      box.add(p + Vec3::Constant(radius));
-      tree.for_each_overlapping(box, [&](int f) {
-        // A triangle whose box lies farther than the nearest so far cannot be nearer.
-        const Box& b = tree.triangle_box(f);
-        const Vec3 gap = (b.lo - p).cwiseMax(p - b.hi).cwiseMax(0.0);
-        if (gap.squaredNorm() > best * best) return;
-        const auto& t = list_[f];
-        const PointTriangleClosest c = closest_point_triangle(p, x.row(t[0]).transpose(), x.row(t[1]).transpose(),
-                                                              x.row(t[2]).transpose());
-        if (c.distance < best) {
-          best = c.distance;
-          best_face = f;
-          hit = c;
-        }
-      });
-    };
-    // Most queries come from nodes near the surface: a small cube first, which holds the
-    // nearest triangle whenever it lies within its radius (then the same triangle, found in
-    // the same order, as the whole reach would give), and the whole reach only if not.
-    const double near = kNearSearch * spec().thickness;
-    if (near < reach) {
-      search(near);
-      if (best_face >= 0 && best > near) {
-        best = std::numeric_limits<double>::infinity();
-        best_face = -1;
-      }
-    }
-    if (best_face < 0) search(reach);
-    if (best_face < 0 || best > reach) return false;
+    // The nearest triangle within the reach (its point found again for the winner only).
+    double best = 0;
+    const int best_face = tree.nearest(p, reach, [&](int f) {
+      const auto& t = list_[f];
+      return closest_point_triangle(p, x.row(t[0]).transpose(), x.row(t[1]).transpose(), x.row(t[2]).transpose())
+          .distance;
+    }, best);
+    if (best_face < 0) return false;
+    const auto& t = list_[best_face];
+    const PointTriangleClosest hit =
+        closest_point_triangle(p, x.row(t[0]).transpose(), x.row(t[1]).transpose(), x.row(t[2]).transpose());
     const Vec3 pseudo = pseudo_normal(best_face, hit.feature, end);
     const Vec3 away = p - hit.point;
     // The free side: outside a closed surface (where its normals point); for an open one the
@@ -523,7 +496,6 @@ class MeshCollider : public Collider {
     out.distance = sign * best;
     out.normal = best > 1e-12 ? Vec3(sign * away / best) : Vec3(free * pseudo.normalized());
     out.point = hit.point;
-    const auto& t = list_[best_face];
     Vec3 before = Vec3::Zero(), after = Vec3::Zero();
     for (int k = 0; k < 3; ++k) {
       before += hit.weights[k] * start_.row(t[k]).transpose();
@@ -1014,11 +986,15 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
       });
       std::sort(vertices.begin(), vertices.end());
       vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+      const Vec3 a = node(x, t[0]), b = node(x, t[1]), cc = node(x, t[2]);
+      const Vec3 face_normal = (b - a).cross(cc - a);
+      const double area2 = face_normal.norm();
+      const Vec3 unit_face_normal = area2 > 0 ? Vec3(face_normal / area2) : Vec3::Zero();
       for (const int vertex : vertices) {
         const Vec3 p = body.row(vertex).transpose();
-        const Vec3 n = c.end_vertex_normal(vertex);
-        const PointTriangleClosest q = closest_point_triangle(p, node(x, t[0]), node(x, t[1]), node(x, t[2]));
+        const PointTriangleClosest q = closest_point_triangle(p, a, b, cc);
         if (q.feature.kind == FeatureKind::kVertex) continue;  // a neighbouring face's
+        const Vec3 n = c.end_vertex_normal(vertex);
         const bool on_edge = q.feature.kind == FeatureKind::kEdge;
         // Two ways to measure the face's height over the vertex: along the vertex's normal, and,
         // for a vertex whose normal says little about the face (a nose's tip, a chin, where the
@@ -1033,9 +1009,7 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
         const double height = test.poke.height;
         test.by_vertex_normal = height < limit && height >= -kMaxPokeDepth &&
                                 !(on_edge && (q.point - p - height * n).norm() > 0.5 * thickness);
-        const Vec3 face_normal = (node(x, t[1]) - node(x, t[0])).cross(node(x, t[2]) - node(x, t[0]));
-        const double area2 = face_normal.norm();
-        test.face_normal = area2 > 0 ? Vec3(face_normal / area2) : Vec3::Zero();
+        test.face_normal = unit_face_normal;
         test.face_height = (q.point - p).dot(test.face_normal);
         test.by_face_normal = area2 > 0 && !on_edge && std::abs(test.face_height) < std::max(limit, kMaxPokeDepth);
         if (test.by_vertex_normal || test.by_face_normal) found.push_back(test);

@@ -1,12 +1,14 @@
 // The bounding-volume tree against brute force on random triangle soups: the same box
 // queries, self pairs and tree-tree pairs as comparing every box with every other, after
-// building, after refitting to moved positions, and with swept, grown boxes.
+// building, after refitting to moved positions, and with swept, grown boxes; the same nearest
+// triangle as measuring every one.
 #include <gtest/gtest.h>
 
 #include <random>
 #include <set>
 
 #include "collision/aabb_tree.hpp"
+#include "collision/geometry.hpp"
 
 namespace weft {
 namespace {
@@ -135,12 +137,96 @@ TEST(AabbTree, PairsBetweenTreesMatchBruteForce) {
   }
 }
 
+double distance_to(const Soup& s, int f, const Vec3& p) {
+  auto v = [&](int i) { return Vec3(s.x.segment<3>(3 * i)); };
+  const auto& t = s.triangles[f];
+  return closest_point_triangle(p, v(t[0]), v(t[1]), v(t[2])).distance;
+}
+
+TEST(AabbTree, NearestMatchesBruteForce) {
+  std::mt19937 rng(6);
+  const Soup s = random_soup(rng, 300);
+  const AabbTree tree(s.triangles, s.x.data());
+  std::uniform_real_distribution<double> u(-0.2, 1.2), r(0, 0.3);
+  int found = 0, none = 0;
+  for (int q = 0; q < 500; ++q) {
+    const Vec3 p(u(rng), u(rng), u(rng));
+    const double reach = r(rng);
+    double least = std::numeric_limits<double>::infinity();
+    for (int f = 0; f < static_cast<int>(s.triangles.size()); ++f) least = std::min(least, distance_to(s, f, p));
+    double nearest = -1;
+    const int f = tree.nearest(p, reach, [&](int g) { return distance_to(s, g, p); }, nearest);
+    if (least > reach) {
+      EXPECT_EQ(f, -1) << q;
+      EXPECT_EQ(nearest, reach);
+      ++none;
+    } else {
+      ASSERT_GE(f, 0) << q;
+      EXPECT_EQ(nearest, least) << q;
+      EXPECT_EQ(distance_to(s, f, p), least) << q;
+      ++found;
+    }
+  }
+  EXPECT_GT(found, 50);  // both outcomes exercised
+  EXPECT_GT(none, 50);
+}
+
+TEST(AabbTree, NearestOfTiedTrianglesIsTheFirstInTheTreesOrder) {
+  // Two triangles whose nearest points to p are their corners p -+ (1/4, 1/4, 0), at exactly
+  // the same distance: A below, lying along the axes (its box as far from p as it is), B above,
+  // leaning across the diagonal (its box nearer p than it is, so a search opening the nearer
+  // box first meets B first). Each has three copies shifted away along x, filling one leaf of
+  // the tree each, A's first in the tree's order.
+  const Vec3 p(0.5, 0.5, 0.5);
+  Soup s;
+  std::vector<Vec3> v;
+  auto add = [&](const Vec3& a, const Vec3& b, const Vec3& c) {
+    const int i = static_cast<int>(v.size());
+    v.insert(v.end(), {a, b, c});
+    s.triangles.push_back({i, i + 1, i + 2});
+  };
+  const Vec3 ca = p - Vec3(0.25, 0.25, 0), cb = p + Vec3(0.25, 0.25, 0);
+  for (int k = 0; k < 4; ++k) {
+    const Vec3 shift(0.5 * k, 0, 0);
+    add(ca - shift, ca - shift - Vec3(0.25, 0, 0), ca - shift + Vec3(0, -0.25, 0.125));
+  }
+  for (int k = 0; k < 4; ++k) {
+    const Vec3 shift(0.5 * k, 0, 0);
+    add(cb + shift, cb + shift + Vec3(0.25, -0.125, 0), cb + shift + Vec3(-0.125, 0.25, 0.125));
+  }
+  s.x.resize(3 * static_cast<int>(v.size()));
+  for (size_t i = 0; i < v.size(); ++i) s.x.segment<3>(3 * static_cast<int>(i)) = v[i];
+  const AabbTree tree(s.triangles, s.x.data());
+  const double tie = distance_to(s, 0, p);
+  ASSERT_EQ(distance_to(s, 4, p), tie);  // A (0) and B (4) tie exactly
+  for (int f = 0; f < 8; ++f)
+    if (f != 0 && f != 4) ASSERT_GT(distance_to(s, f, p), tie);
+  // The first of the two in for_each_overlapping's order: A.
+  int first = -1;
+  Box all;
+  all.add(Vec3::Constant(-10));
+  all.add(Vec3::Constant(10));
+  tree.for_each_overlapping(all, [&](int f) {
+    if (first < 0 && (f == 0 || f == 4)) first = f;
+  });
+  ASSERT_EQ(first, 0);
+  for (double reach : {tie, 0.4, 5.0}) {
+    double nearest = 0;
+    EXPECT_EQ(tree.nearest(p, reach, [&](int g) { return distance_to(s, g, p); }, nearest), first) << reach;
+    EXPECT_EQ(nearest, tie);
+  }
+  double nearest = 0;
+  EXPECT_EQ(tree.nearest(p, 0.99 * tie, [&](int g) { return distance_to(s, g, p); }, nearest), -1);
+}
+
 TEST(AabbTree, EmptyTreeHasNoPairs) {
   const AabbTree empty(Triangles3{}, nullptr);
   int calls = 0;
   empty.for_each_self_pair([&](int, int) { ++calls; });
   empty.for_each_overlapping(Box{Vec3::Constant(-1e9), Vec3::Constant(1e9)}, [&](int) { ++calls; });
   EXPECT_EQ(calls, 0);
+  double nearest = 0;
+  EXPECT_EQ(empty.nearest(Vec3::Zero(), 1.0, [&](int) { return 0.0; }, nearest), -1);
   EXPECT_EQ(empty.triangle_count(), 0);
 }
 
