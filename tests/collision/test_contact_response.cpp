@@ -295,10 +295,10 @@ TEST(MeshCollider, ClosedMeshTellsInsideFromOutsideEverywhere) {
   }
 }
 
-TEST(MeshCollider, TheNearestPointIsFoundBeyondTheFirstSmallSearch) {
-  // The query looks within 2.5 thicknesses first: there only a small triangle in the corner of
-  // that cube, 1.56 cm from the point, lies; the nearest, a wide one 1.2 cm away along x, lies
-  // outside the cube and must still be the answer.
+TEST(MeshCollider, TheNearestOfAWideAndASmallTriangleIsFound) {
+  // A small triangle 1.56 cm from the point, in the corner of the cube of 2.5 thicknesses
+  // around it, and a wide one 1.2 cm away along x, outside that cube: the wide one is the
+  // answer (a search that looked in the small cube first and stopped there would miss it).
   Points p(6, 3);
   p << 0.012, -0.05, -0.05, 0.012, 0.05, -0.05, 0.012, 0.0, 0.08,  // wide, in the plane x = 1.2 cm
       0.009, 0.009, 0.009, 0.0095, 0.009, 0.009, 0.009, 0.0095, 0.009;  // small, in the corner
@@ -313,7 +313,7 @@ TEST(MeshCollider, TheNearestPointIsFoundBeyondTheFirstSmallSearch) {
   ASSERT_TRUE(mesh->closest(Vec3::Zero(), 0.03, false, 0, a));
   EXPECT_NEAR(std::abs(a.distance), 0.012, 1e-12);
   EXPECT_NEAR(a.point.x(), 0.012, 1e-12);
-  // Within the small search the nearest is the corner's triangle; beyond the reach, nothing.
+  // From next to the corner's triangle, that one; with a reach short of both, nothing.
   ASSERT_TRUE(mesh->closest(Vec3(0.009, 0.009, 0.0085), 0.03, false, 1, a));
   EXPECT_NEAR(std::abs(a.distance), 0.0005, 1e-12);
   EXPECT_FALSE(mesh->closest(Vec3::Zero(), 0.011, false, 2, a));
