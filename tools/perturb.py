@@ -10,8 +10,9 @@ small changes, and the guarded step"). The variations:
 - the first collider's friction lowered by 0.01.
 
 Each variation is written to OUT/NAME.json (file paths made absolute) and run with
-`weft --threads 1 run -q --no-frames` into OUT/NAME/, --jobs at a time; the table goes to
-standard output and OUT/results.md.
+`weft --threads 1 run -q --no-frames` into OUT/NAME/ (for --duration seconds if given),
+--jobs at a time; the table goes to standard output and OUT/results.md. The exit status is 1
+when any run did not end `ok`.
 
     tools/perturb.py scenes/body-drape.json --out out/perturb-body-drape --jobs 2
 """
@@ -61,10 +62,12 @@ def variations(scene, shift):
     return out
 
 
-def run(weft, out, name):
+def run(weft, out, name, duration):
     folder = os.path.join(out, name)
-    proc = subprocess.run([weft, "--threads", "1", "run", "-q", "--no-frames", os.path.join(out, name + ".json"),
-                           "--out", folder], capture_output=True, text=True)
+    command = [weft, "--threads", "1", "run", "-q", "--no-frames", os.path.join(out, name + ".json"), "--out", folder]
+    if duration is not None:
+        command += ["--duration", str(duration)]
+    proc = subprocess.run(command, capture_output=True, text=True)
     try:
         with open(os.path.join(folder, "summary.json")) as f:
             s = json.load(f)
@@ -95,6 +98,7 @@ def main():
     p.add_argument("--shift", type=float, default=0.001, help="how far to move the cloth, in metres (default 0.001)")
     p.add_argument("--jobs", type=int, default=1, help="runs at a time (default 1)")
     p.add_argument("--weft", default="build/weft", help="the weft binary (default build/weft)")
+    p.add_argument("--duration", type=float, help="simulated seconds of every run (default: the scene's)")
     a = p.parse_args()
     if not os.path.isfile(a.weft):
         sys.exit(f"perturb.py: no weft binary at {a.weft} (build first, or give --weft)")
@@ -110,7 +114,7 @@ def main():
         with open(os.path.join(a.out, name + ".json"), "w") as f:
             json.dump(v, f, indent=1)
     with ThreadPoolExecutor(max_workers=max(1, a.jobs)) as pool:
-        results = list(pool.map(lambda t: run(a.weft, a.out, t[0]), todo))
+        results = list(pool.map(lambda t: run(a.weft, a.out, t[0], a.duration), todo))
     lines = [f"{a.scene}, one thread each, {a.jobs} at a time:", "",
              "| variation | status | fail-safes' work (J) | intersecting pairs | guard parts per step | wall (s) |",
              "|---|---|---|---|---|---|"]
