@@ -143,30 +143,37 @@ TEST(CollisionScenes, TwistedSheetEndsEveryFrameClearOfItself) {
 
 // The walk reduced: a cropped shirt (GarmentCode's shirt_mean, triangles of 2 cm) sewn on the
 // standing mannequin, 0.1 s standing, then the arms come down from the T-pose as the body blends
-// into the walk over 0.4 s (arms spread by 20 degrees, as scenes/walk.json), backward Euler at
-// 5 ms: every frame free of cloth-body intersections and of self-intersections, and the energy
-// balanced: backward Euler takes energy out, never puts it in, so what the balance leaves to the
-// integrator (numerical_dissipated: the start's energy plus the contacts' work less the end's
-// and the viscous work) is not negative.
+// into the walk over 0.4 s (arms spread by 20 degrees, as scenes/walk.json, and by 21),
+// backward Euler at 5 ms with two Newton iterations a step: every frame free of cloth-body
+// intersections and of self-intersections, and the energy balanced: the iterated backward
+// Euler step takes energy out, never puts it in, so what the balance leaves to the integrator
+// (numerical_dissipated: the start's energy plus the contacts' work less the end's and the
+// viscous work) is not negative. The linearised step can put energy in here, where cotton
+// stiffens faster than its tangent at the step's start says: with the arms spread by 21
+// degrees it blew up at 0.46 s (10.5 J), and whether it does depends on the last bits of the
+// run (docs/collisions.md, "Newton iterations at impact").
 TEST(CollisionScenes, ShirtOnTheMannequinLoweringItsArmsIntoTheWalkStaysClear) {
-  const std::string text = R"({
-    "weft_scene": 1, "duration": 0.5, "frame_interval": 0.02,
-    "integrator": {"method": "backward-euler", "dt": 0.005},
-    "cloth": {"mesh": {"pattern": {"file": "../data/patterns/garmentcode/shirt_mean_specification.json",
-                                   "edge_length": 0.02}},
-              "material": "cotton", "self_collision": true},
-    "colliders": [{"type": "body", "speed": 0.75, "bind_pose_hold": 0.1, "blend": 0.4,
-                   "arm_spread_deg": 20, "thickness": 0.004, "friction": 0.5}]})";
-  const Scene scene = parse_scene_text(text, "reduced-walk.json", std::string(WEFT_SOURCE_DIR) + "/scenes");
-  RunResult result;
-  const Totals t = run_scene(scene, "reduced walk", &result);
-  EXPECT_EQ(t.frames, 26u);
-  EXPECT_EQ(t.cloth_collider, 0u);
-  EXPECT_EQ(t.cloth_self, 0u);
-  EXPECT_GT(t.contacts, 0);
-  ASSERT_FALSE(result.energy.empty());
-  for (const auto& e : result.energy) {
-    EXPECT_GE(e.numerical_dissipated, -1e-9 * (1 + std::abs(e.total()))) << "t = " << e.time;
-    EXPECT_GE(e.viscous_dissipated, 0.0) << "t = " << e.time;
+  for (const char* spread : {"20", "21"}) {
+    SCOPED_TRACE(std::string("arms spread by ") + spread + " degrees");
+    const std::string text = std::string(R"({
+      "weft_scene": 1, "duration": 0.5, "frame_interval": 0.02,
+      "integrator": {"method": "backward-euler", "dt": 0.005, "newton_iterations": 2},
+      "cloth": {"mesh": {"pattern": {"file": "../data/patterns/garmentcode/shirt_mean_specification.json",
+                                     "edge_length": 0.02}},
+                "material": "cotton", "self_collision": true},
+      "colliders": [{"type": "body", "speed": 0.75, "bind_pose_hold": 0.1, "blend": 0.4,
+                     "arm_spread_deg": )") + spread + R"(, "thickness": 0.004, "friction": 0.5}]})";
+    const Scene scene = parse_scene_text(text, "reduced-walk.json", std::string(WEFT_SOURCE_DIR) + "/scenes");
+    RunResult result;
+    const Totals t = run_scene(scene, "reduced walk", &result);
+    EXPECT_EQ(t.frames, 26u);
+    EXPECT_EQ(t.cloth_collider, 0u);
+    EXPECT_EQ(t.cloth_self, 0u);
+    EXPECT_GT(t.contacts, 0);
+    ASSERT_FALSE(result.energy.empty());
+    for (const auto& e : result.energy) {
+      EXPECT_GE(e.numerical_dissipated, -1e-9 * (1 + std::abs(e.total()))) << "t = " << e.time;
+      EXPECT_GE(e.viscous_dissipated, 0.0) << "t = " << e.time;
+    }
   }
 }
