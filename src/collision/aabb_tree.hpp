@@ -158,11 +158,7 @@ int AabbTree::nearest(const Vec3& p, double reach, Distance&& distance, double& 
       if (right.distance2 <= best2) stack[top++] = right;
     }
   }
-  if (best_slot < 0) {
-    nearest = reach;
-    return -1;
-  }
-  return order_[best_slot];
+  return best_slot < 0 ? -1 : order_[best_slot];  // nearest stays at reach when none is found
 }
 
 template <class F>
