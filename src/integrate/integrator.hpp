@@ -85,6 +85,12 @@ struct State {
   /// no force did, so the instability rule does not count it as work done on the cloth.
   double fail_safe_work = 0;
   double rk45_step = 0;           ///< RK45 step size carried between calls
+  /// The fixed-step methods' own clock: the sum of the steps taken. `t` is set to each
+  /// requested end time exactly (Integrator::advance), which may differ from this sum in the
+  /// last bits; the steps go on from the sum, so that how a run is cut into calls (how often
+  /// frames are written) does not change it. Used only while within a step's millionth of `t`
+  /// (a time set from outside restarts the clock there).
+  double step_clock = 0;
 };
 
 

@@ -20,7 +20,7 @@
 
 namespace weft {
 
-constexpr std::uint32_t kCheckpointFormatVersion = 7;
+constexpr std::uint32_t kCheckpointFormatVersion = 8;
 
 
 /// Appends values in binary to a byte string.

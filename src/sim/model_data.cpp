@@ -396,6 +396,7 @@ void save_data(const SimulationModel& M, const SimulationData& D, BinaryWriter& 
   out.f64(s.contact_work);
   out.f64(s.fail_safe_work);
   out.f64(s.rk45_step);
+  out.f64(s.step_clock);
   for (long c : {D.statistics.steps, D.statistics.rejected_steps, D.statistics.cg_iterations, D.statistics.cg_solves, D.statistics.cg_failures,
                  D.statistics.contacts, D.statistics.max_contacts, D.statistics.released_contacts, D.statistics.fail_safe_moves,
                  D.statistics.contact_passes, D.statistics.failed_contact_steps, D.statistics.halved_steps, D.statistics.guard_redone_steps,
@@ -460,6 +461,7 @@ void restore_data(const SimulationModel& M, SimulationData& D, BinaryReader& in)
   s.contact_work = in.f64();
   s.fail_safe_work = in.f64();
   s.rk45_step = in.f64();
+  s.step_clock = in.f64();
   StepStatistics st;
   for (long* c : {&st.steps, &st.rejected_steps, &st.cg_iterations, &st.cg_solves, &st.cg_failures, &st.contacts,
                   &st.max_contacts, &st.released_contacts, &st.fail_safe_moves, &st.contact_passes,
