@@ -482,6 +482,11 @@ void Integrator::backward_euler_parts(State& s, double dt, StepStatistics& stats
 void Integrator::linear_step(State& s, double dt, double alpha, double beta, double dt_b,
                              StepStatistics& stats) {
   const auto t0 = Clock::now();
+  if (!d_.handlers.empty()) {
+    d_.start_kinetic = kinetic_energy(s.v);
+    d_.start_viscous = s.viscous_dissipated;
+    d_.start_contact_work = s.contact_work;
+  }
   system_.begin_step(s.x, s.v, dt);
   const BlockPattern& P = system_.pattern();
   const int n = system_.num_nodes();
@@ -978,6 +983,22 @@ void Integrator::contact_velocities(State& s, double dt, double dt_b) {
 void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics& stats) {
   const auto tr = Clock::now();
   d_.v_before_fail_safe = s.v;
+  // An unguarded semi-implicit solve that held contacts and put energy in (kSolveGainLimit) is
+  // taken again as two halves, whatever the fail-safes make of it. (The guarded steps weigh the
+  // whole step's gain; without contacts, or without an energy scale to weigh it by, the step is
+  // the method's own.)
+  bool overshot = false;
+  const bool held = std::any_of(d_.contacts.begin(), d_.contacts.end(), [](const NodeContact& c) { return !c.kinematic; });
+  if (held && d_.energy_scale > 0 && !c_.settings.guard &&
+      (c_.settings.method == Method::AlphaFamily || c_.settings.method == Method::Bdf2) && c_.settings.alpha > 0.0) {
+    double elastic, gravity;
+    potential_energy(s.x, elastic, gravity);
+    const double start = d_.start_kinetic + d_.step.elastic_energy + d_.step.gravity_energy;
+    const double gain = kinetic_energy(s.v) + elastic + gravity - start + (s.viscous_dissipated - d_.start_viscous) -
+                        (s.contact_work - d_.start_contact_work);
+    const double scale = std::max(d_.energy_scale, d_.start_kinetic + d_.step.elastic_energy);
+    overshot = !(gain <= kSolveGainLimit * scale);
+  }
   // The fail-safes first, then the handlers that prescribe motions (clamps), which have the
   // last word on their vertices. Each group's work is the whole change of mechanical energy it
   // made: besides the kinetic energy of its changes of velocity (report.work), moving a vertex
@@ -1033,7 +1054,7 @@ void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics&
     s.dx_prev += dt * d_.v_before_fail_safe;
   }
   if (!all.ok) ++stats.failed_contact_steps;
-  d_.last_step_ok = all.ok;
+  d_.last_step_ok = all.ok && !overshot;
   stats.fail_safe_moves += all.fail_safe_moves;
   stats.response_seconds += seconds_since(tr);
 }
@@ -1049,6 +1070,11 @@ void Integrator::derivative(const VecX& x, const VecX& v, VecX& a, double& visco
 
 void Integrator::rk4_step(State& s, double dt, StepStatistics& stats) {
   const auto t0 = Clock::now();
+  if (!d_.handlers.empty()) {
+    d_.start_kinetic = kinetic_energy(s.v);
+    d_.start_viscous = s.viscous_dissipated;
+    d_.start_contact_work = s.contact_work;
+  }
   system_.begin_step(s.x, s.v, dt);
   if (!d_.handlers.empty()) d_.x_start = s.x;
   VecX a1, a2, a3, a4;

@@ -57,6 +57,12 @@ constexpr int kMaxContactPasses = 2;
 constexpr int kNewtonContactRounds = 2;
 /// How many times a step the contact handlers could not make valid is halved.
 constexpr int kMaxStepHalvings = 3;
+/// A linearised solve (unguarded) whose end, before the fail-safes, holds more mechanical
+/// energy than its start by more than this fraction of the energy scale (beyond the viscous
+/// and contacts' work) overshot: wrung, stiff cloth pressed into itself, where the fail-safes
+/// would take most of it out again and leave the rest. The step is taken again as two halves,
+/// as one the handlers could not make valid.
+constexpr double kSolveGainLimit = 1.0;
 /// Rounds of the fail-safes after the first, where several handlers correct a step (the
 /// colliders' and the cloth's own): each gives the first handler the nodes the others moved.
 /// A step whose first handler still moves nodes in the last round is reported invalid.
@@ -145,6 +151,9 @@ class Integrator {
     VecX mean_velocity;  ///< the step's dx/dt (the viscous work's accounting)
     VecX x_forces;       ///< where a Newton-iterated step evaluated its forces: x + alpha dx
     bool last_step_ok = true;  ///< the handlers' verdict on the last step
+    /// linear_step's start, for the solve's energy gain (kSolveGainLimit): kinetic energy,
+    /// viscous and contacts' work so far (J)
+    double start_kinetic = 0, start_viscous = 0, start_contact_work = 0;
     int retry_depth = 0;
     std::vector<NodeContact> contacts;   ///< this step's, held by the solve
     std::vector<Vec3> contact_dv;        ///< the prescribed part of dv per contact
