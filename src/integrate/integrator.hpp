@@ -57,12 +57,13 @@ constexpr int kMaxContactPasses = 2;
 constexpr int kNewtonContactRounds = 2;
 /// How many times a step the contact handlers could not make valid is halved.
 constexpr int kMaxStepHalvings = 3;
-/// A linearised solve (unguarded) whose end, before the fail-safes, holds more mechanical
-/// energy than its start by more than this fraction of the energy scale (beyond the viscous
-/// and contacts' work) overshot: wrung, stiff cloth pressed into itself, where the fail-safes
-/// would take most of it out again and leave the rest. The step is taken again as two halves,
-/// as one the handlers could not make valid.
-constexpr double kSolveGainLimit = 1.0;
+/// A linearised solve (unguarded, holding contacts) whose end, before the fail-safes, holds
+/// more mechanical energy than its start by more than this fraction of the energy scale
+/// (beyond the viscous and contacts' work) overshot up a stiffening stress curve: wrung cloth
+/// pressed into itself, where the fail-safes would take most of it out again, or a sheet's
+/// first impact. The step is taken again as two halves, as one the handlers could not make
+/// valid (docs/collisions.md, "Solves that overshoot are taken again as halves").
+constexpr double kSolveGainLimit = 0.1;
 /// Rounds of the fail-safes after the first, where several handlers correct a step (the
 /// colliders' and the cloth's own): each gives the first handler the nodes the others moved.
 /// A step whose first handler still moves nodes in the last round is reported invalid.
