@@ -10,8 +10,8 @@ small changes, and the guarded step"). The variations:
 - the first collider's friction lowered by 0.01.
 
 Each variation is written to OUT/NAME.json (file paths made absolute) and run with
-`weft --threads 1 run -q --no-frames` into OUT/NAME/ (for --duration seconds if given),
---jobs at a time; the table goes to standard output and OUT/results.md. The exit status is 1
+`weft --threads 1 run -q --no-frames` into OUT/NAME/ (for --duration seconds and under
+--method if given), --jobs at a time; the table goes to standard output and OUT/results.md. The exit status is 1
 when any run did not end `ok`.
 
     tools/perturb.py scenes/body-drape.json --out out/perturb-body-drape --jobs 2
@@ -62,11 +62,15 @@ def variations(scene, shift):
     return out
 
 
-def run(weft, out, name, duration):
+def run(weft, out, name, duration, method, alpha):
     folder = os.path.join(out, name)
     command = [weft, "--threads", "1", "run", "-q", "--no-frames", os.path.join(out, name + ".json"), "--out", folder]
     if duration is not None:
         command += ["--duration", str(duration)]
+    if method is not None:
+        command += ["--method", method]
+    if alpha is not None:
+        command += ["--alpha", str(alpha)]
     proc = subprocess.run(command, capture_output=True, text=True)
     try:
         with open(os.path.join(folder, "summary.json")) as f:
@@ -81,14 +85,15 @@ def row(what, s):
     if status == "unstable":
         status = f"unstable at {s.get('unstable_time', 0):.2f} s"
     if "contacts" not in s:
-        return f"| {what} | {status} | | | | |"
+        return f"| {what} | {status} | | | | | |"
     inter = s.get("intersections", {})
     pairs = inter.get("total") if isinstance(inter, dict) else inter
     parts = (s.get("guard") or {}).get("parts_per_step")
     work = s["contacts"].get("fail_safe_work_J", 0)
     work_text = f"{work:,.0f}" if abs(work) >= 100 else f"{work:.3g}"
     parts_text = "" if parts is None else f"{parts:.2f}"
-    return f"| {what} | {status} | {work_text} | {pairs} | {parts_text} | {s.get('wall_seconds', 0):.1f} |"
+    halved = s["contacts"].get("halved_steps", 0)
+    return f"| {what} | {status} | {work_text} | {pairs} | {parts_text} | {halved} | {s.get('wall_seconds', 0):.1f} |"
 
 
 def main():
@@ -99,6 +104,8 @@ def main():
     p.add_argument("--jobs", type=int, default=1, help="runs at a time (default 1)")
     p.add_argument("--weft", default="build/weft", help="the weft binary (default build/weft)")
     p.add_argument("--duration", type=float, help="simulated seconds of every run (default: the scene's)")
+    p.add_argument("--method", help="the integrator of every run, as weft run's --method (default: the scene's)")
+    p.add_argument("--alpha", type=float, help="the implicitness for --method alpha, bdf2-alpha or bdf2-alpha-guarded")
     a = p.parse_args()
     if not os.path.isfile(a.weft):
         sys.exit(f"perturb.py: no weft binary at {a.weft} (build first, or give --weft)")
@@ -114,10 +121,12 @@ def main():
         with open(os.path.join(a.out, name + ".json"), "w") as f:
             json.dump(v, f, indent=1)
     with ThreadPoolExecutor(max_workers=max(1, a.jobs)) as pool:
-        results = list(pool.map(lambda t: run(a.weft, a.out, t[0], a.duration), todo))
-    lines = [f"{a.scene}, one thread each, {a.jobs} at a time:", "",
-             "| variation | status | fail-safes' work (J) | intersecting pairs | guard parts per step | wall (s) |",
-             "|---|---|---|---|---|---|"]
+        results = list(pool.map(lambda t: run(a.weft, a.out, t[0], a.duration, a.method, a.alpha), todo))
+    method = f", --method {a.method}" if a.method else ""
+    method += f" --alpha {a.alpha:g}" if a.alpha is not None else ""
+    lines = [f"{a.scene}{method}, one thread each, {a.jobs} at a time:", "",
+             "| variation | status | fail-safes' work (J) | intersecting pairs | guard parts per step | steps halved | wall (s) |",
+             "|---|---|---|---|---|---|---|"]
     lines += [row(what, s) for (_, what, _), s in zip(todo, results)]
     text = "\n".join(lines) + "\n"
     with open(os.path.join(a.out, "results.md"), "w") as f:
