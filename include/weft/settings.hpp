@@ -48,6 +48,11 @@ struct IntegratorSettings {
   /// taken again with a larger alpha (up to standard BDF-2, alpha = 1), then as a backward
   /// Euler step.
   bool guard = false;
+  /// An unguarded semi-implicit step holding contacts whose solve overshoots (puts in more than
+  /// a tenth of the energy scale) is taken again as two halves (docs/collisions.md, "Solves that
+  /// overshoot are taken again as halves"). Off for the quasi-static sewing of garments, whose
+  /// velocities are reset between intervals.
+  bool halve_overshooting_solves = true;
   /// Newton iterations a semi-implicit step (alpha family, BDF-2) may add to its linearised
   /// solve: the step's nonlinear equations re-linearised at the
   /// iterate, with a backtracking line search. 0: one linearisation per step, as the paper's

@@ -109,6 +109,7 @@ SewnGarment sew_garment(const PlacedGarment& placed, const BindBody& body, const
   scene.gravity = Vec3::Zero();
   set_method(scene, "backward-euler", std::nullopt, "sewing");
   scene.integrator.dt = options.dt_s;
+  scene.integrator.halve_overshooting_solves = false;  // quasi-static: velocities reset below
   scene.frame_interval = options.interval_s;
   scene.duration = options.max_time_s;
   scene.damping_ratio = 0.0;
