@@ -1070,11 +1070,6 @@ void Integrator::derivative(const VecX& x, const VecX& v, VecX& a, double& visco
 
 void Integrator::rk4_step(State& s, double dt, StepStatistics& stats) {
   const auto t0 = Clock::now();
-  if (!d_.handlers.empty()) {
-    d_.start_kinetic = kinetic_energy(s.v);
-    d_.start_viscous = s.viscous_dissipated;
-    d_.start_contact_work = s.contact_work;
-  }
   system_.begin_step(s.x, s.v, dt);
   if (!d_.handlers.empty()) d_.x_start = s.x;
   VecX a1, a2, a3, a4;
