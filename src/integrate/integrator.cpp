@@ -976,6 +976,17 @@ void Integrator::contact_velocities(State& s, double dt, double dt_b) {
     // is then at rest for the next step, not carrying the step's sliding).
     node(s.dv_prev, i) += v_new - v_old;
     node(s.dx_prev, i) += dt * (v_new - v_old);
+    if (!c.kinematic) {
+      // Along the normal the contact is an impact, not a force: the history must not carry it
+      // on (BDF-2 repeats a third of the last step's displacement and change of velocity, and
+      // a cloth landing on the floor rebounded from its own impact). The displacement is the
+      // one at the node's new velocity, without the thickness restored; the change of velocity
+      // keeps no approach the contact stopped.
+      const Vec3& n = c.normal;
+      node(s.dx_prev, i) += (dt * v_new.dot(n) - node(s.dx_prev, i).dot(n)) * n;
+      const double change = node(s.dv_prev, i).dot(n);
+      if (change > 0) node(s.dv_prev, i) -= change * n;
+    }
     s.contact_work += 0.5 * m[i] * (v_new.squaredNorm() - v_old.squaredNorm());
   }
 }
