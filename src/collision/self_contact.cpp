@@ -232,14 +232,31 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
   u_ = v;  // the approach direction of pairs whose closest points coincide
   find_proximities(x);
   has_contact_.assign(n, 0);
-  for (const NodeContact& c : out) has_contact_[c.node] = 1;
+  contact_slot_.assign(n, -1);
+  for (size_t k = 0; k < out.size(); ++k) {
+    has_contact_[out[k].node] = 1;
+    contact_slot_[out[k].node] = static_cast<int>(k);
+  }
+  layered_.assign(n, 0);
+  // A vertex a collider holds over a face that the collider holds too, on the collider's side
+  // away from it, is held against that face instead: the layer lies between them, and the
+  // collider's hold (at its own thickness) would pull the vertex into the layer, for the
+  // fail-safe to push it out again with the difference as velocity.
+  auto on_layer = [&](int i, const Stencil& s) {
+    if (!s.vertex_face || s.node[0] != i) return false;
+    const NodeContact& held = out[contact_slot_[i]];
+    if (held.kinematic) return false;
+    for (int k = 1; k < 4; ++k)
+      if (!has_contact_[s.node[k]]) return false;
+    return s.normal.dot(held.normal) > kLayerNormalAgreement;
+  };
   // Each node's nearest pair within the thickness: as the vertex of a vertex-face pair, or as an
   // end of an edge of an edge-edge pair that carries at least kEdgeHoldWeight of the edge's
   // closest point (the nodes of both edges, each held against the other edge).
   closest_pair_.assign(n, -1);
   closest_side_.assign(n, 0);
   auto offer = [&](int i, int k, int side) {
-    if (fixed_[i] || has_contact_[i]) return;
+    if (fixed_[i] || (has_contact_[i] && !on_layer(i, pairs_[k]))) return;
     const int c = closest_pair_[i];
     if (c < 0 || pairs_[k].gap < pairs_[c].gap) {
       closest_pair_[i] = k;
@@ -283,7 +300,12 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
     c.surface_velocity -= c.normal * std::max(0.0, c.normal.dot(c.surface_velocity));
     c.normal_displacement = dt * (c.normal.dot(c.surface_velocity) + (s.distance - s.gap) * push);
     c.friction = friction_;
-    out.push_back(c);
+    if (has_contact_[i]) {
+      out[contact_slot_[i]] = c;
+      layered_[i] = 1;
+    } else {
+      out.push_back(c);
+    }
   }
 }
 
@@ -518,7 +540,7 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
   const bool with_normals = held_normal_ && held_normal_->size() == static_cast<size_t>(n);
   if (held_ && held_->size() == static_cast<size_t>(n))
     for (int i = 0; i < n; ++i) {
-      if (!(*held_)[i]) continue;
+      if (!(*held_)[i] || (layered_.size() == static_cast<size_t>(n) && layered_[i])) continue;
       if (node(u_, i).norm() <= kHeldRestSpeed)
         step_inverse_mass_[i] = 0;
       else if (with_normals)

@@ -36,6 +36,10 @@ constexpr double kRepulsionTime = 0.05;
 /// An end of an edge in an edge-edge pair within the thickness is held in the solve when it
 /// carries at least this share of the edge's closest point (1 - s or s).
 constexpr double kEdgeHoldWeight = 0.25;
+/// A vertex a collider holds is held against a cloth face the collider also holds when the
+/// pair's normal (from the face to the vertex) and the collider's agree by this cosine: the
+/// face is the layer between the vertex and the collider.
+constexpr double kLayerNormalAgreement = 0.5;
 
 /// Counts of what the fail-safe did (accumulated over the steps it ran; checkpoints keep them).
 struct SelfContactStatistics {
@@ -195,6 +199,10 @@ class SelfContacts : public ContactHandler {
   std::vector<char> zone_dirty_;     ///< per zone root: grew since its motion was set
   std::vector<std::vector<int>> zone_members_;
   std::vector<char> has_contact_;    ///< detect: per node, a contact in `out` already
+  std::vector<int> contact_slot_;    ///< detect: per node, its contact's index in `out` (-1: none)
+  /// Per node: its collider's hold replaced by a hold against the layer between (detect); the
+  /// fail-safe then does not count it as held by the collider.
+  std::vector<char> layered_;
   std::vector<int> closest_pair_;    ///< detect: per node, its closest pair or -1
   std::vector<char> closest_side_;   ///< detect: 0, the node is on the pair's first primitive; 1, the second
 };
