@@ -45,6 +45,16 @@ Sheets sheets(int n, double size, const std::vector<double>& heights) {
   return s;
 }
 
+// The floor: the plane y = 0, the cloth's thickness, friction 0.5.
+ColliderSpec floor_plane() {
+  ColliderSpec floor;
+  floor.shape = ColliderShape::kPlane;
+  floor.name = "floor";
+  floor.thickness = kThickness;
+  floor.friction = 0.5;
+  return floor;
+}
+
 double kinetic(const VecX& mass, const VecX& v) {
   double e = 0;
   for (Eigen::Index i = 0; i < mass.size(); ++i) e += 0.5 * mass[i] * node(v, static_cast<int>(i)).squaredNorm();
@@ -248,12 +258,7 @@ TEST(SelfContact, ASheetDrapedOverASphereNeverIntersectsItself) {
   ball.thickness = kThickness;
   ball.friction = 0.3;
   s.colliders.push_back(ball);
-  ColliderSpec floor;
-  floor.shape = ColliderShape::kPlane;
-  floor.name = "floor";
-  floor.thickness = kThickness;
-  floor.friction = 0.5;
-  s.colliders.push_back(floor);
+  s.colliders.push_back(floor_plane());
   Simulation sim(s);
   ASSERT_NE(sim.core().self_contacts(), nullptr);
   int frames = 0;
@@ -517,12 +522,7 @@ TEST(SelfContact, ASheetThrownOnASheetLyingOnTheFloorStopsOnIt) {
     s.integrator.dt = 0.005;
     s.frame_interval = 0.005;
     s.duration = 0.2;
-    ColliderSpec floor;
-    floor.shape = ColliderShape::kPlane;
-    floor.name = "floor";
-    floor.thickness = kThickness;
-    floor.friction = 0.5;
-    s.colliders.push_back(floor);
+    s.colliders.push_back(floor_plane());
     Simulation sim(s);
     double highest = 0, lowest = 1;
     for (int k = 1; k <= 40; ++k) {
