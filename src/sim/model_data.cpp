@@ -143,6 +143,37 @@ std::unique_ptr<SimulationModel> build_model(const Scene& scene, const SetupProg
 
 SimulationData::~SimulationData() = default;
 
+namespace {
+// The fastest a collider's surface or a clamped vertex moves over the scene's duration: the
+// largest displacement of a surface vertex (or a clamped vertex) between samples every 20 ms
+// (at most kDrivingSamples of them), divided by the time between.
+constexpr int kDrivingSamples = 400;
+double driving_speed(const Scene& scene, const SimulationModel& M, const SimulationData& D) {
+  const int samples = std::clamp(static_cast<int>(std::ceil(scene.duration / 0.02)), 1, kDrivingSamples);
+  const double interval = scene.duration / samples;
+  if (!(interval > 0)) return 0;
+  double fastest = 0;
+  Points before, after;
+  Triangles triangles;
+  for (const auto& c : D.colliders) {
+    if (c->spec().shape != ColliderShape::kBody && c->spec().motion.kind == RigidMotion::Kind::kStatic) continue;
+    c->surface(0, before, triangles);
+    for (int k = 1; k <= samples; ++k) {
+      c->surface(k * interval, after, triangles);
+      if (after.rows() == before.rows())
+        fastest = std::max(fastest, (after - before).rowwise().norm().maxCoeff() / interval);
+      std::swap(before, after);
+    }
+  }
+  for (size_t g = 0; g < M.clamp_groups.size(); ++g)
+    for (int k = 1; k <= samples; ++k)
+      for (int i : M.clamp_groups[g])
+        fastest = std::max(fastest, (D.clamps->position(g, i, k * interval) - D.clamps->position(g, i, (k - 1) * interval)).norm() /
+                                        interval);
+  return fastest;
+}
+}  // namespace
+
 std::unique_ptr<SimulationData> make_data(const SimulationModel& M) {
   const Scene& scene = M.scene;
   const ClothModel& cloth = *M.cloth;
@@ -208,6 +239,7 @@ std::unique_ptr<SimulationData> make_data(const SimulationModel& M) {
       node(s.v, i) = D.clamps->velocity(k, i, 0);
     }
   s.t = 0;
+  D.driving_speed = driving_speed(scene, M, D);
   set_energy_reference(M, D);
   return data;
 }
@@ -271,7 +303,12 @@ void set_energy_reference(const SimulationModel& M, SimulationData& D) {
     lo = lo.cwiseMin(node(s.x, i));
     hi = hi.cwiseMax(node(s.x, i));
   }
-  D.energy_scale = e0.kinetic + e0.elastic + cloth.mass.sum() * M.scene.gravity.norm() * (hi - lo).norm() + 1e-12;
+  // What the cloth has and may gain by falling across its size, or the kinetic energy it
+  // would have moving with the fastest collider or clamp, whichever is larger (a scene without
+  // gravity that a moving collider drives has no other scale).
+  const double own = e0.kinetic + e0.elastic + cloth.mass.sum() * M.scene.gravity.norm() * (hi - lo).norm();
+  const double driven = 0.5 * cloth.mass.sum() * D.driving_speed * D.driving_speed;
+  D.energy_scale = std::max(own, driven) + 1e-12;
   D.integrator.energy_scale = D.energy_scale;
 }
 

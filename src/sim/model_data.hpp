@@ -70,6 +70,9 @@ struct SimulationData {
   /// The energy reference: the gravitational and total mechanical energy of the reference
   /// state (J), and the scene's energy scale (SimulationCore::energy_scale).
   double gravity0 = 0, total0 = 0, energy_scale = 0;
+  /// The fastest the colliders' surfaces and the clamps move over the scene's duration (m/s,
+  /// sampled at set-up): the speed they may drive the cloth at, for the energy scale.
+  double driving_speed = 0;
   Evaluation eval;  ///< scratch for the energies
 
   SimulationData() = default;
