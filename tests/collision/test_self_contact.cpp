@@ -55,6 +55,35 @@ ColliderSpec floor_plane() {
   return floor;
 }
 
+// The sheets as a cloth mesh (pattern coordinates from x and z).
+std::shared_ptr<const TriMesh> as_mesh(const Sheets& sheets) {
+  auto mesh = std::make_shared<TriMesh>();
+  mesh->positions.resize(sheets.x.size() / 3, 3);
+  for (int i = 0; i < mesh->num_vertices(); ++i) {
+    mesh->positions.row(i) = node(sheets.x, i).transpose();
+    mesh->pattern.emplace_back(node(sheets.x, i).x(), node(sheets.x, i).z());
+  }
+  mesh->triangles = sheets.triangles;
+  return mesh;
+}
+
+// A scene of that cloth (a linear material, self-collision at kThickness with this friction)
+// over the floor, stepped by `method` at 5 ms.
+Scene on_the_floor(const std::shared_ptr<const TriMesh>& mesh, const char* method, double friction) {
+  Scene s;
+  s.cloth.mesh = mesh;
+  s.cloth.material.weft = StressCurve::linear(200);
+  s.cloth.material.warp = StressCurve::linear(200);
+  s.cloth.material.shear = StressCurve::linear(20);
+  s.cloth.thickness = kThickness;
+  s.cloth.friction = friction;
+  s.cloth.self_collision = true;
+  set_method(s, method, std::nullopt, "test");
+  s.integrator.dt = 0.005;
+  s.colliders.push_back(floor_plane());
+  return s;
+}
+
 double kinetic(const VecX& mass, const VecX& v) {
   double e = 0;
   for (Eigen::Index i = 0; i < mass.size(); ++i) e += 0.5 * mass[i] * node(v, static_cast<int>(i)).squaredNorm();
@@ -501,28 +530,12 @@ TEST(SelfContact, ASheetThrownOnASheetLyingOnTheFloorStopsOnIt) {
   // again with the difference as velocity: it rebounded 2 to 4 mm above its resting place.
   // Held against the lower sheet, it is lifted back to the thickness and no higher.
   Sheets two = sheets(9, 0.2, {0.003, 0.015});
-  auto mesh = std::make_shared<TriMesh>();
-  mesh->positions.resize(two.x.size() / 3, 3);
-  for (int i = 0; i < mesh->num_vertices(); ++i) {
-    mesh->positions.row(i) = node(two.x, i).transpose();
-    mesh->pattern.emplace_back(node(two.x, i).x(), node(two.x, i).z());
-  }
-  mesh->triangles = two.triangles;
+  const std::shared_ptr<const TriMesh> mesh = as_mesh(two);
   for (const char* method : {"bdf2", "backward-euler", "implicit-midpoint"}) {
-    Scene s;
-    s.cloth.mesh = mesh;
-    s.cloth.material.weft = StressCurve::linear(200);
-    s.cloth.material.warp = StressCurve::linear(200);
-    s.cloth.material.shear = StressCurve::linear(20);
-    s.cloth.thickness = kThickness;
-    s.cloth.friction = 0.3;
-    s.cloth.self_collision = true;
+    Scene s = on_the_floor(mesh, method, 0.3);
     s.cloth.initial_velocity = Vec3(0, -1, 0);
-    set_method(s, method, std::nullopt, "test");
-    s.integrator.dt = 0.005;
     s.frame_interval = 0.005;
     s.duration = 0.2;
-    s.colliders.push_back(floor_plane());
     Simulation sim(s);
     double highest = 0, lowest = 1;
     for (int k = 1; k <= 40; ++k) {
@@ -536,4 +549,43 @@ TEST(SelfContact, ASheetThrownOnASheetLyingOnTheFloorStopsOnIt) {
     EXPECT_LT(lowest, 2 * kThickness) << method << ": the upper sheet should have landed within the lower's thickness";
     EXPECT_LT(highest, 2 * kThickness * 1.02) << method;
   }
+}
+
+TEST(SelfContact, ASheetOnASheetOnAnInclineSticksBelowTheFrictionAngleAndSlidesAbove) {
+  // Two sheets lying on a floor under gravity tilted by 30 degrees; the floor's friction (0.9)
+  // holds the lower one. The upper one, on the lower at the cloth's thickness, sticks where the
+  // cloth's friction is above tan 30 = 0.577 and otherwise slides with the Coulomb
+  // acceleration g (sin 30 - friction cos 30): 3.21 m/s^2 at friction 0.2, against 2.36 at 0.3
+  // and 4.06 at 0.1, so a tenth off tells one friction from its neighbours. (Measured after
+  // the first 50 ms, in which the upper sheet settles onto the lower.)
+  const double g = 9.81, theta = 30 * M_PI / 180;
+  Sheets two = sheets(9, 0.2, {kThickness, 2 * kThickness});
+  const std::shared_ptr<const TriMesh> mesh = as_mesh(two);
+  for (const char* method : {"bdf2", "backward-euler", "implicit-midpoint"})
+    for (const double friction : {0.2, 0.7}) {
+      Scene s = on_the_floor(mesh, method, friction);
+      s.gravity = Vec3(g * std::sin(theta), -g * std::cos(theta), 0);
+      s.frame_interval = 0.05;
+      s.duration = 0.15;
+      s.colliders.back().friction = 0.9;
+      Simulation sim(s);
+      auto upper = [&](const VecX& a) {
+        double sum = 0;
+        for (int i = two.per_sheet; i < sim.vertex_count(); ++i) sum += a[3 * i];
+        return sum / two.per_sheet;
+      };
+      sim.advance_to(0.05);
+      const double v0 = upper(sim.velocities()), x0 = upper(sim.positions());
+      sim.advance_to(0.15);
+      const double coulomb = g * (std::sin(theta) - friction * std::cos(theta));
+      if (coulomb > 0) {
+        EXPECT_NEAR((upper(sim.velocities()) - v0) / 0.1, coulomb, 0.1 * coulomb) << method << ", friction " << friction;
+      } else {
+        // Sliding at friction 0.5 (0.66 m/s^2) would take it 3.3 mm in the 0.1 s; the
+        // midpoint, which damps nothing, lets the layers slip by fractions of a millimetre.
+        EXPECT_LT(std::abs(upper(sim.positions()) - x0), 1e-3) << method << ", friction " << friction;
+      }
+      for (int i = 0; i < two.per_sheet; ++i)
+        EXPECT_LT(std::abs(sim.velocities()[3 * i]), 1e-6) << method << ": the lower sheet should stay, node " << i;
+    }
 }
