@@ -230,6 +230,7 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
   if (!(dt > 0)) return;
   const int n = static_cast<int>(fixed_.size());
   u_ = v;  // the approach direction of pairs whose closest points coincide
+  detected_x_ = x;
   find_proximities(x);
   has_contact_.assign(n, 0);
   contact_slot_.assign(n, -1);
@@ -254,6 +255,7 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
   // end of an edge of an edge-edge pair that carries at least kEdgeHoldWeight of the edge's
   // closest point (the nodes of both edges, each held against the other edge).
   closest_pair_.assign(n, -1);
+  hold_normal_.assign(n, Vec3::Zero());
   closest_side_.assign(n, 0);
   auto offer = [&](int i, int k, int side) {
     if (fixed_[i] || (has_contact_[i] && !on_layer(i, pairs_[k]))) return;
@@ -288,6 +290,7 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
     NodeContact c;
     c.node = i;
     c.normal = first ? s.normal : Vec3(-s.normal);
+    hold_normal_[i] = c.normal;
     c.surface_velocity = Vec3::Zero();
     for (int k = 0; k < 4; ++k) {
       if (s.vertex_face ? k == 0 : (k < 2) == first) continue;
@@ -425,6 +428,14 @@ bool SelfContacts::apply(const Stencil& s, double target, bool with_friction) {
   double largest = 0;
   for (int k = 0; k < 4; ++k) largest = std::max(largest, std::abs(s.weight[k]) * step_inverse_mass_[s.node[k]] / w);
   const double scale = std::min(1.0, kMaxVelocityChangeRatio / largest) / w;
+  // One side of the pair immovable (a vertex of a layer lying on a collider, say): the other
+  // side's nodes resting where the solve held them are not thrown off what they rest on.
+  const int split = s.vertex_face ? 1 : 2;
+  bool first_still = true, second_still = true;
+  for (int k = 0; k < 4; ++k)
+    (k < split ? first_still : second_still) = (k < split ? first_still : second_still) &&
+                                               (s.weight[k] == 0 || step_inverse_mass_[s.node[k]] == 0);
+  const bool against_still = first_still || second_still;
   for (int k = 0; k < 4; ++k) {
     const int i = s.node[k];
     if (step_inverse_mass_[i] == 0) continue;
@@ -436,6 +447,12 @@ bool SelfContacts::apply(const Stencil& s, double target, bool with_friction) {
       const double taken = std::min(inward, inward_budget_[i]);
       inward_budget_[i] -= taken;
       du += (inward - taken) * n;
+    }
+    if (against_still && !resting_normal_.empty()) {
+      // Resting where the solve held it: not thrown off the face it rests on.
+      const Vec3& r = resting_normal_[i];
+      const double outward = du.dot(r);
+      if (outward > 0) du -= outward * r;
     }
     node(u_, i) += du;
     changed_[i] = 1;
@@ -550,7 +567,18 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
   changed_.assign(n, 1);
 
   // 1. Repulsions: pairs within the thickness at the start stop approaching and are pushed a
-  // share of the way back to it (a few Gauss-Seidel sweeps, as the pairs share nodes).
+  // share of the way back to it (a few Gauss-Seidel sweeps, as the pairs share nodes). A node
+  // the solve held against the cloth in this step and that ends it at rest counts as
+  // infinitely heavy here: the solve keeps it at the thickness, and a pair's impulse shared
+  // with it (a vertex of the layer beneath under one of its faces) would only throw it off
+  // the layer it rests on, to fall back and be thrown again (layers at rest jittered).
+  const bool held_in_solve = static_cast<long>(detected_x_.size()) == x0.size() && detected_x_ == x0 &&
+                             closest_pair_.size() == static_cast<size_t>(n);
+  resting_normal_.assign(n, Vec3::Zero());
+  if (held_in_solve)
+    for (int i = 0; i < n; ++i)
+      if (closest_pair_[i] >= 0 && step_inverse_mass_[i] > 0 && node(u_, i).norm() <= kHeldRestSpeed)
+        resting_normal_[i] = hold_normal_[i];
   find_proximities(x0);
   for (int sweep = 0; sweep < 3; ++sweep) {
     long applied = 0;
@@ -559,6 +587,7 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
     stats_.repulsions += applied;
     if (applied == 0) break;
   }
+  resting_normal_.assign(n, Vec3::Zero());
 
   // 2. Continuous collisions: impulses on the pairs found, until a pass finds none. Each pair
   // is to end the step at twice its collision distance along the normal, or keep approaching

@@ -193,6 +193,11 @@ class SelfContacts : public ContactHandler {
   std::vector<char> changed_;        ///< per node: u changed since the last detection
   std::vector<Stencil> pairs_;
   VecX proximity_x_;                        ///< the positions of the last find_proximities
+  VecX detected_x_;                         ///< the positions of the last detect (its holds: closest_pair_)
+  std::vector<Vec3> hold_normal_;           ///< detect: per node, its hold's normal (0: not held)
+  /// finish_step's repulsions: per node held in the solve and at rest, its hold's normal (the
+  /// repulsions do not move it along it), else 0; empty outside the repulsions.
+  std::vector<Vec3> resting_normal_;
   std::vector<Stencil> proximity_pairs_;    ///< and the pairs it found
   std::vector<int> parent_;          ///< impact zones: union-find over nodes
   std::vector<char> zone_stopped_;   ///< per zone root: stopped
