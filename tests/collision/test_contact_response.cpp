@@ -148,6 +148,26 @@ TEST(ContactResponse, AColliderDrivingClothWithoutGravityGivesTheRunItsEnergySca
   }
 }
 
+// The same for a clamp: a sheet without gravity, one edge clamped and carried off at 2 m/s.
+TEST(ContactResponse, AClampDrivingClothWithoutGravityGivesTheRunItsEnergyScale) {
+  Scene s = patch(0.2, 9, Vec3(-0.1, 0, -0.1), "implicit-midpoint-plain");
+  s.gravity = Vec3::Zero();
+  s.integrator.dt = 0.005;
+  s.integrator.cg_tolerance = 1e-6;
+  s.duration = 0.1;
+  ClampSpec edge;
+  for (int i = 0; i < 9; ++i) edge.grid_nodes.emplace_back(i, 0);
+  edge.motion.kind = RigidMotion::Kind::kVelocity;
+  edge.motion.linear_velocity = Vec3(2, 0, 0);
+  s.cloth.clamps.push_back(edge);
+  Simulation sim(s);
+  const double mass = sim.masses().sum();
+  EXPECT_NEAR(sim.energy_scale(), 0.5 * mass * 4, 1e-9 * mass);
+  const RunResult r = run_simulation(sim);
+  EXPECT_EQ(r.status, "ok") << r.message;
+  EXPECT_GT(centroid(sim.positions()).x(), 0.1);  // pulled along
+}
+
 TEST(ContactResponse, ClothRestsOnASphereAtTheThickness) {
   const Vec3 centre(0, 0, 0);
   const double radius = 0.3;
