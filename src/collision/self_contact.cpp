@@ -430,12 +430,13 @@ bool SelfContacts::apply(const Stencil& s, double target, bool with_friction) {
   const double scale = std::min(1.0, kMaxVelocityChangeRatio / largest) / w;
   // One side of the pair immovable (a vertex of a layer lying on a collider, say): the other
   // side's nodes resting where the solve held them are not thrown off what they rest on.
-  const int split = s.vertex_face ? 1 : 2;
-  bool first_still = true, second_still = true;
-  for (int k = 0; k < 4; ++k)
-    (k < split ? first_still : second_still) = (k < split ? first_still : second_still) &&
-                                               (s.weight[k] == 0 || step_inverse_mass_[s.node[k]] == 0);
-  const bool against_still = first_still || second_still;
+  const int split = s.vertex_face ? 1 : 2;  // the first side's nodes: the vertex, or an edge
+  bool still[2] = {true, true};
+  for (int k = 0; k < 4; ++k) {
+    bool& side = still[k < split ? 0 : 1];
+    side = side && (s.weight[k] == 0 || step_inverse_mass_[s.node[k]] == 0);
+  }
+  const bool against_still = still[0] || still[1];
   for (int k = 0; k < 4; ++k) {
     const int i = s.node[k];
     if (step_inverse_mass_[i] == 0) continue;
@@ -568,10 +569,12 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
 
   // 1. Repulsions: pairs within the thickness at the start stop approaching and are pushed a
   // share of the way back to it (a few Gauss-Seidel sweeps, as the pairs share nodes). A node
-  // the solve held against the cloth in this step and that ends it at rest counts as
-  // infinitely heavy here: the solve keeps it at the thickness, and a pair's impulse shared
-  // with it (a vertex of the layer beneath under one of its faces) would only throw it off
-  // the layer it rests on, to fall back and be thrown again (layers at rest jittered).
+  // the solve held against the cloth in this step and that ends it at rest is not moved away
+  // from the face it rests on by a pair whose other side cannot move (apply): the solve keeps
+  // it at the thickness, and that pair's impulse (a still vertex of the layer beneath under
+  // one of its faces) would only throw it off the layer, to fall back and be thrown again
+  // (layers at rest jittered). Between two layers that move, the repulsions carry the upper
+  // one's weight to the lower (the solve's holds act on one side only) and act in full.
   const bool held_in_solve = static_cast<long>(detected_x_.size()) == x0.size() && detected_x_ == x0 &&
                              closest_pair_.size() == static_cast<size_t>(n);
   resting_normal_.assign(n, Vec3::Zero());

@@ -160,7 +160,7 @@ double driving_speed(const Scene& scene, const SimulationModel& M, const Simulat
     c->surface(0, before, triangles);
     for (int k = 1; k <= samples; ++k) {
       c->surface(k * interval, after, triangles);
-      if (after.rows() == before.rows())
+      if (after.rows() > 0 && after.rows() == before.rows())
         fastest = std::max(fastest, (after - before).rowwise().norm().maxCoeff() / interval);
       std::swap(before, after);
     }
