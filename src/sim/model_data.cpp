@@ -53,6 +53,56 @@ TriMesh sew_scene_garment(const Scene& scene, const SetupProgress& on_setup, Tri
   return std::move(sewn.mesh);
 }
 
+// The fastest a collider's surface or a clamped vertex moves over the scene's duration: the
+// largest displacement of a surface vertex (or a clamped vertex) between samples every 20 ms
+// (at most kDrivingSamples of them), divided by the time between. Sampled once per model, from
+// the scene's motions (what every simulation of it starts with).
+constexpr int kDrivingSamples = 400;
+double driving_speed(const SimulationModel& M) {
+  const Scene& scene = M.scene;
+  const int samples = std::clamp(static_cast<int>(std::ceil(scene.duration / 0.02)), 1, kDrivingSamples);
+  const double interval = scene.duration / samples;
+  if (!(interval > 0)) return 0;
+  double fastest = 0;
+  Points before, after;
+  for (size_t k = 0; k < scene.colliders.size(); ++k) {
+    const ColliderSpec& c = scene.colliders[k];
+    if (c.shape != ColliderShape::kBody && c.motion.kind == RigidMotion::Kind::kStatic) continue;
+    std::unique_ptr<Collider> analytic;
+    if (c.shape != ColliderShape::kBody && c.shape != ColliderShape::kMesh) analytic = make_analytic_collider(c);
+    auto surface = [&](double t, Points& out) {  // as the collider's own surface(t)
+      if (c.shape == ColliderShape::kBody) {
+        M.bodies[c.body]->positions(t, out);
+      } else if (c.shape == ColliderShape::kMesh) {
+        const Eigen::Isometry3d T = c.motion.at(t);
+        const Points& placed = M.collider_vertices[k];
+        out.resize(placed.rows(), 3);
+        for (Eigen::Index v = 0; v < placed.rows(); ++v) out.row(v) = (T * Vec3(placed.row(v))).transpose();
+      } else {
+        Triangles triangles;
+        analytic->surface(t, out, triangles);
+      }
+    };
+    surface(0, before);
+    for (int j = 1; j <= samples; ++j) {
+      surface(j * interval, after);
+      if (after.rows() > 0 && after.rows() == before.rows())
+        fastest = std::max(fastest, (after - before).rowwise().norm().maxCoeff() / interval);
+      std::swap(before, after);
+    }
+  }
+  const VecX rest = M.cloth->initial_positions();
+  for (size_t g = 0; g < M.clamp_groups.size(); ++g) {
+    const RigidMotion& motion = scene.cloth.clamps[g].motion;
+    for (int j = 1; j <= samples; ++j)
+      for (int i : M.clamp_groups[g]) {
+        const Vec3 p = node(rest, i);
+        fastest = std::max(fastest, (motion.at(j * interval) * p - motion.at((j - 1) * interval) * p).norm() / interval);
+      }
+  }
+  return fastest;
+}
+
 }  // namespace
 
 std::unique_ptr<SimulationModel> build_model(const Scene& scene, const SetupProgress& on_setup) {
@@ -137,42 +187,12 @@ std::unique_ptr<SimulationModel> build_model(const Scene& scene, const SetupProg
     for (int i = 0; i < M.num_vertices(); ++i) group[i] = find(i);
     M.seam_groups = std::move(group);
   }
+  M.driving_speed = driving_speed(M);
   stage("done", 1.0);
   return model;
 }
 
 SimulationData::~SimulationData() = default;
-
-namespace {
-// The fastest a collider's surface or a clamped vertex moves over the scene's duration: the
-// largest displacement of a surface vertex (or a clamped vertex) between samples every 20 ms
-// (at most kDrivingSamples of them), divided by the time between.
-constexpr int kDrivingSamples = 400;
-double driving_speed(const Scene& scene, const SimulationModel& M, const SimulationData& D) {
-  const int samples = std::clamp(static_cast<int>(std::ceil(scene.duration / 0.02)), 1, kDrivingSamples);
-  const double interval = scene.duration / samples;
-  if (!(interval > 0)) return 0;
-  double fastest = 0;
-  Points before, after;
-  Triangles triangles;
-  for (const auto& c : D.colliders) {
-    if (c->spec().shape != ColliderShape::kBody && c->spec().motion.kind == RigidMotion::Kind::kStatic) continue;
-    c->surface(0, before, triangles);
-    for (int k = 1; k <= samples; ++k) {
-      c->surface(k * interval, after, triangles);
-      if (after.rows() > 0 && after.rows() == before.rows())
-        fastest = std::max(fastest, (after - before).rowwise().norm().maxCoeff() / interval);
-      std::swap(before, after);
-    }
-  }
-  for (size_t g = 0; g < M.clamp_groups.size(); ++g)
-    for (int k = 1; k <= samples; ++k)
-      for (int i : M.clamp_groups[g])
-        fastest = std::max(fastest, (D.clamps->position(g, i, k * interval) - D.clamps->position(g, i, (k - 1) * interval)).norm() /
-                                        interval);
-  return fastest;
-}
-}  // namespace
 
 std::unique_ptr<SimulationData> make_data(const SimulationModel& M) {
   const Scene& scene = M.scene;
@@ -239,7 +259,6 @@ std::unique_ptr<SimulationData> make_data(const SimulationModel& M) {
       node(s.v, i) = D.clamps->velocity(k, i, 0);
     }
   s.t = 0;
-  D.driving_speed = driving_speed(scene, M, D);
   set_energy_reference(M, D);
   return data;
 }
@@ -307,7 +326,7 @@ void set_energy_reference(const SimulationModel& M, SimulationData& D) {
   // would have moving with the fastest collider or clamp, whichever is larger (a scene without
   // gravity that a moving collider drives has no other scale).
   const double own = e0.kinetic + e0.elastic + cloth.mass.sum() * M.scene.gravity.norm() * (hi - lo).norm();
-  const double driven = 0.5 * cloth.mass.sum() * D.driving_speed * D.driving_speed;
+  const double driven = 0.5 * cloth.mass.sum() * M.driving_speed * M.driving_speed;
   D.energy_scale = std::max(own, driven) + 1e-12;
   D.integrator.energy_scale = D.energy_scale;
 }

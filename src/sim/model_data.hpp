@@ -42,6 +42,10 @@ struct SimulationModel {
   /// Per vertex, the smallest vertex it is sewn to (itself when none): the two sides of a
   /// seam do not push each other apart. Empty when the cloth has no seams.
   std::vector<int> seam_groups;
+  /// The fastest the colliders' surfaces and the clamps move over the scene's duration (m/s,
+  /// sampled at set-up from the scene's motions): the speed they may drive the cloth at, for
+  /// the energy scale.
+  double driving_speed = 0;
 
   int num_vertices() const { return cloth->num_vertices(); }
 };
@@ -70,9 +74,6 @@ struct SimulationData {
   /// The energy reference: the gravitational and total mechanical energy of the reference
   /// state (J), and the scene's energy scale (SimulationCore::energy_scale).
   double gravity0 = 0, total0 = 0, energy_scale = 0;
-  /// The fastest the colliders' surfaces and the clamps move over the scene's duration (m/s,
-  /// sampled at set-up): the speed they may drive the cloth at, for the energy scale.
-  double driving_speed = 0;
   Evaluation eval;  ///< scratch for the energies
 
   SimulationData() = default;
