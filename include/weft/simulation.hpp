@@ -148,7 +148,8 @@ class Simulation {
   EnergyRow energies();
   /// A scale of the scene's energy (J): initial kinetic + elastic + weight times size, or the
   /// kinetic energy the cloth would have moving as fast as its fastest moving collider or
-  /// clamp (sampled over the duration at set-up), whichever is larger.
+  /// clamp (its largest displacement over 0.1 s, sampled over the duration at set-up),
+  /// whichever is larger.
   double energy_scale() const;
   /// Mechanical energy (kinetic + elastic + gravity) of the reference state (J).
   double initial_total_energy() const;

@@ -168,6 +168,59 @@ TEST(ContactResponse, AClampDrivingClothWithoutGravityGivesTheRunItsEnergyScale)
   EXPECT_GT(centroid(sim.positions()).x(), 0.1);  // pulled along
 }
 
+// The scale is a sustained speed (displacement over 0.1 s): a collider jittering 3 cm back and
+// forth at 2 m/s between its keys, going nowhere, does not drive the cloth the way a collider
+// moving steadily at 2 m/s does. Its displacement over any 0.1 s is at most 3 cm, so the scale
+// is at most the kinetic energy at 0.3 m/s; sampled between keys 20 ms apart, as the scale was
+// before, the jitter counted as 1 m/s.
+TEST(ContactResponse, AColliderJitteringInPlaceDoesNotSetTheEnergyScale) {
+  Scene s = patch(0.2, 9, Vec3(-0.1, 0, -0.1), "bdf2");
+  s.gravity = Vec3::Zero();
+  s.duration = 0.5;
+  ColliderSpec ball = sphere(Vec3(0, -0.5, 0), 0.05, 0.3);
+  ball.motion.kind = RigidMotion::Kind::kKeyframes;
+  for (int k = 0; k <= 40; ++k) {
+    RigidMotion::Key key;
+    key.time = 0.015 * k;
+    key.translation = Vec3(k % 2 ? 0.03 : 0.0, 0, 0);
+    ball.motion.keys.push_back(key);
+  }
+  s.colliders.push_back(ball);
+  const Simulation jittering(s);
+  const double mass = jittering.masses().sum();
+  EXPECT_LE(jittering.energy_scale(), 0.5 * mass * 0.3 * 0.3 * (1 + 1e-9));
+  // The same keys spread ten times as far apart in time move it steadily at 0.2 m/s over
+  // 0.15 s: that is the scale (to the 20 ms sampling's rounding of the turns).
+  for (RigidMotion::Key& key : s.colliders.back().motion.keys) key.time *= 10;
+  const Simulation steady(s);
+  EXPECT_NEAR(std::sqrt(2 * steady.energy_scale() / mass), 0.2, 0.2 * 0.15);
+}
+
+// The recorded walk's foot turns by up to 38 degrees in one motion frame around 2 s into the
+// body drape (its toes moving at 10 m/s for a few milliseconds); a walk played at three
+// quarters of its speed swings its feet and hands at about 3 m/s at the most, and that is
+// what sets the scale of a cloth the walking body drives.
+TEST(ContactResponse, TheWalkingBodysEnergyScaleIsItsSustainedSpeed) {
+  Scene s = patch(0.2, 5, Vec3(2.0, 0, 2.0), "bdf2");  // far from the body, at rest
+  s.gravity = Vec3::Zero();
+  s.duration = 4.0;
+  BodyColliderSpec walk;
+  walk.speed = 0.75;
+  walk.bind_pose_hold = 0.5;
+  walk.blend = 0.5;
+  walk.arm_spread_deg = 20;
+  s.bodies.push_back(walk);
+  ColliderSpec body;
+  body.shape = ColliderShape::kBody;
+  body.body = 0;
+  body.name = "colliders[0] (body)";
+  s.colliders.push_back(body);
+  const Simulation sim(s);
+  const double speed = std::sqrt(2 * sim.energy_scale() / sim.masses().sum());
+  EXPECT_GT(speed, 1.5);
+  EXPECT_LT(speed, 4.0);
+}
+
 TEST(ContactResponse, ClothRestsOnASphereAtTheThickness) {
   const Vec3 centre(0, 0, 0);
   const double radius = 0.3;
