@@ -265,44 +265,84 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
       closest_side_[i] = static_cast<char>(side);
     }
   };
-  for (size_t k = 0; k < pairs_.size(); ++k) {
-    const Stencil& s = pairs_[k];
-    const int kk = static_cast<int>(k);
-    if (s.vertex_face) {
-      offer(s.node[0], kk, 0);
-      continue;
+  auto each_offer = [&](auto&& offer_to) {
+    for (size_t k = 0; k < pairs_.size(); ++k) {
+      const Stencil& s = pairs_[k];
+      const int kk = static_cast<int>(k);
+      if (s.vertex_face) {
+        offer_to(s.node[0], kk, 0);
+        continue;
+      }
+      // A pair with a node a collider holds is left to the fail-safe: where the walking body
+      // pinches the cloth between arm and torso, holding edges against edges the body drives
+      // let the solve strain the sheet by up to 1,930 J in a step (docs/collisions.md).
+      if (has_contact_[s.node[0]] || has_contact_[s.node[1]] || has_contact_[s.node[2]] ||
+          has_contact_[s.node[3]])
+        continue;
+      for (int j = 0; j < 4; ++j)
+        if (std::abs(s.weight[j]) >= kEdgeHoldWeight) offer_to(s.node[j], kk, j < 2 ? 0 : 1);
     }
-    // A pair with a node a collider holds is left to the fail-safe: where the walking body
-    // pinches the cloth between arm and torso, holding edges against edges the body drives
-    // let the solve strain the sheet by up to 1,930 J in a step (docs/collisions.md).
-    if (has_contact_[s.node[0]] || has_contact_[s.node[1]] || has_contact_[s.node[2]] || has_contact_[s.node[3]])
-      continue;
-    for (int j = 0; j < 4; ++j)
-      if (std::abs(s.weight[j]) >= kEdgeHoldWeight) offer(s.node[j], kk, j < 2 ? 0 : 1);
-  }
+  };
+  each_offer(offer);
+  // The normal from a pair's other side towards the node.
+  auto normal_for = [&](int k, int side) { return side == 0 ? pairs_[k].normal : Vec3(-pairs_[k].normal); };
+  // A node the cloth holds is held against a second pair too, its nearest whose normal leans
+  // away from the first's by more than kSecondHoldSine: a node in a crease, or where two
+  // layers meet at an angle, would otherwise be driven by the solve into the pair it is not
+  // held against, in step after step, for the fail-safe to push it out again.
+  second_pair_.assign(n, -1);
+  second_side_.assign(n, 0);
+  each_offer([&](int i, int k, int side) {
+    const int c = closest_pair_[i];
+    if (c < 0 || c == k || has_contact_[i]) return;
+    if (normal_for(c, closest_side_[i]).cross(normal_for(k, side)).norm() < kSecondHoldSine) return;
+    const int c2 = second_pair_[i];
+    if (c2 < 0 || pairs_[k].gap < pairs_[c2].gap) {
+      second_pair_[i] = k;
+      second_side_[i] = static_cast<char>(side);
+    }
+  });
   const double push = 1 / std::max(kRepulsionTime, dt);
+  // The other side of a pair (the face, or the other edge: weights of magnitudes summing to one)
+  // seen from a node on side `first` (the pair's first primitive) with the normal from that
+  // side towards the node: its point's velocity, without approach along the normal. The node
+  // follows a surface that draws back, but is not driven by one that comes at it: the
+  // constraint only ever pushes (one that pulls is let go), so following every approach of a
+  // face that jitters would rectify the jitter into work on the cloth. An approaching face is
+  // left to the fail-safe's impulses, which act on both sides and keep momentum.
+  auto other_side = [&](const Stencil& p, bool first, const Vec3& normal) {
+    Vec3 velocity = Vec3::Zero();
+    for (int k = 0; k < 4; ++k) {
+      if (p.vertex_face ? (k == 0) == first : (k < 2) == first) continue;
+      velocity += std::abs(p.weight[k]) * node(v, p.node[k]);
+    }
+    return Vec3(velocity - normal * std::max(0.0, normal.dot(velocity)));
+  };
   for (int i = 0; i < n; ++i) {
     if (closest_pair_[i] < 0) continue;
     const Stencil& s = pairs_[closest_pair_[i]];
-    // The other side of the pair: the face, or the other edge (weights of magnitudes summing to
-    // one); its point's velocity and the normal from it towards the node.
     const bool first = closest_side_[i] == 0;
     NodeContact c;
     c.node = i;
     c.normal = first ? s.normal : Vec3(-s.normal);
     hold_normal_[i] = c.normal;
-    c.surface_velocity = Vec3::Zero();
-    for (int k = 0; k < 4; ++k) {
-      if (s.vertex_face ? k == 0 : (k < 2) == first) continue;
-      c.surface_velocity += std::abs(s.weight[k]) * node(v, s.node[k]);
-    }
-    // The node follows a surface that draws back, but is not driven by one that comes at it: the
-    // constraint only ever pushes (one that pulls is let go), so following every approach of a
-    // face that jitters would rectify the jitter into work on the cloth. An approaching face is
-    // left to the fail-safe's impulses, which act on both sides and keep momentum.
-    c.surface_velocity -= c.normal * std::max(0.0, c.normal.dot(c.surface_velocity));
+    c.surface_velocity = other_side(s, first, c.normal);
     c.normal_displacement = dt * (c.normal.dot(c.surface_velocity) + (s.distance - s.gap) * push);
     c.friction = friction_;
+    if (second_pair_[i] >= 0) {
+      // The second pair's prescribed dx . n2 = d2, with dx = d1 n + a t + (free part along
+      // n x t), t the unit part of n2 orthogonal to n: a = (d2 - d1 n . n2) / (t . n2).
+      const Stencil& s2 = pairs_[second_pair_[i]];
+      const bool first2 = second_side_[i] == 0;
+      const Vec3 n2 = first2 ? s2.normal : Vec3(-s2.normal);
+      const Vec3 sv2 = other_side(s2, first2, n2);
+      const double d2 = dt * (n2.dot(sv2) + (s2.distance - s2.gap) * push);
+      const Vec3 t = n2 - c.normal * c.normal.dot(n2);
+      const double sine = t.norm();
+      c.normal2 = t / sine;
+      c.normal_displacement2 = (d2 - c.normal_displacement * c.normal.dot(n2)) / sine;
+      c.surface_velocity += c.normal2 * c.normal2.dot(sv2 - c.surface_velocity);
+    }
     if (has_contact_[i]) {
       out[contact_slot_[i]] = c;
       layered_[i] = 1;

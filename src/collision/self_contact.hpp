@@ -36,6 +36,9 @@ constexpr double kRepulsionTime = 0.05;
 /// An end of an edge in an edge-edge pair within the thickness is held in the solve when it
 /// carries at least this share of the edge's closest point (1 - s or s).
 constexpr double kEdgeHoldWeight = 0.25;
+/// A node the cloth holds is held against a second pair where that pair's normal and its
+/// first's differ by an angle whose sine is at least this (30 degrees).
+constexpr double kSecondHoldSine = 0.5;
 /// A vertex a collider holds is held against a cloth face the collider also holds when the
 /// pair's normal (from the face to the vertex) and the collider's agree by this cosine: the
 /// face is the layer between the vertex and the collider.
@@ -210,6 +213,8 @@ class SelfContacts : public ContactHandler {
   std::vector<char> layered_;
   std::vector<int> closest_pair_;    ///< detect: per node, its closest pair or -1
   std::vector<char> closest_side_;   ///< detect: 0, the node is on the pair's first primitive; 1, the second
+  std::vector<int> second_pair_;     ///< detect: per node, the pair of its second hold or -1
+  std::vector<char> second_side_;    ///< detect: as closest_side_, for second_pair_
 };
 
 }  // namespace weft

@@ -24,6 +24,13 @@ struct NodeContact {
   /// `displacement` and it leaves the step at `surface_velocity`; never let go, no friction.
   bool kinematic = false;
   Vec3 displacement = Vec3::Zero();    ///< kinematic: the node's prescribed dx over the step (m)
+  /// A second surface the node is held against (a node between two layers, or in the crease
+  /// of a fold): unit and orthogonal to `normal`, or zero for none. The node's displacement
+  /// along it is prescribed as well (normal_displacement2), so the node moves freely only
+  /// along the direction orthogonal to both; a second direction that pulls is let go alone.
+  Vec3 normal2 = Vec3::Zero();
+  double normal_displacement2 = 0;     ///< the node's prescribed dx . normal2 over the step (m)
+  bool has_normal2() const { return normal2.squaredNorm() > 0; }
 };
 
 /// Per-step figures of contact handling (accumulated in StepStatistics).

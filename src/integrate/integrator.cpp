@@ -592,13 +592,19 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     size_t kept = 0;
     const VecX& mass = system_.node_mass();
     for (size_t k = 0; k < d_.contacts.size(); ++k) {
-      const NodeContact& c = d_.contacts[k];
+      NodeContact& c = d_.contacts[k];
       const Vec3& J = d_.contact_impulse[k];
       const double normal_impulse = c.normal.dot(J);
       // A stuck contact whose impulse left the friction cone slides.
       if (d_.contact_stuck[k] && !c.kinematic &&
-          (J - c.normal * normal_impulse).norm() > c.friction * std::max(normal_impulse, 0.0)) {
+          (J - c.normal * normal_impulse - c.normal2 * c.normal2.dot(J)).norm() >
+              c.friction * std::max(normal_impulse, 0.0)) {
         d_.contact_stuck[k] = 0;
+        changed = true;
+      }
+      // A second direction that pulls is let go alone.
+      if (c.has_normal2() && c.normal2.dot(J) < -kReleaseSpeed * mass[c.node] && !d_.keep_held[c.node]) {
+        c.normal2 = Vec3::Zero();
         changed = true;
       }
       if (normal_impulse < -kReleaseSpeed * mass[c.node] && !c.penetrating && !c.kinematic && !d_.keep_held[c.node]) {
@@ -812,8 +818,10 @@ int Integrator::newton_iterate(const State& s, double dt, double alpha, double b
 // back after the solve. z is chosen so that the step's displacement beta dx_p + dt_b (v +
 // alpha dv) has the prescribed part.
 Mat3 Integrator::contact_filter(size_t k) const {
-  const Vec3& n = d_.contacts[k].normal;
-  return d_.contact_stuck[k] ? Mat3(Mat3::Zero()) : Mat3(Mat3::Identity() - n * n.transpose());
+  const NodeContact& c = d_.contacts[k];
+  if (d_.contact_stuck[k]) return Mat3::Zero();
+  const Vec3& n = c.normal;
+  return Mat3::Identity() - n * n.transpose() - c.normal2 * c.normal2.transpose();
 }
 
 size_t Integrator::join_end_contacts(const State& s, double dt, double alpha, double beta, double dt_b) {
@@ -830,11 +838,12 @@ Vec3 Integrator::prescribed_dv(const State& s, size_t k, double dt, double alpha
   const NodeContact& c = d_.contacts[k];
   const int i = c.node;
   // The prescribed displacement: along the normal, and when stuck the surface's tangential one.
-  Vec3 target = c.normal * c.normal_displacement;
+  Vec3 target = c.normal * c.normal_displacement + c.normal2 * c.normal_displacement2;
   if (c.kinematic) {
     target = c.displacement;
   } else if (d_.contact_stuck[k]) {
-    target += dt * (c.surface_velocity - c.normal * c.normal.dot(c.surface_velocity));
+    target += dt * (c.surface_velocity - c.normal * c.normal.dot(c.surface_velocity) -
+                    c.normal2 * c.normal2.dot(c.surface_velocity));
   }
   if (beta != 0.0) target -= beta * node(s.dx_prev, i);
   return (Mat3::Identity() - contact_filter(k)) * ((target / dt_b - node(s.v, i)) / alpha);
@@ -959,7 +968,7 @@ void Integrator::contact_velocities(State& s, double dt, double dt_b) {
       // stops is stuck from the next step on. Along the normal the contact is inelastic: the
       // node leaves the step moving with the surface.
       const Vec3 u = v_old - c.surface_velocity;
-      const Vec3 ut = u - c.normal * c.normal.dot(u);
+      const Vec3 ut = u - c.normal * c.normal.dot(u) - c.normal2 * c.normal2.dot(u);
       const double slide = ut.norm();
       // (For BDF-2, whose step applies a force over dt_b and repeats the last change of
       // velocity by beta, the change is dt_b / dt of the impulse's: the sliding then slows by
@@ -982,10 +991,12 @@ void Integrator::contact_velocities(State& s, double dt, double dt_b) {
       // a cloth landing on the floor rebounded from its own impact). The displacement is the
       // one at the node's new velocity, without the thickness restored; the change of velocity
       // keeps no approach the contact stopped.
-      const Vec3& n = c.normal;
-      node(s.dx_prev, i) += (dt * v_new.dot(n) - node(s.dx_prev, i).dot(n)) * n;
-      const double change = node(s.dv_prev, i).dot(n);
-      if (change > 0) node(s.dv_prev, i) -= change * n;
+      for (const Vec3* held : {&c.normal, &c.normal2}) {
+        const Vec3& n = *held;
+        node(s.dx_prev, i) += (dt * v_new.dot(n) - node(s.dx_prev, i).dot(n)) * n;
+        const double change = node(s.dv_prev, i).dot(n);
+        if (change > 0) node(s.dv_prev, i) -= change * n;
+      }
     }
     s.contact_work += 0.5 * m[i] * (v_new.squaredNorm() - v_old.squaredNorm());
   }
