@@ -296,6 +296,10 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
     const int c = closest_pair_[i];
     if (c < 0 || c == k || has_contact_[i]) return;
     if (normal_for(c, closest_side_[i]).cross(normal_for(k, side)).norm() < kSecondHoldSine) return;
+    // Not against a layer a collider holds: where the walking body drives two layers at a node
+    // from two sides (a pinch), holding it against both strains the cloth between them.
+    for (int j : pairs_[k].node)
+      if (has_contact_[j]) return;
     const int c2 = second_pair_[i];
     if (c2 < 0 || pairs_[k].gap < pairs_[c2].gap) {
       second_pair_[i] = k;
