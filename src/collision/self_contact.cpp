@@ -450,7 +450,7 @@ size_t SelfContacts::find_collisions(const VecX& x0, double dt, bool skip_zones)
   return pairs_.size();
 }
 
-bool SelfContacts::apply(const Stencil& s, double target, bool with_friction) {
+bool SelfContacts::apply(const Stencil& s, double target, bool with_friction, bool lever_limit) {
   double w = 0;
   for (int k = 0; k < 4; ++k) w += s.weight[k] * s.weight[k] * step_inverse_mass_[s.node[k]];
   if (!(w > 0)) return false;
@@ -475,12 +475,17 @@ bool SelfContacts::apply(const Stencil& s, double target, bool with_friction) {
   // One side of the pair immovable (a vertex of a layer lying on a collider, say): the other
   // side's nodes resting where the solve held them are not thrown off what they rest on.
   const int split = s.vertex_face ? 1 : 2;  // the first side's nodes: the vertex, or an edge
-  bool still[2] = {true, true};
-  for (int k = 0; k < 4; ++k) {
-    bool& side = still[k < split ? 0 : 1];
-    side = side && (s.weight[k] == 0 || step_inverse_mass_[s.node[k]] == 0);
-  }
+  double movable[2] = {0, 0};  // each side's share of its point carried by nodes that can move
+  for (int k = 0; k < 4; ++k)
+    if (step_inverse_mass_[s.node[k]] > 0) movable[k < split ? 0 : 1] += std::abs(s.weight[k]);
+  const bool still[2] = {movable[0] == 0, movable[1] == 0};
   const bool against_still = still[0] || still[1];
+  // A repulsion between a still side and a side carried almost wholly by still nodes would
+  // lever the few light ones it can move many times the change, pair after pair (a node
+  // carrying 2% of an edge whose other end rests, under a resting vertex of the layer beneath,
+  // was thrown 2 cm in one step): such a pair is left to continuous detection.
+  if (lever_limit && ((still[0] && movable[1] < kEdgeHoldWeight) || (still[1] && movable[0] < kEdgeHoldWeight)))
+    return false;
   for (int k = 0; k < 4; ++k) {
     const int i = s.node[k];
     if (step_inverse_mass_[i] == 0) continue;
@@ -630,7 +635,7 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
   for (int sweep = 0; sweep < 3; ++sweep) {
     long applied = 0;
     for (const Stencil& s : pairs_)
-      if (apply(s, (s.distance - s.gap) / std::max(kRepulsionTime, dt), true)) ++applied;
+      if (apply(s, (s.distance - s.gap) / std::max(kRepulsionTime, dt), true, true)) ++applied;
     stats_.repulsions += applied;
     if (applied == 0) break;
   }
@@ -647,7 +652,7 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
   for (int pass = 0; pass < kSelfCollisionPasses && !clear; ++pass) {
     clear = find_collisions(x0, dt, false) == 0;
     for (const Stencil& s : pairs_) {
-      if (apply(s, (2 * s.distance - s.gap) / dt, false)) {
+      if (apply(s, (2 * s.distance - s.gap) / dt, false, false)) {
         ++stats_.collision_impulses;
       } else {
         for (int i : s.node) changed_[i] = 1;  // found but not changed: look again

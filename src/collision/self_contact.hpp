@@ -149,8 +149,10 @@ class SelfContacts : public ContactHandler {
   size_t find_collisions(const VecX& x0, double dt, bool skip_zones);
   Vec3 relative_velocity(const Stencil& s) const;
   /// Changes u so the pair's relative normal velocity is at least `target`, with Coulomb
-  /// friction on its tangential part when `with_friction`; true when it changed anything.
-  bool apply(const Stencil& s, double target, bool with_friction);
+  /// friction on its tangential part when `with_friction`; true when it changed anything. With
+  /// `lever_limit` (the repulsions), a pair one side of which cannot move while the other's
+  /// movable nodes carry less than kEdgeHoldWeight of its point is left alone.
+  bool apply(const Stencil& s, double target, bool with_friction, bool lever_limit);
   int zone_of(int i) const;
   void merge(int a, int b);
   /// Gives every zone that grew its rigid motion (or stops it: `stop`, a pinned node).
