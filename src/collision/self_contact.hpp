@@ -79,7 +79,9 @@ class SelfContacts : public ContactHandler {
   /// each other (each end carrying at least kEdgeHoldWeight of its edge's closest point, and
   /// no node of the pair held by a collider), each against the other edge. No approach along
   /// the pair's normal (a surface drawing back is followed at its velocity at the start), the
-  /// missing thickness restored over kRepulsionTime, and the layers' friction. The
+  /// missing thickness restored over kRepulsionTime, and the layers' friction. A node is held
+  /// against a second pair as well (NodeContact::normal2) where that pair's normal leans from
+  /// the first's by more than kSecondHoldSine and no collider holds a node of it. The
   /// solve then sees the layers it would otherwise drive into each other: a correction after
   /// the solve alone undoes part of the solve's motion, and under backward Euler and BDF-2
   /// that fight pumped elastic energy into folded cloth until the run blew up.
