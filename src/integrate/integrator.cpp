@@ -808,8 +808,9 @@ int Integrator::newton_iterate(const State& s, double dt, double alpha, double b
 
 // The contact constraints (Baraff and Witkin's filters, docs/collisions.md). A sliding contact
 // at node i with normal n prescribes dv_i . n and leaves dv_i's tangential part free,
-// S_i = I - n n^T; a sticking one prescribes all of dv_i (S_i = 0), the node moving with the
-// surface. Writing dv = y + z with y_i in S_i's range and z_i the prescribed part, the solve's
+// S_i = I - n n^T (held against a second surface too, with n2 orthogonal to n:
+// S_i = I - n n^T - n2 n2^T, free only along n x n2); a sticking one prescribes all of dv_i
+// (S_i = 0), the node moving with the surface. Writing dv = y + z with y_i in S_i's range and z_i the prescribed part, the solve's
 // equations are the free directions' ones, S (A (y + z) - b) = 0, that is
 //   (S A S + c (I - S)) y = S (b - A z)
 // where the c (I - S) term (c the node's mean diagonal stiffness) only keeps the matrix positive
