@@ -369,6 +369,10 @@ PYBIND11_MODULE(weft, m) {
                              "The times of `weft run`'s frames: 0, then every frame interval to the duration")
       .def_property_readonly("method", [](const PySimulation& s) { return s.sim().scene().method_name; })
       .def_property_readonly("vertex_count", &PySimulation::vertex_count)
+      .def_property_readonly("energy_scale", [](const PySimulation& s) { return s.sim().energy_scale(); },
+                             "The scene's energy scale (J): the initial kinetic + elastic energy + weight times size, or "
+                             "the kinetic energy at the colliders' and clamps' fastest speed over 0.1 s, whichever is "
+                             "larger; `weft run` stops a run whose energy rises by more than it (docs/scene-format.md)")
       .def("new_run", [](const PySimulation& s) { return std::make_unique<PySimulation>(s.sim().model()); },
            "A new simulation of this one's scene at its start, sharing what the scene defines and no step changes "
            "(the cloth's mesh, a garment's sewing, its elements, the bodies and collider meshes; built once): its "

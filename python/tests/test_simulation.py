@@ -127,6 +127,18 @@ def test_energies_and_statistics(sheet):
     assert s["steps"] == 5 and s["cg_solves"] >= 5 and s["cg_iterations"] >= s["cg_solves"]
 
 
+def test_energy_scale_is_weight_times_size_or_the_colliders_kinetic_energy(sheet, sphere):
+    # The flat sheet at rest: its weight times its size (the diagonal of its bounding box).
+    sim = weft.Simulation(sheet)
+    size = np.linalg.norm(sim.positions.max(axis=0) - sim.positions.min(axis=0))
+    assert sim.energy_scale == pytest.approx(sim.masses.sum() * 9.81 * size, rel=1e-9)
+    # Without gravity, a sphere moving at 5 m/s: the cloth's kinetic energy at that speed.
+    sphere["gravity"] = [0, 0, 0]
+    sphere["colliders"][0]["motion"] = {"linear_velocity": [0, 5, 0]}
+    moving = weft.Simulation(sphere)
+    assert moving.energy_scale == pytest.approx(0.5 * moving.masses.sum() * 25, rel=1e-9)
+
+
 def test_a_bad_scene_dict_names_the_key(sheet):
     sheet["cloth"]["mesh"]["grid"]["vertices"] = [1, 7]
     with pytest.raises(weft.InputError, match=r"cloth\.mesh\.grid\.vertices") as e:
