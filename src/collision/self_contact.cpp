@@ -328,7 +328,7 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
     const bool first = closest_side_[i] == 0;
     NodeContact c;
     c.node = i;
-    c.normal = first ? s.normal : Vec3(-s.normal);
+    c.normal = normal_for(closest_pair_[i], closest_side_[i]);
     hold_normal_[i] = c.normal;
     c.surface_velocity = other_side(s, first, c.normal);
     c.normal_displacement = dt * (c.normal.dot(c.surface_velocity) + (s.distance - s.gap) * push);
@@ -338,7 +338,7 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
       // n x t), t the unit part of n2 orthogonal to n: a = (d2 - d1 n . n2) / (t . n2).
       const Stencil& s2 = pairs_[second_pair_[i]];
       const bool first2 = second_side_[i] == 0;
-      const Vec3 n2 = first2 ? s2.normal : Vec3(-s2.normal);
+      const Vec3 n2 = normal_for(second_pair_[i], second_side_[i]);
       const Vec3 sv2 = other_side(s2, first2, n2);
       const double d2 = dt * (n2.dot(sv2) + (s2.distance - s2.gap) * push);
       const Vec3 t = n2 - c.normal * c.normal.dot(n2);

@@ -103,11 +103,13 @@ double driving_speed(const SimulationModel& M) {
   const VecX rest = M.cloth->initial_positions();
   for (size_t g = 0; g < M.clamp_groups.size(); ++g) {
     const RigidMotion& motion = scene.cloth.clamps[g].motion;
-    for (int j = window; j <= samples; ++j)
+    for (int j = window; j <= samples; ++j) {
+      const Eigen::Isometry3d now = motion.at(j * interval), before = motion.at((j - window) * interval);
       for (int i : M.clamp_groups[g]) {
         const Vec3 p = node(rest, i);
-        fastest = std::max(fastest, (motion.at(j * interval) * p - motion.at((j - window) * interval) * p).norm() / span);
+        fastest = std::max(fastest, (now * p - before * p).norm() / span);
       }
+    }
   }
   return fastest;
 }
