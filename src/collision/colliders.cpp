@@ -391,6 +391,14 @@ class AnalyticCollider : public Collider {
   Eigen::Isometry3d start_inverse_ = Eigen::Isometry3d::Identity(), end_inverse_ = Eigen::Isometry3d::Identity();
 };
 
+// How much farther than asked a mesh collider's query searches, to measure a bound on the
+// node's distance that rules out its next queries (docs/collisions.md, "Distance bounds");
+// the most its surface may move in a step, as a share of that, for the wider search to pay;
+// and what a bound gives up for the rounding of its sums.
+constexpr double kBoundReach = 0.02;
+constexpr double kBoundMotionShare = 0.25;
+constexpr double kBoundRounding = 1e-9;
+
 // A triangle mesh collider. The closest point is the nearest triangle's within the reach (a
 // search of the tree refitted to the surface at the query's time, AabbTree::nearest); its
 // side from the pseudo-normal of the feature it lies on (the face's normal, the sum of an
@@ -404,6 +412,7 @@ class MeshCollider : public Collider {
     end_ = start_;
     tree_start_ = AabbTree(list_, start_.data());
     tree_end_ = tree_start_;
+    tree_swept_ = tree_start_;
     // Each edge's faces (for its pseudo-normal).
     for (int f = 0; f < static_cast<int>(list_.size()); ++f)
       for (int k = 0; k < 3; ++k) {
@@ -429,10 +438,13 @@ class MeshCollider : public Collider {
 
   void reserve_nodes(int n) override {
     if (side_.size() < static_cast<size_t>(n)) side_.resize(n, 0);
+    if (bound_.size() < static_cast<size_t>(n)) bound_.resize(n);
   }
 
   void prepare(double t0, double t1) override {
-    if (t0 == t1_ && t0 != t0_) {
+    const bool next = t0 == t1_ && t0 != t0_;
+    const bool same = t0 == t0_ && t1 == t1_;
+    if (next) {
       // The step after the last: its start is the last one's end.
       std::swap(start_, end_);
       std::swap(tree_start_, tree_end_);
@@ -453,14 +465,45 @@ class MeshCollider : public Collider {
     }
     t0_ = t0;
     t1_ = t1;
+    swept_fitted_ = false;
     step_motion_ = 0;
     for (Eigen::Index v = 0; v < start_.rows(); ++v)
       step_motion_ = std::max(step_motion_, (end_.row(v) - start_.row(v)).squaredNorm());
     step_motion_ = std::sqrt(step_motion_);
+    // The distance bounds' clock: the surface's motion summed along the steps prepared one
+    // after the other; any other change of step voids every bound kept.
+    if (next) {
+      motion_start_ = motion_end_;
+      motion_end_ = motion_start_ + step_motion_;
+    } else if (!same) {
+      ++epoch_;
+      motion_start_ = 0;
+      motion_end_ = step_motion_;
+    }
+  }
+
+  double distance_bound(const Vec3& p, int node, bool end) const override {
+    if (node < 0 || static_cast<size_t>(node) >= bound_.size()) return 0;
+    const DistanceBound& b = bound_[node];
+    if (b.epoch != epoch_) return 0;
+    // Every point of the surface now lies within the clock's difference of a point of the
+    // surface when the bound was measured (each vertex moved no farther, and a triangle's
+    // points move as its vertices' weighted means): the distance shrinks by no more than
+    // that and p's own distance from where it was measured.
+    const double clock = end ? motion_end_ : motion_start_;
+    return b.distance - (p - b.point).norm() - std::abs(clock - b.clock) - kBoundRounding;
   }
 
   double step_motion() const override { return step_motion_; }
   const AabbTree* end_tree() const override { return &tree_end_; }
+  const AabbTree* swept_tree() const override {
+    if (step_motion_ == 0) return &tree_end_;  // a still surface sweeps nothing
+    if (!swept_fitted_) {
+      tree_swept_.refit(start_.data(), end_.data(), 0);
+      swept_fitted_ = true;
+    }
+    return &tree_swept_;
+  }
   const Points* end_vertices() const override { return &end_; }
   const Points* start_vertices() const override { return &start_; }
   Vec3 end_vertex_normal(int v) const override { return vertex_normal(v, true).normalized(); }
@@ -469,14 +512,30 @@ class MeshCollider : public Collider {
   bool closest(const Vec3& p, double reach, bool end, int node, SurfacePoint& out) const override {
     const Points& x = end ? end_ : start_;
     const AabbTree& tree = end ? tree_end_ : tree_start_;
-    // The nearest triangle within the reach (its point found again for the winner only).
+    const bool bounded = node >= 0 && static_cast<size_t>(node) < bound_.size();
+    // A node known to be farther than the reach is answered without a search (docs/collisions.md,
+    // "Distance bounds"); any other searches kBoundReach farther, which changes no answer
+    // (the nearest triangle within a reach does not depend on the reach beyond its distance)
+    // and measures a bound that rules out the next queries while the node stays clear.
+    double known = 0;
+    if (bounded) {
+      known = distance_bound(p, node, end);
+      if (known > reach) return false;
+    }
+    // Searching farther pays while the surface moves less in a step than a fraction of the
+    // extra reach (the bound then rules out several steps' queries); past that the wider
+    // searches cost more than the queries they rule out (docs/performance.md).
+    const bool extend = bounded && step_motion_ < kBoundReach * kBoundMotionShare;
+    const double search = extend ? reach + kBoundReach : reach;
+    // The nearest triangle within the search (its point found again for the winner only).
     double best = 0;
-    const int best_face = tree.nearest(p, reach, [&](int f) {
+    const int best_face = tree.nearest(p, search, [&](int f) {
       const auto& t = list_[f];
       return closest_point_triangle(p, x.row(t[0]).transpose(), x.row(t[1]).transpose(), x.row(t[2]).transpose())
           .distance;
     }, best);
-    if (best_face < 0) return false;
+    if (bounded) bound_[node] = {p, std::max(best, known), end ? motion_end_ : motion_start_, epoch_};
+    if (best_face < 0 || best > reach) return false;
     const auto& t = list_[best_face];
     const PointTriangleClosest hit =
         closest_point_triangle(p, x.row(t[0]).transpose(), x.row(t[1]).transpose(), x.row(t[2]).transpose());
@@ -576,6 +635,8 @@ class MeshCollider : public Collider {
   bool closed_;
   Points start_, end_;
   AabbTree tree_start_, tree_end_;
+  mutable AabbTree tree_swept_;  ///< swept_tree(), refitted when first asked for in a step
+  mutable bool swept_fitted_ = false;
   std::unordered_map<long long, std::vector<int>> edge_faces_;
   std::vector<Vec3> face_normal_start_, face_normal_end_;
   std::vector<int> vertex_face_start_, vertex_faces_;  ///< each vertex's faces, compressed rows
@@ -585,6 +646,16 @@ class MeshCollider : public Collider {
   double t0_ = std::numeric_limits<double>::quiet_NaN(), t1_ = std::numeric_limits<double>::quiet_NaN();
   double step_motion_ = 0;
   mutable std::vector<signed char> side_;  ///< per cloth node, open surfaces: +1 or -1 (0: not yet)
+  /// Per cloth node: no point of the surface was nearer than `distance` to `point` when the
+  /// surface had moved `clock` along this epoch's steps (distance_bound).
+  struct DistanceBound {
+    Vec3 point = Vec3::Zero();
+    double distance = 0, clock = 0;
+    unsigned epoch = 0;
+  };
+  mutable std::vector<DistanceBound> bound_;
+  unsigned epoch_ = 0;  ///< bumped by every prepare that is not the next step or the same one
+  double motion_start_ = 0, motion_end_ = 0;  ///< the clock at the step's start and end
 };
 
 }  // namespace
@@ -951,6 +1022,26 @@ constexpr double kFaceSideAgreement = 0.2;
 constexpr double kFaceSideLeast = -0.5;
 }  // namespace
 
+bool ColliderContacts::clear_of(const Collider& c, const VecX& x, const std::array<int, 3>& t, double thickness,
+                                double limit) const {
+  // A face gives no poke when its vertices' distance bounds show that (1) one of them is
+  // farther from the collider than its side normal's reach (the side check then fails) and
+  // (2) the whole face is farther than a poke measured along the face's normal can be.
+  double lowest = std::numeric_limits<double>::infinity(), highest = 0, longest2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double b = c.distance_bound(node(x, t[k]), t[k], true);
+    lowest = std::min(lowest, b);
+    highest = std::max(highest, b);
+    longest2 = std::max(longest2, (node(x, t[k]) - node(x, t[(k + 1) % 3])).squaredNorm());
+  }
+  if (!(highest > kMaxPokeDepth + thickness)) return false;
+  // Every point of a triangle lies within its longest edge L of each vertex and within
+  // L / sqrt(3) of the nearest one.
+  const double longest = std::sqrt(longest2);
+  const double face = std::max(highest - longest, lowest - longest / std::sqrt(3.0));
+  return face >= std::max(limit, kMaxPokeDepth);
+}
+
 void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit, std::vector<FacePoke>& out) {
   out.clear();
   const double thickness = c.spec().thickness;
@@ -976,6 +1067,7 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
     for (int f = static_cast<int>(k) * kChunk, last = std::min(faces, f + kChunk); f < last; ++f) {
       const auto& t = triangles_[f];
       if (!looks_at(t)) continue;
+      if (clear_of(c, x, t, thickness, limit)) continue;
       Box box;
       for (int j = 0; j < 3; ++j) box.add(node(x, t[j]));
       box.lo -= Vec3::Constant(margin);
@@ -1097,7 +1189,10 @@ void ColliderContacts::keep_edges_off_edges(size_t collider, const Collider& c, 
   const double thickness = c.spec().thickness;
   const double gap = kEdgeCrossingGap * thickness;
   const double target = kEdgeLiftHeight * target_ * thickness;
-  const double grow = gap + c.step_motion();
+  // The collider's triangles whose sweep over the step comes within the gap of the cloth
+  // edge's (those of no other can come that close to it in the step).
+  const AabbTree* swept_tree = c.swept_tree();
+  const double grow = gap;
   auto body = [](const Points& p, int v) -> Vec3 { return p.row(v).transpose(); };
   for (const auto& e : cloth_edges_) {
     if (!looks_at(e[0]) && !looks_at(e[1])) continue;
@@ -1112,7 +1207,7 @@ void ColliderContacts::keep_edges_off_edges(size_t collider, const Collider& c, 
       box.lo -= Vec3::Constant(grow);
       box.hi += Vec3::Constant(grow);
       edge_candidates_.clear();
-      c.end_tree()->for_each_overlapping(box, [&](int f) {
+      swept_tree->for_each_overlapping(box, [&](int f) {
         for (int k = 0; k < 3; ++k)
           if (owned[f] & (1u << k)) edge_candidates_.push_back({(*list)[f][k], (*list)[f][(k + 1) % 3]});
       });

@@ -36,6 +36,10 @@ class Collider {
   virtual bool closest(const Vec3& p, double reach, bool end, int node, SurfacePoint& out) const = 0;
   /// Makes room for what closest keeps per node, for nodes 0 to n - 1.
   virtual void reserve_nodes(int /*n*/) {}
+  /// A lower bound (m) on the distance from p to the surface at the prepared step's start (end:
+  /// its end), from what earlier queries of cloth node `node` measured; 0 when none is known.
+  /// Holds for any p, not only the node's position.
+  virtual double distance_bound(const Vec3& /*p*/, int /*node*/, bool /*end*/) const { return 0; }
   /// How far any point of the surface moves over the prepared step (m); 0 for a collider
   /// whose queries answer at any distance.
   virtual double step_motion() const { return 0; }
@@ -52,6 +56,10 @@ class Collider {
   /// positions and unit outward vertex normals (angle-weighted); null (zero) for analytic
   /// colliders.
   virtual const AabbTree* end_tree() const { return nullptr; }
+  /// A mesh collider's tree refitted to its triangles' sweep over the prepared step (each box
+  /// holds the triangle at the step's start and end); null for analytic colliders. Not for
+  /// several threads at once.
+  virtual const AabbTree* swept_tree() const { return nullptr; }
   virtual const Points* end_vertices() const { return nullptr; }
   virtual const Points* start_vertices() const { return nullptr; }
   virtual Vec3 end_vertex_normal(int /*v*/) const { return Vec3::Zero(); }
@@ -143,6 +151,8 @@ class ColliderContacts : public ContactHandler {
   /// collider (its own vertices' nearest surface normals facing the same way as the vertex's
   /// normal, or else leaning together to one side of the face, which the vertex faces).
   void face_pokes(const Collider& c, const VecX& x, double limit, std::vector<FacePoke>& out);
+  /// Whether face t at x is shown by c's distance bounds to give face_pokes nothing.
+  bool clear_of(const Collider& c, const VecX& x, const std::array<int, 3>& t, double thickness, double limit) const;
   std::vector<FacePoke> pokes_;
   /// Holds the vertices of cloth faces that sag over collider c's vertices (step start).
   void hold_faces_over_vertices(const Collider& c, const VecX& x, double dt, std::vector<NodeContact>& out);
