@@ -141,6 +141,17 @@ TEST(CollisionScenes, TwistedSheetEndsEveryFrameClearOfItself) {
   EXPECT_EQ(t.frames, 76u);
 }
 
+// Under the guarded midpoint the wringing's fail-safe corrections escalate after 1 s; the guard
+// counts such corrections as energy its steps put in and dissipates them (without that the run
+// stopped at 1.7 s by the rule for the fail-safes' energy that stays).
+TEST(CollisionScenes, TwistedSheetUnderTheGuardedMidpointEndsOkPastTheFailSafesFight) {
+  Scene scene = load_scene(std::string(WEFT_SOURCE_DIR) + "/scenes/twisted-sheet.json");
+  set_method(scene, "implicit-midpoint", std::nullopt, "test");
+  scene.duration = 2.0;
+  const Totals t = run_scene(scene, "twisted-sheet.json (implicit-midpoint)");
+  EXPECT_EQ(t.frames, 101u);
+}
+
 // The walk reduced: a cropped shirt (GarmentCode's shirt_mean, triangles of 2 cm) sewn on the
 // standing mannequin, 0.1 s standing, then the arms come down from the T-pose as the body blends
 // into the walk over 0.4 s (arms spread by 20 degrees, as scenes/walk.json, and by 21),

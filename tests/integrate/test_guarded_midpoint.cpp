@@ -133,6 +133,52 @@ TEST(GuardedMidpoint, AStepAContactPutsEnergyIntoWhateverItsSizeIsNotHalved) {
   EXPECT_EQ(in.data().guard_depth, 0);
 }
 
+// A fail-safe that moves a node and sends it off sideways at `speed` after every solve, putting in
+// half the node's mass times speed^2 of kinetic energy (and a little elastic energy) each step.
+class KickingFailSafe : public ContactHandler {
+ public:
+  explicit KickingFailSafe(double speed) : speed_(speed) {}
+  void detect(const VecX&, const VecX&, double, double, std::vector<NodeContact>&) override {}
+  void detect_end(const VecX&, const VecX&, double, double, const std::vector<char>&, std::vector<NodeContact>&) override {}
+  void finish_step(const VecX&, VecX& x1, VecX& v1, double, double dt, ContactReport& report) override {
+    x1[2] += speed_ * dt;
+    v1[2] = speed_;
+    ++report.fail_safe_moves;
+  }
+
+ private:
+  double speed_;
+};
+
+// The fail-safes' work is contact work, which the guard's balance leaves out, until one step's
+// exceeds kGuardFailSafeShare of the energy scale: then the guard counts it as energy the step
+// put in and takes the step again at larger alphas (the kick comes back in every attempt, so
+// the last rung is kept).
+TEST(GuardedMidpoint, AStepWhoseFailSafesPutInASizeableShareOfTheScaleIsTakenAgainAtLargerAlphas) {
+  for (const double share : {0.5, 2.0}) {
+    SpringSystem sys(VecX::Constant(1, 1.0), {Spring{0, -1, 1e4, 1.0, 0.0}});
+    State s;
+    s.x = Vec3(1, 0, 0);
+    s.v = Vec3::Zero();
+    Integrator in(sys, midpoint(0.01, true));
+    in.set_energy_scale(1.0);
+    // Kinetic energy 0.5 speed^2 = share times the threshold.
+    KickingFailSafe kick(std::sqrt(2 * share * kGuardFailSafeShare));
+    in.add_contact_handler(&kick);
+    StepStatistics st;
+    in.step(s, 0.01, st);
+    EXPECT_GT(s.fail_safe_work, 0.5 * share * kGuardFailSafeShare);
+    if (share < 1) {
+      EXPECT_EQ(st.guard_redone_steps, 0) << share;
+      EXPECT_EQ(st.guard_parts, 1) << share;
+    } else {
+      // Every rung above the scene's alpha was tried; the step ends on the last (alpha 1).
+      EXPECT_EQ(st.guard_redone_steps, static_cast<long>(std::size(kGuardAlphas))) << share;
+      EXPECT_EQ(in.data().guard_rung, static_cast<int>(std::size(kGuardAlphas))) << share;
+    }
+  }
+}
+
 // A frictionless contact on a node that does not slide: the node leaves the step at the
 // surface's velocity (friction's share of a zero sliding speed is zero, not 0/0).
 TEST(GuardedMidpoint, AFrictionlessContactOnANodeThatDoesNotSlideLeavesItAtTheSurfacesVelocity) {
