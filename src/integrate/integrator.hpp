@@ -34,10 +34,11 @@ constexpr double kGuardAlphas[] = {0.6, 0.75, 1.0};
 /// contacts' work by more than this fraction of the energy scale (Integrator::set_energy_scale,
 /// or the state's kinetic plus elastic energy where larger).
 constexpr double kGuardTolerance = 1e-4;
-/// The fail-safes' work in a step (State::fail_safe_work) counts as energy the step put in
-/// when it exceeds this fraction of the same scale: a solve that keeps driving nodes into
-/// what the fail-safes push them out of is then taken again at a larger alpha, which
-/// dissipates the fight instead of keeping it (docs/guarded-midpoint.md).
+/// In the guarded midpoint (not the guarded BDF-2, whose own dissipation takes it out), the
+/// fail-safes' work in a step (State::fail_safe_work) counts as energy the step put in when it
+/// exceeds this fraction of the same scale: a solve that keeps driving nodes into what the
+/// fail-safes push them out of is then taken again at a larger alpha, which dissipates the
+/// fight instead of keeping it (docs/guarded-midpoint.md).
 constexpr double kGuardFailSafeShare = 0.05;
 /// How many times a guarded step that puts energy in is halved before alpha is raised.
 constexpr int kGuardMaxSplits = 4;
