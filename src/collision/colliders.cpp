@@ -1192,7 +1192,6 @@ void ColliderContacts::keep_edges_off_edges(size_t collider, const Collider& c, 
   // The collider's triangles whose sweep over the step comes within the gap of the cloth
   // edge's (those of no other can come that close to it in the step).
   const AabbTree* swept_tree = c.swept_tree();
-  const double grow = gap;
   auto body = [](const Points& p, int v) -> Vec3 { return p.row(v).transpose(); };
   for (const auto& e : cloth_edges_) {
     if (!looks_at(e[0]) && !looks_at(e[1])) continue;
@@ -1204,8 +1203,8 @@ void ColliderContacts::keep_edges_off_edges(size_t collider, const Collider& c, 
       box.add(b0);
       box.add(a1);
       box.add(b1);
-      box.lo -= Vec3::Constant(grow);
-      box.hi += Vec3::Constant(grow);
+      box.lo -= Vec3::Constant(gap);
+      box.hi += Vec3::Constant(gap);
       edge_candidates_.clear();
       swept_tree->for_each_overlapping(box, [&](int f) {
         for (int k = 0; k < 3; ++k)
