@@ -1193,9 +1193,24 @@ void ColliderContacts::keep_edges_off_edges(size_t collider, const Collider& c, 
   // edge's (those of no other can come that close to it in the step).
   const AabbTree* swept_tree = c.swept_tree();
   auto body = [](const Points& p, int v) -> Vec3 { return p.row(v).transpose(); };
+  // At any time of the step the edge's point a fraction s along it lies within s L of its
+  // first end and (1 - s) L of its second (L its longer length), each end within its
+  // displacement of where it ends, and the surface within its step motion of where it ends. So
+  // with B the ends' distance bounds at the end less those motions, no point of the edge comes
+  // nearer the surface than max(B_a - s L, B_b - (1 - s) L) >= (B_a + B_b - L) / 2: an edge for
+  // which that exceeds the gap is skipped. (Neither end being near the surface is not enough:
+  // the middle of an edge longer than its ends' reach can cross a ridge, as a cloth quad's folded
+  // diagonal did on the body's chest.)
+  const double motion = c.step_motion();
+  auto bound = [&](int i) {
+    const Vec3 end = node(x1, i);
+    return c.distance_bound(end, i, true) - (end - node(x0, i)).norm() - motion;
+  };
   for (const auto& e : cloth_edges_) {
     if (!looks_at(e[0]) && !looks_at(e[1])) continue;
-    if (!found_[e[0]] && !found_[e[1]]) continue;  // neither end near the collider
+    const double longest =
+        std::sqrt(std::max((node(x0, e[1]) - node(x0, e[0])).squaredNorm(), (node(x1, e[1]) - node(x1, e[0])).squaredNorm()));
+    if (0.5 * (bound(e[0]) + bound(e[1]) - longest) > gap) continue;
     for (int lift = 0; lift < kEdgeLiftsPerEdge; ++lift) {
       const Vec3 a0 = node(x0, e[0]), b0 = node(x0, e[1]), a1 = node(x1, e[0]), b1 = node(x1, e[1]);
       Box box;

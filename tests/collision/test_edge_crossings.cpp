@@ -126,3 +126,24 @@ TEST(EdgeCrossings, AClothEdgeSettlingOnOneSlopeIsLeftAlone) {
   EXPECT_EQ(v1, v1_before);
   EXPECT_EQ(report.fail_safe_moves, 0);
 }
+
+TEST(EdgeCrossings, ALongClothEdgeWhoseEndsStayFarFromTheRidgeIsCaughtCrossingIt) {
+  const double thickness = 0.004, dt = 0.005;
+  auto c = prism(thickness, 0.0);
+  // An edge 6 cm long moving 3 mm down across the ridge: its ends end 2 cm off the slopes,
+  // beyond any reach their own queries have (the thickness and their 3 mm of motion), while its
+  // middle passes through the ridge.
+  VecX x0(9), x1(9), mass = VecX::Constant(3, 1e-3);
+  x0 << 0, 0.0015, -0.03, 0, 0.0015, 0.03, 0.3, 0.1, 0;
+  x1 << 0, -0.0015, -0.03, 0, -0.0015, 0.03, 0.3, 0.1, 0;
+  VecX v1 = (x1 - x0) / dt;
+  c->prepare(0.0, dt);
+  ASSERT_TRUE(crosses(*c, x1));
+  for (int i = 0; i < 2; ++i) ASSERT_GT(slope_distance(x1, i, 0.0), 0.02);
+  ColliderContacts contacts({c.get()}, mass, std::vector<char>(3, 0), {{0, 1, 2}});
+  ContactReport report;
+  contacts.finish_step(x0, x1, v1, 0.0, dt, report);
+  EXPECT_FALSE(crosses(*c, x1));
+  for (int i = 0; i < 2; ++i) EXPECT_NEAR(x1[3 * i + 1], kEdgeLiftHeight * thickness, 1e-9) << i;
+  EXPECT_GT(report.fail_safe_moves, 0);
+}
