@@ -79,6 +79,33 @@ void AabbTree::refit_boxes(const Corners& corners, double margin) {
   }
 }
 
+void AabbTree::self_pair_pieces(std::array<int, 2> item, int depth, std::vector<std::array<int, 2>>& pieces) const {
+  // As self_pairs_from's stack takes them: the children pushed last are finished first.
+  const auto [a, b] = item;
+  const Node& na = nodes_[a];
+  if (a == b) {
+    if (depth == 0 || na.leaf()) {
+      pieces.push_back(item);
+      return;
+    }
+    self_pair_pieces({a + 1, na.right}, depth - 1, pieces);
+    self_pair_pieces({na.right, na.right}, depth - 1, pieces);
+    self_pair_pieces({a + 1, a + 1}, depth - 1, pieces);
+    return;
+  }
+  const Node& nb = nodes_[b];
+  if (!na.box.overlaps(nb.box)) return;
+  if (depth == 0 || (na.leaf() && nb.leaf())) {
+    pieces.push_back(item);
+  } else if (split_first(na, nb)) {
+    self_pair_pieces({na.right, b}, depth - 1, pieces);
+    self_pair_pieces({a + 1, b}, depth - 1, pieces);
+  } else {
+    self_pair_pieces({a, nb.right}, depth - 1, pieces);
+    self_pair_pieces({a, b + 1}, depth - 1, pieces);
+  }
+}
+
 void AabbTree::refit(const double* xyz, double margin) {
   refit_boxes(
       [xyz](const std::array<int, 3>& t, Box& b) {

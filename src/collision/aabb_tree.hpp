@@ -6,6 +6,7 @@
 #include <limits>
 #include <vector>
 
+#include "sim/threads.hpp"
 #include "weft/types.hpp"
 
 namespace weft {
@@ -62,6 +63,15 @@ class AabbTree {
   /// boxes overlap. Neighbours in the mesh are included: callers filter them.
   template <class F>
   void for_each_self_pair(F&& f) const;
+  /// The pairs (i, j) for_each_self_pair gives, in its order, for which keep(i, j) holds, found
+  /// on every thread allowed: the traversal is cut into the pairs of subtrees it takes in turn
+  /// (the same cut at any thread count), each piece's pairs collected apart and the pieces
+  /// joined in the traversal's order, so `out` holds the same pairs in the same order whatever
+  /// the number of threads. keep is called from several threads at once. `pieces` is scratch
+  /// kept between calls.
+  template <class Keep>
+  void collect_self_pairs(const Keep& keep, std::vector<std::array<int, 2>>& out,
+                          std::vector<std::vector<std::array<int, 2>>>& pieces) const;
   /// Calls f(mine, theirs) for every pair of a triangle of this tree and one of `other` whose
   /// boxes overlap.
   template <class F>
@@ -81,6 +91,12 @@ class AabbTree {
     return b.leaf() || (!a.leaf() && (a.box.hi - a.box.lo).sum() >= (b.box.hi - b.box.lo).sum());
   }
   int build(int begin, int end, const std::vector<Vec3>& centroid);
+  // for_each_self_pair's traversal from one pair of nodes (a == b: the pairs within a subtree).
+  template <class F>
+  void self_pairs_from(std::array<int, 2> start, F&& f) const;
+  // Appends the pairs of nodes that the traversal from `item` reaches `depth` levels down, in
+  // the order it finishes them (items that give nothing are left out).
+  void self_pair_pieces(std::array<int, 2> item, int depth, std::vector<std::array<int, 2>>& pieces) const;
   template <class Corners>
   void refit_boxes(const Corners& corners, double margin);
 
@@ -164,10 +180,39 @@ int AabbTree::nearest(const Vec3& p, double reach, Distance&& distance, double& 
 template <class F>
 void AabbTree::for_each_self_pair(F&& f) const {
   if (nodes_.empty()) return;
+  self_pairs_from({0, 0}, f);
+}
+
+template <class Keep>
+void AabbTree::collect_self_pairs(const Keep& keep, std::vector<std::array<int, 2>>& out,
+                                  std::vector<std::vector<std::array<int, 2>>>& pieces) const {
+  out.clear();
+  if (nodes_.empty()) return;
+  // Subtree pairs six levels down (a few hundred on a cloth of thousands of triangles), taken
+  // 8 to a piece of work.
+  constexpr int kDepth = 6;
+  constexpr size_t kPerPiece = 8;
+  std::vector<std::array<int, 2>> starts;
+  self_pair_pieces({0, 0}, kDepth, starts);
+  const size_t count = (starts.size() + kPerPiece - 1) / kPerPiece;
+  if (pieces.size() < count) pieces.resize(count);
+  parallel_chunks(count, [&](size_t k) {
+    std::vector<std::array<int, 2>>& found = pieces[k];
+    found.clear();
+    for (size_t s = k * kPerPiece, end = std::min(starts.size(), s + kPerPiece); s < end; ++s)
+      self_pairs_from(starts[s], [&](int i, int j) {
+        if (keep(i, j)) found.push_back({i, j});
+      });
+  });
+  for (size_t k = 0; k < count; ++k) out.insert(out.end(), pieces[k].begin(), pieces[k].end());
+}
+
+template <class F>
+void AabbTree::self_pairs_from(std::array<int, 2> start, F&& f) const {
   // Pairs (a, b) of nodes to visit; a == b stands for the pairs within one subtree.
   std::vector<std::array<int, 2>> stack;
   stack.reserve(256);
-  stack.push_back({0, 0});
+  stack.push_back(start);
   while (!stack.empty()) {
     const auto [a, b] = stack.back();
     stack.pop_back();

@@ -31,10 +31,13 @@ void record(IntersectionCount& out, int i, int j, size_t examples) {
 IntersectionCount self_intersections(const double* xyz, const AabbTree& tree, size_t examples) {
   IntersectionCount out;
   const auto& tris = tree.triangles();
-  tree.for_each_self_pair([&](int i, int j) {
-    if (share_vertex(tris[i], tris[j]) || !intersect(xyz, tris[i], xyz, tris[j])) return;
-    record(out, std::min(i, j), std::max(i, j), examples);
-  });
+  // The intersecting pairs, tested on every thread.
+  std::vector<std::array<int, 2>> pairs;
+  std::vector<std::vector<std::array<int, 2>>> pieces;
+  tree.collect_self_pairs(
+      [&](int i, int j) { return !share_vertex(tris[i], tris[j]) && intersect(xyz, tris[i], xyz, tris[j]); }, pairs,
+      pieces);
+  for (const auto& [i, j] : pairs) record(out, std::min(i, j), std::max(i, j), examples);
   // The traversal's order is fixed by the tree, but the pairs are easier to read sorted.
   std::sort(out.examples.begin(), out.examples.end());
   return out;

@@ -118,16 +118,17 @@ void SelfContacts::for_each_candidate(const VecX& xa, const VecX& xb, double mar
     eb[e].add(vb[edges_[e][1]].lo);
     eb[e].add(vb[edges_[e][1]].hi);
   }
-  // The pairs of owner triangles whose boxes overlap, in the tree's order.
-  triangle_pairs_.clear();
-  tree_.for_each_self_pair([&](int g, int h) {
-    const auto& tg = triangles_[g];
-    const auto& th = triangles_[h];
-    if (only_changed && !(changed_[tg[0]] || changed_[tg[1]] || changed_[tg[2]] || changed_[th[0]] ||
-                          changed_[th[1]] || changed_[th[2]]))
-      return;  // the same trajectories as at the last detection
-    triangle_pairs_.push_back({g, h});
-  });
+  // The pairs of owner triangles whose boxes overlap, in the tree's order (found on every
+  // thread, in the same order).
+  tree_.collect_self_pairs(
+      [&](int g, int h) {
+        const auto& tg = triangles_[g];
+        const auto& th = triangles_[h];
+        // Unless only_changed: the same trajectories as at the last detection are left out.
+        return !only_changed || changed_[tg[0]] || changed_[tg[1]] || changed_[tg[2]] || changed_[th[0]] ||
+               changed_[th[1]] || changed_[th[2]];
+      },
+      triangle_pairs_, triangle_pair_pieces_);
   // Their primitives' pairs, tested in chunks of triangle pairs on every thread; each chunk
   // keeps what it finds, and the chunks are joined in order: pairs_ holds the same pairs in
   // the same order whatever the number of threads.

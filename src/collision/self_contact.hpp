@@ -163,6 +163,7 @@ class SelfContacts : public ContactHandler {
   /// Triangle pairs per chunk of for_each_candidate's parallel loop.
   static constexpr size_t kCandidateChunk = 64;
   std::vector<std::array<int, 2>> triangle_pairs_;  ///< for_each_candidate's owner pairs
+  std::vector<std::vector<std::array<int, 2>>> triangle_pair_pieces_;  ///< collect_self_pairs's scratch
   std::vector<std::vector<Stencil>> chunk_pairs_;    ///< and what each chunk found
 
   std::vector<std::array<int, 3>> triangles_;

@@ -9,6 +9,7 @@
 
 #include "collision/aabb_tree.hpp"
 #include "collision/geometry.hpp"
+#include "weft/threads.hpp"
 
 namespace weft {
 namespace {
@@ -102,6 +103,33 @@ TEST(AabbTree, SelfPairsMatchBruteForce) {
     start.x = moved;
     EXPECT_EQ(self_pairs(tree), brute_self_pairs(all_boxes(start, 0.002, &s.x)));
   }
+}
+
+TEST(AabbTree, CollectedSelfPairsAreTheTraversalsInItsOrderOnOneThreadAndOnTwo) {
+  std::mt19937 rng(11);
+  for (int n : {1, 2, 5, 40, 3000}) {
+    Soup s = random_soup(rng, n);
+    AabbTree tree(s.triangles, s.x.data());
+    // A filter keeping about half the pairs, so that the pieces join with gaps between them.
+    auto keep = [](int i, int j) { return (i + 3 * j) % 2 == 0; };
+    std::vector<std::array<int, 2>> serial;
+    tree.for_each_self_pair([&](int i, int j) {
+      if (keep(i, j)) serial.push_back({i, j});
+    });
+    if (n == 3000) EXPECT_GT(serial.size(), 1000u);  // enough pairs for many pieces
+    for (int threads : {1, 2}) {
+      set_thread_count(threads);
+      std::vector<std::array<int, 2>> collected = {{-1, -1}};  // replaced, not appended to
+      std::vector<std::vector<std::array<int, 2>>> pieces;
+      tree.collect_self_pairs(keep, collected, pieces);
+      EXPECT_EQ(collected, serial) << n << " triangles, " << threads << " threads";
+    }
+    set_thread_count(0);
+  }
+  std::vector<std::array<int, 2>> none = {{1, 2}};
+  std::vector<std::vector<std::array<int, 2>>> pieces;
+  AabbTree(Triangles3{}, nullptr).collect_self_pairs([](int, int) { return true; }, none, pieces);
+  EXPECT_TRUE(none.empty());
 }
 
 TEST(AabbTree, BoxQueryMatchesBruteForce) {
