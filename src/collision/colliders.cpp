@@ -1116,6 +1116,26 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
     }
     return side_normal_[i];
   };
+  if (thread_count() > 1) {
+    // On several threads, the side normals of every face with a candidate are found first, in
+    // chunks of nodes (each node's query reads only its own position: the checks below read the
+    // same normals as when each is found on demand, and a query a check would not have made
+    // changes no other query's answer).
+    side_nodes_.clear();
+    for (size_t chunk = 0; chunk < chunks; ++chunk)
+      for (const PokeTest& test : chunk_tests_[chunk])
+        for (const int i : triangles_[test.poke.face])
+          if (!side_normal_known_[i]) {
+            side_normal_known_[i] = 2;  // listed
+            side_nodes_.push_back(i);
+          }
+    for (const int i : side_nodes_) side_normal_known_[i] = 0;
+    constexpr size_t kNodesPerChunk = 64;
+    parallel_chunks((side_nodes_.size() + kNodesPerChunk - 1) / kNodesPerChunk, [&](size_t k) {
+      for (size_t j = k * kNodesPerChunk, end = std::min(side_nodes_.size(), j + kNodesPerChunk); j < end; ++j)
+        side_normal(side_nodes_[j]);
+    });
+  }
   auto check = [&](const PokeTest& test) {
     const auto& t = triangles_[test.poke.face];
     // The face must lie on the vertex's side of the collider: its own vertices' nearest

@@ -200,6 +200,7 @@ class ColliderContacts : public ContactHandler {
   std::vector<std::array<int, 3>> triangles_;
   std::vector<char> side_normal_known_;  ///< per node, this step: side_normal_ computed
   std::vector<Vec3> side_normal_;        ///< the collider's normal nearest the node (0: none near)
+  std::vector<int> side_nodes_;          ///< face_pokes on several threads: the nodes whose side normals it finds first
 };
 
 }  // namespace weft
