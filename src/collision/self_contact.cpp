@@ -181,13 +181,14 @@ void SelfContacts::find_proximities(const VecX& x0) {
     return;
   }
   const double h = thickness_;
-  tree_.refit(x0.data(), 0.5 * h);
+  const double reach = kHoldReach * h;  // the repulsions take those within h
+  tree_.refit(x0.data(), 0.5 * reach);
   for_each_candidate(
-      x0, x0, 0.5 * h, false,
+      x0, x0, 0.5 * reach, false,
       [&](int v, int f, Stencil& s) {
         const auto& t = triangles_[f];
         const PointTriangleClosest c = closest_point_triangle(node(x0, v), node(x0, t[0]), node(x0, t[1]), node(x0, t[2]));
-        if (c.distance >= h) return false;
+        if (c.distance >= reach) return false;
         s = Stencil{};
         s.node = {v, t[0], t[1], t[2]};
         s.weight = {1, -c.weights[0], -c.weights[1], -c.weights[2]};
@@ -208,7 +209,7 @@ void SelfContacts::find_proximities(const VecX& x0) {
         const auto& q = edges_[e2];
         const SegmentSegmentClosest c =
             closest_points_segments(node(x0, p[0]), node(x0, p[1]), node(x0, q[0]), node(x0, q[1]));
-        if (c.distance >= h) return false;
+        if (c.distance >= reach) return false;
         s = Stencil{};
         s.node = {p[0], p[1], q[0], q[1]};
         s.weight = {1 - c.s, c.s, -(1 - c.t), -c.t};
@@ -270,6 +271,11 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
     for (size_t k = 0; k < pairs_.size(); ++k) {
       const Stencil& s = pairs_[k];
       const int kk = static_cast<int>(k);
+      // Beyond the thickness only layers at rest on each other that no collider holds.
+      if (s.gap >= s.distance &&
+          (has_contact_[s.node[0]] || has_contact_[s.node[1]] || has_contact_[s.node[2]] || has_contact_[s.node[3]] ||
+           relative_velocity(s).norm() > kHoldReachSpeed))
+        continue;
       if (s.vertex_face) {
         offer_to(s.node[0], kk, 0);
         continue;
@@ -332,8 +338,8 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
     c.normal = normal_for(closest_pair_[i], closest_side_[i]);
     hold_normal_[i] = c.normal;
     c.surface_velocity = other_side(s, first, c.normal);
-    c.normal_displacement = dt * (c.normal.dot(c.surface_velocity) + (s.distance - s.gap) * push);
-    c.friction = friction_;
+    c.normal_displacement = dt * (c.normal.dot(c.surface_velocity) + std::max(0.0, s.distance - s.gap) * push);
+    c.friction = s.gap < kFrictionReach * s.distance ? friction_ : 0.0;  // none across a wider gap
     if (second_pair_[i] >= 0) {
       // The second pair's prescribed dx . n2 = d2, with dx = d1 n + a t + (free part along
       // n x t), t the unit part of n2 orthogonal to n: a = (d2 - d1 n . n2) / (t . n2).
@@ -341,7 +347,7 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
       const bool first2 = second_side_[i] == 0;
       const Vec3 n2 = normal_for(second_pair_[i], second_side_[i]);
       const Vec3 sv2 = other_side(s2, first2, n2);
-      const double d2 = dt * (n2.dot(sv2) + (s2.distance - s2.gap) * push);
+      const double d2 = dt * (n2.dot(sv2) + std::max(0.0, s2.distance - s2.gap) * push);
       const Vec3 t = n2 - c.normal * c.normal.dot(n2);
       const double sine = t.norm();
       c.normal2 = t / sine;
@@ -636,7 +642,7 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
   for (int sweep = 0; sweep < 3; ++sweep) {
     long applied = 0;
     for (const Stencil& s : pairs_)
-      if (apply(s, (s.distance - s.gap) / std::max(kRepulsionTime, dt), true, true)) ++applied;
+      if (s.gap < s.distance && apply(s, (s.distance - s.gap) / std::max(kRepulsionTime, dt), true, true)) ++applied;
     stats_.repulsions += applied;
     if (applied == 0) break;
   }

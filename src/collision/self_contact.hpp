@@ -36,6 +36,18 @@ constexpr double kRepulsionTime = 0.05;
 /// An end of an edge in an edge-edge pair within the thickness is held in the solve when it
 /// carries at least this share of the edge's closest point (1 - s or s).
 constexpr double kEdgeHoldWeight = 0.25;
+/// Pairs are held in the solve out to this multiple of the thickness (at the step's start),
+/// the repulsions acting only within it: a vertex resting just outside the thickness is held
+/// where it is (not drawn in) instead of being left free for the solve to press into the layer
+/// beneath and the repulsions to push back out.
+constexpr double kHoldReach = 1.25;
+/// Holds of pairs beyond the thickness have friction out to this multiple of it (a vertex the
+/// solve put at the thickness ends a hair outside it as often as inside), none beyond.
+constexpr double kFrictionReach = 1.1;
+/// Pairs beyond the thickness are held only when their relative velocity at the step's start
+/// is below this (m/s) and no node of theirs is held by a collider: layers resting on each
+/// other, not layers wound or driven together (a twisted sheet, the walking body's pinch).
+constexpr double kHoldReachSpeed = 0.5;
 /// A node the cloth holds is held against a second pair where that pair's normal and its
 /// first's differ by an angle whose sine is at least this (30 degrees).
 constexpr double kSecondHoldSine = 0.5;

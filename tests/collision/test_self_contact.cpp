@@ -533,6 +533,60 @@ TEST(SelfContact, AVertexInACreaseIsHeldAgainstBothSidesButNotBetweenParallelLay
   }
 }
 
+TEST(SelfContact, AVertexRestingJustOutsideTheThicknessIsHeldWhereItIsAndLeftAloneByTheRepulsions) {
+  // Vertex 3 (of a face far above) over the middle of face 0 in y = 0, at heights from half the
+  // thickness to beyond kHoldReach of it. Inside the thickness it is held and pushed out over
+  // kRepulsionTime, with friction, and the repulsions push it too. From the thickness to
+  // kHoldReach times it, at rest, it is held where it is (no displacement: the solve does not
+  // press it into the layer), with friction out to kFrictionReach times the thickness and none
+  // beyond, and the repulsions leave it alone; not so when it moves faster than
+  // kHoldReachSpeed, or when a collider holds the face's nodes. Farther out it is not held.
+  const double dt = 0.005, friction = 0.3;
+  enum Case { kAtRest, kMoving, kFaceHeld };
+  for (const Case which : {kAtRest, kMoving, kFaceHeld})
+    for (const double ratio : {0.5, 1.05, 1.2, 1.3}) {
+      SCOPED_TRACE(testing::Message() << "case " << which << ", height " << ratio << " thicknesses");
+      VecX x(18), v = VecX::Zero(18);
+      node(x, 0) = Vec3(-0.1, 0, -0.1), node(x, 1) = Vec3(0.1, 0, -0.1), node(x, 2) = Vec3(0, 0, 0.1);
+      node(x, 3) = Vec3(0, ratio * kThickness, 0);
+      node(x, 4) = Vec3(0, 0.3, 0), node(x, 5) = Vec3(0.1, 0.3, 0.1);
+      if (which == kMoving) node(v, 3) = Vec3(2 * kHoldReachSpeed, 0, 0);  // sliding over the face
+      const std::vector<std::array<int, 3>> triangles = {{0, 1, 2}, {3, 4, 5}};
+      SelfContacts self(triangles, x, VecX::Constant(6, 1e-3), std::vector<char>(6, 0), kThickness, friction);
+      std::vector<NodeContact> out;
+      if (which == kFaceHeld)
+        for (int i : {0, 1, 2}) {
+          out.emplace_back();
+          out.back().node = i;
+          out.back().normal = Vec3::UnitY();
+        }
+      self.detect(x, v, 0, dt, out);
+      const auto held = std::find_if(out.begin(), out.end(), [](const NodeContact& c) { return c.node == 3; });
+      const bool beyond = ratio >= 1;
+      if (ratio > kHoldReach || (beyond && which != kAtRest)) {
+        EXPECT_EQ(held, out.end());
+      } else {
+        ASSERT_NE(held, out.end());
+        EXPECT_NEAR(held->normal.dot(Vec3::UnitY()), 1, 1e-12);
+        const double restore = beyond ? 0.0 : dt * (1 - ratio) * kThickness / kRepulsionTime;
+        EXPECT_NEAR(held->normal_displacement, restore, 1e-15);
+        EXPECT_EQ(held->friction, ratio < kFrictionReach ? friction : 0.0);
+      }
+      if (which != kAtRest) continue;
+      // The fail-safe after a step that moved nothing: only the pair within the thickness is
+      // pushed apart.
+      VecX x1 = x, v1 = VecX::Zero(18);
+      ContactReport report;
+      self.finish_step(x, x1, v1, 0, dt, report);
+      if (!beyond) {
+        EXPECT_GT(node(v1, 3).y(), 0);
+      } else {
+        EXPECT_EQ(x1, x);
+        EXPECT_EQ(v1, VecX::Zero(18));
+      }
+    }
+}
+
 TEST(SelfContact, AnEdgeEndCarryingLittleOfTheClosestPointIsNotHeld) {
   // The lower edge moved along x so that the upper one crosses it a tenth of the way from node
   // 0 (weights 0.9 and 0.1): node 1 is left free, below kEdgeHoldWeight.
