@@ -565,11 +565,6 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   // inside a collider's thickness at the step's end join them and the step is solved again
   // (a few times at most; the handler's fail-safe catches what remains).
   if (!d_.contacts.empty() || (!d_.handlers.empty() && alpha > 0.0)) d_.rhs_unconstrained = d_.rhs;
-  // Whether the step starts with contacts a solve may let go (a clamp's never are): only then
-  // is its first solve taken as a deciding one (kActiveSetTolerance). Without, the first
-  // solve usually holds the step's final set, and nodes joining at its end are rare.
-  const bool active_set = alpha != 0.0 && std::any_of(d_.contacts.begin(), d_.contacts.end(),
-                                                      [](const NodeContact& c) { return !c.kinematic; });
   PcgResult r;
   for (int pass = 0;; ++pass) {
     if (!d_.contacts.empty()) {
@@ -577,15 +572,10 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
       constrain(s, dt, alpha, beta, dt_b);
       stats.response_seconds += seconds_since(tr);
     }
-    // The first of two passes only decides the active set: it stops at a looser residual,
-    // and the last pass reaches the tolerance from its solution.
-    const bool deciding = pass == 0 && active_set && kMaxContactPasses > 1 && kActiveSetTolerance > ps.relative_tolerance;
-    PcgSettings pass_settings = ps;
-    if (deciding) pass_settings.relative_tolerance = kActiveSetTolerance;
-    r = solve_pcg(d_.step.matrix, d_.rhs, system_.fixed(), pass_settings, d_.dv, d_.pcg);
+    r = solve_pcg(d_.step.matrix, d_.rhs, system_.fixed(), ps, d_.dv, d_.pcg);
     stats.cg_iterations += r.iterations;
     ++stats.cg_solves;
-    if (!r.converged && !deciding) ++stats.cg_failures;
+    if (!r.converged) ++stats.cg_failures;
     if (d_.contacts.empty() && pass == 0) {
       if (r.converged) d_.history.record(d_.rhs, system_.fixed(), d_.dv);
     }
@@ -639,8 +629,8 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
       if (d_.released_now[d_.contacts[k].node]) d_.keep_held[d_.contacts[k].node] = 1;
     stats.detection_seconds += seconds_since(td);
     if (d_.contacts.size() != before) changed = true;
-    if (!changed && !deciding) break;
-    if (changed) ++stats.contact_passes;
+    if (!changed) break;
+    ++stats.contact_passes;
   }
   if (!d_.contacts.empty()) {
     stats.contacts += static_cast<long>(d_.contacts.size());

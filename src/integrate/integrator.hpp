@@ -58,14 +58,6 @@ constexpr int kGuardRelaxSteps = 5;
 /// sphere drop a third solve costs 12% more time and changes no contact the fail-safe would
 /// not; docs/collisions.md).
 constexpr int kMaxContactPasses = 2;
-/// The relative residual at which the first of those solves stops (the scene's tolerance
-/// when looser) in a step that starts with contacts a solve may let go: that solve only
-/// decides which contacts pull and which nodes would end inside, and the second, always taken
-/// then, reaches the scene's tolerance from its solution. On the 129x129 sphere drop the two
-/// take about 340 CG iterations a step instead of 490; looser first solves save more but let
-/// the dense self-contact of the twisted sheet make the fail-safes work harder
-/// (docs/collisions.md, "An active set of two solves").
-constexpr double kActiveSetTolerance = 1e-4;
 /// Times Newton's iterations (IntegratorSettings::newton_iterations) check where the free
 /// nodes now end and add those that would end inside a collider's thickness to the contacts.
 constexpr int kNewtonContactRounds = 2;
