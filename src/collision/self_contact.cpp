@@ -267,25 +267,51 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
       closest_side_[i] = static_cast<char>(side);
     }
   };
+  // The side of a pair (0: its vertex or first edge, 1: its face or second edge) whose every node
+  // a collider holds at rest (not by a clamp's motion, slower than kHeldRestSpeed) while it
+  // holds no node of the other side; -1 when a collider holds none of its nodes, 2 otherwise.
+  auto resting_side = [&](const Stencil& s) {
+    const int split = s.vertex_face ? 1 : 2;
+    int held[2] = {0, 0}, resting[2] = {0, 0};
+    for (int j = 0; j < 4; ++j) {
+      const int i = s.node[j];
+      if (!has_contact_[i]) continue;
+      const int side = j < split ? 0 : 1;
+      ++held[side];
+      if (!out[contact_slot_[i]].kinematic && node(v, i).norm() <= kHeldRestSpeed) ++resting[side];
+    }
+    if (held[0] == 0 && held[1] == 0) return -1;
+    if (resting[0] == split && held[1] == 0) return 0;
+    if (resting[1] == 4 - split && held[0] == 0) return 1;
+    return 2;
+  };
   auto each_offer = [&](auto&& offer_to) {
     for (size_t k = 0; k < pairs_.size(); ++k) {
       const Stencil& s = pairs_[k];
       const int kk = static_cast<int>(k);
-      // Beyond the thickness only layers at rest on each other that no collider holds.
-      if (s.gap >= s.distance &&
-          (has_contact_[s.node[0]] || has_contact_[s.node[1]] || has_contact_[s.node[2]] || has_contact_[s.node[3]] ||
-           relative_velocity(s).norm() > kHoldReachSpeed))
+      const int resting = resting_side(s);
+      // Beyond the thickness only layers at rest on each other: no collider holds a node of
+      // the pair, or it holds one side at rest and none of the other.
+      if (s.gap >= s.distance && (resting == 2 || relative_velocity(s).norm() > kHoldReachSpeed)) continue;
+      // A side a collider holds at rest is the surface the other side's nodes are held against
+      // (those carrying at least kEdgeHoldWeight of their side's point): a layer lying on a layer
+      // that rests on a collider, along the vertex-face and edge-edge pairs between them.
+      // Otherwise a vertex against a face, and the ends of two edges each against the other.
+      if (resting == 0 || resting == 1) {
+        const int split = s.vertex_face ? 1 : 2;
+        const int begin = resting == 0 ? split : 0, end = resting == 0 ? 4 : split;
+        for (int j = begin; j < end; ++j)
+          if (std::abs(s.weight[j]) >= kEdgeHoldWeight) offer_to(s.node[j], kk, 1 - resting);
         continue;
+      }
       if (s.vertex_face) {
         offer_to(s.node[0], kk, 0);
         continue;
       }
-      // A pair with a node a collider holds is left to the fail-safe: where the walking body
-      // pinches the cloth between arm and torso, holding edges against edges the body drives
-      // let the solve strain the sheet by up to 1,930 J in a step (docs/collisions.md).
-      if (has_contact_[s.node[0]] || has_contact_[s.node[1]] || has_contact_[s.node[2]] ||
-          has_contact_[s.node[3]])
-        continue;
+      // Another pair with a node a collider holds is left to the fail-safe: where the walking
+      // body pinches the cloth between arm and torso, holding edges against edges the body
+      // drives let the solve strain the sheet by up to 1,930 J in a step (docs/collisions.md).
+      if (resting != -1) continue;
       for (int j = 0; j < 4; ++j)
         if (std::abs(s.weight[j]) >= kEdgeHoldWeight) offer_to(s.node[j], kk, j < 2 ? 0 : 1);
     }
