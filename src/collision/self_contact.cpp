@@ -268,8 +268,9 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
     }
   };
   // The side of a pair (0: its vertex or first edge, 1: its face or second edge) whose every node
-  // a collider holds at rest (not by a clamp's motion, slower than kHeldRestSpeed) while it
-  // holds no node of the other side; -1 when a collider holds none of its nodes, 2 otherwise.
+  // a collider holds at rest (not by a clamp's motion, slower than kHeldRestSpeed, against a
+  // surface slower than kRestingSurfaceSpeed) while it holds no node of the other side; -1 when
+  // a collider holds none of its nodes, 2 otherwise.
   auto resting_side = [&](const Stencil& s) {
     const int split = s.vertex_face ? 1 : 2;
     int held[2] = {0, 0}, resting[2] = {0, 0};
@@ -278,7 +279,9 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
       if (!has_contact_[i]) continue;
       const int side = j < split ? 0 : 1;
       ++held[side];
-      if (!out[contact_slot_[i]].kinematic && node(v, i).norm() <= kHeldRestSpeed) ++resting[side];
+      const NodeContact& c = out[contact_slot_[i]];
+      if (!c.kinematic && node(v, i).norm() <= kHeldRestSpeed && c.surface_velocity.norm() <= kRestingSurfaceSpeed)
+        ++resting[side];
     }
     if (held[0] == 0 && held[1] == 0) return -1;
     if (resting[0] == split && held[1] == 0) return 0;

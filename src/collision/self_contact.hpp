@@ -20,6 +20,10 @@ constexpr int kSelfCollisionPasses = 4;
 constexpr int kRigidZoneRounds = 8;
 /// The speed (m/s) below which a node held against a collider counts as immovable.
 constexpr double kHeldRestSpeed = 0.1;
+/// The speed (m/s) below which a collider's surface counts as still: layers lying on cloth that
+/// rests on it (slower than kHeldRestSpeed) are held against that cloth in the solve. Not a
+/// body that moves, however slowly: holding layers against cloth it drives strained them.
+constexpr double kRestingSurfaceSpeed = 1e-3;
 /// The most an impulse may change a node's velocity, as a multiple of the change of the
 /// pair's relative velocity it makes (see SelfContacts::apply).
 constexpr double kMaxVelocityChangeRatio = 2;

@@ -621,17 +621,19 @@ TEST(SelfContact, EdgesOfAPairWithANodeAColliderHoldsAreLeftToTheFailSafe) {
 TEST(SelfContact, AFreeLayerIsHeldAgainstALayerAColliderHoldsAtRest) {
   // The lower edge's two ends held by a collider at rest: the crossing upper edge's ends (each
   // carrying about half of its closest point) are held against it along the pair's normal,
-  // away from the lower edge. Not when the held edge moves faster than kHeldRestSpeed (the walking body
-  // driving a layer), nor when the collider holds a node of each edge.
+  // away from the lower edge. Not when the held edge moves faster than kHeldRestSpeed, nor when
+  // the collider's surface moves faster than kRestingSurfaceSpeed (a walking body driving the
+  // layer, however slowly), nor when the collider holds a node of each edge.
   const std::vector<std::array<int, 3>> triangles = {{0, 1, 2}, {3, 4, 5}};
   const VecX mass = VecX::Constant(6, 1e-3);
   const VecX x = crossing_edges(0);
   SelfContacts self(triangles, x, mass, std::vector<char>(6, 0), kThickness, 0.3);
-  auto holds = [&](const std::vector<int>& collider_held, double speed) {
+  auto holds = [&](const std::vector<int>& collider_held, double speed, double surface_speed = 0) {
     std::vector<NodeContact> out;
     for (int i : collider_held) {
       out.emplace_back();
       out.back().node = i;
+      out.back().surface_velocity = Vec3(0, 0, surface_speed);
     }
     VecX v = VecX::Zero(18);
     for (int i : collider_held) node(v, i) = Vec3(speed, 0, 0);
@@ -648,6 +650,8 @@ TEST(SelfContact, AFreeLayerIsHeldAgainstALayerAColliderHoldsAtRest) {
   EXPECT_EQ(holds({0, 1}, 0), (std::vector<int>{3, 4}));
   EXPECT_EQ(holds({0, 1}, 0.5 * kHeldRestSpeed), (std::vector<int>{3, 4}));
   EXPECT_TRUE(holds({0, 1}, 2 * kHeldRestSpeed).empty());
+  EXPECT_EQ(holds({0, 1}, 0, 0.5 * kRestingSurfaceSpeed), (std::vector<int>{3, 4}));
+  EXPECT_TRUE(holds({0, 1}, 0, 2 * kRestingSurfaceSpeed).empty());
   EXPECT_TRUE(holds({0, 3}, 0).empty());
 
   // A vertex a collider holds at rest under a free face (over the face's point with weights
