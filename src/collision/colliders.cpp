@@ -757,6 +757,7 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
       contact.surface_velocity = s.displacement / dt;
       contact.friction = c->spec().friction;
       contact.penetrating = s.distance < 0;
+      contact.still_surface = never_moves(*c);
       best_gap_[i] = gap;
       touching_[i] = 1;
       touching_normal_[i] = s.normal;
@@ -773,13 +774,14 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
 }
 
 void ColliderContacts::place(std::vector<NodeContact>& out, int i, const Vec3& normal, double displacement,
-                             const Vec3& surface_velocity, double friction) {
+                             const Vec3& surface_velocity, const Collider& c) {
   NodeContact contact;
   contact.node = i;
+  contact.still_surface = never_moves(c);
   contact.normal = normal;
   contact.normal_displacement = displacement;
   contact.surface_velocity = surface_velocity;
-  contact.friction = friction;
+  contact.friction = c.spec().friction;
   touching_[i] = 1;
   touching_normal_[i] = normal;
   if (slot_[i] >= 0) {
@@ -834,7 +836,7 @@ void ColliderContacts::hold_faces_off_round(const Collider& c, const VecX& v, do
       if (fixed_[i]) continue;
       if (slot_[i] >= 0 && sp.distance >= best_gap_[i]) continue;
       best_gap_[i] = sp.distance;
-      place(out, i, sp.normal, displacement, sp.displacement / dt, c.spec().friction);
+      place(out, i, sp.normal, displacement, sp.displacement / dt, c);
     }
   }
 }
@@ -873,7 +875,7 @@ void ColliderContacts::hold_faces_over_vertices(const Collider& c, const VecX& x
       if (slot_[i] >= 0 && !std::isfinite(face_held_height_[i]) && best_gap_[i] <= poke.height) continue;
       face_held_height_[i] = poke.height;
       if (slot_[i] < 0) best_gap_[i] = poke.height;
-      place(out, i, poke.normal, lift, surface_velocity, c.spec().friction);
+      place(out, i, poke.normal, lift, surface_velocity, c);
     }
   }
 }
@@ -903,6 +905,7 @@ void ColliderContacts::detect_end(const VecX& x0, const VecX& x1, double /*t*/, 
       contact.surface_velocity = s.displacement / dt;
       contact.friction = c->spec().friction;
       contact.penetrating = s.distance < 0;
+      contact.still_surface = never_moves(*c);
       best_gap_[i] = s.distance;
       touching_[i] = 1;
       touching_normal_[i] = s.normal;

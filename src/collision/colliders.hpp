@@ -71,6 +71,12 @@ class Collider {
   ColliderSpec spec_;
 };
 
+/// Whether c never moves: no rigid motion, and not a body (a skinned body moves even where it
+/// stands still for a while).
+inline bool never_moves(const Collider& c) {
+  return c.spec().motion.kind == RigidMotion::Kind::kStatic && c.spec().shape != ColliderShape::kBody;
+}
+
 /// A plane, sphere, capsule or box; throws std::invalid_argument for another shape.
 std::unique_ptr<Collider> make_analytic_collider(const ColliderSpec& spec);
 
@@ -185,7 +191,7 @@ class ColliderContacts : public ContactHandler {
   std::vector<std::array<int, 2>> edge_candidates_;  ///< keep_edges_off_edges' scratch
   /// Puts node i's contact into `out` (replacing the one it has there) and marks it touching.
   void place(std::vector<NodeContact>& out, int i, const Vec3& normal, double displacement,
-             const Vec3& surface_velocity, double friction);
+             const Vec3& surface_velocity, const Collider& c);
   /// Holds the vertices of cloth faces that dip between them towards a round collider (or a
   /// box's rounded edge) within the hold margin at their predicted end (step start).
   void hold_faces_off_round(const Collider& c, const VecX& v, double dt, std::vector<NodeContact>& out);

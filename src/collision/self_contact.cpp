@@ -268,9 +268,9 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
     }
   };
   // The side of a pair (0: its vertex or first edge, 1: its face or second edge) whose every node
-  // a collider holds at rest (not by a clamp's motion, slower than kHeldRestSpeed, against a
-  // surface slower than kRestingSurfaceSpeed) while it holds no node of the other side; -1 when
-  // a collider holds none of its nodes, 2 otherwise.
+  // a collider that never moves holds at rest (NodeContact::still_surface, slower than
+  // kHeldRestSpeed) while no node of the other side is held; -1 when no collider or clamp holds a
+  // node of the pair, 2 otherwise.
   auto resting_side = [&](const Stencil& s) {
     const int split = s.vertex_face ? 1 : 2;
     int held[2] = {0, 0}, resting[2] = {0, 0};
@@ -280,8 +280,7 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
       const int side = j < split ? 0 : 1;
       ++held[side];
       const NodeContact& c = out[contact_slot_[i]];
-      if (!c.kinematic && node(v, i).norm() <= kHeldRestSpeed && c.surface_velocity.norm() <= kRestingSurfaceSpeed)
-        ++resting[side];
+      if (c.still_surface && !c.kinematic && node(v, i).norm() <= kHeldRestSpeed) ++resting[side];
     }
     if (held[0] == 0 && held[1] == 0) return -1;
     if (resting[0] == split && held[1] == 0) return 0;

@@ -20,10 +20,6 @@ constexpr int kSelfCollisionPasses = 4;
 constexpr int kRigidZoneRounds = 8;
 /// The speed (m/s) below which a node held against a collider counts as immovable.
 constexpr double kHeldRestSpeed = 0.1;
-/// The speed (m/s) below which a collider's surface counts as still: layers lying on cloth that
-/// rests on it (slower than kHeldRestSpeed) are held against that cloth in the solve. Not a
-/// body that moves, however slowly: holding layers against cloth it drives strained them.
-constexpr double kRestingSurfaceSpeed = 1e-3;
 /// The most an impulse may change a node's velocity, as a multiple of the change of the
 /// pair's relative velocity it makes (see SelfContacts::apply).
 constexpr double kMaxVelocityChangeRatio = 2;
@@ -93,7 +89,10 @@ class SelfContacts : public ContactHandler {
   /// `out`) held in the solve against their nearest pair's other side as against a surface: a
   /// vertex within the thickness of a face, and the ends of two edges within the thickness of
   /// each other (each end carrying at least kEdgeHoldWeight of its edge's closest point, and
-  /// no node of the pair held by a collider), each against the other edge. No approach along
+  /// no node of the pair held by a collider), each against the other edge. Where a collider
+  /// that never moves holds one side of a pair at rest (every node of it, none of the other
+  /// side; NodeContact::still_surface), the other side's nodes carrying at least kEdgeHoldWeight
+  /// are held against it instead: a layer lying on cloth that rests on a box or a floor. No approach along
   /// the pair's normal (a surface drawing back is followed at its velocity at the start), the
   /// missing thickness restored over kRepulsionTime, and the layers' friction. A node is held
   /// against a second pair as well (NodeContact::normal2) where that pair's normal leans from

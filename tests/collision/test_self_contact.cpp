@@ -539,9 +539,9 @@ TEST(SelfContact, AVertexRestingJustOutsideTheThicknessIsHeldWhereItIsAndLeftAlo
   // kRepulsionTime, with friction, and the repulsions push it too. From the thickness to
   // kHoldReach times it, at rest, it is held where it is (no displacement: the solve does not
   // press it into the layer), with friction out to kFrictionReach times the thickness and none
-  // beyond, and the repulsions leave it alone; so too when a collider holds the face's nodes at
-  // rest, but not when it moves faster than kHoldReachSpeed or the face a collider holds moves
-  // faster than kHeldRestSpeed. Farther out it is not held.
+  // beyond, and the repulsions leave it alone; so too when a still collider holds the face's
+  // nodes at rest, but not when it moves faster than kHoldReachSpeed or the face the collider
+  // holds moves faster than kHeldRestSpeed. Farther out it is not held.
   const double dt = 0.005, friction = 0.3;
   enum Case { kAtRest, kMoving, kFaceHeld, kFaceHeldMoving };
   for (const Case which : {kAtRest, kMoving, kFaceHeld, kFaceHeldMoving})
@@ -562,6 +562,7 @@ TEST(SelfContact, AVertexRestingJustOutsideTheThicknessIsHeldWhereItIsAndLeftAlo
           out.emplace_back();
           out.back().node = i;
           out.back().normal = Vec3::UnitY();
+          out.back().still_surface = true;  // a floor
         }
       self.detect(x, v, 0, dt, out);
       const auto held = std::find_if(out.begin(), out.end(), [](const NodeContact& c) { return c.node == 3; });
@@ -622,18 +623,18 @@ TEST(SelfContact, AFreeLayerIsHeldAgainstALayerAColliderHoldsAtRest) {
   // The lower edge's two ends held by a collider at rest: the crossing upper edge's ends (each
   // carrying about half of its closest point) are held against it along the pair's normal,
   // away from the lower edge. Not when the held edge moves faster than kHeldRestSpeed, nor when
-  // the collider's surface moves faster than kRestingSurfaceSpeed (a walking body driving the
-  // layer, however slowly), nor when the collider holds a node of each edge.
+  // the collider moves (a body, or a collider with a rigid motion: NodeContact::still_surface
+  // not set), nor when the collider holds a node of each edge.
   const std::vector<std::array<int, 3>> triangles = {{0, 1, 2}, {3, 4, 5}};
   const VecX mass = VecX::Constant(6, 1e-3);
   const VecX x = crossing_edges(0);
   SelfContacts self(triangles, x, mass, std::vector<char>(6, 0), kThickness, 0.3);
-  auto holds = [&](const std::vector<int>& collider_held, double speed, double surface_speed = 0) {
+  auto holds = [&](const std::vector<int>& collider_held, double speed, bool still_surface = true) {
     std::vector<NodeContact> out;
     for (int i : collider_held) {
       out.emplace_back();
       out.back().node = i;
-      out.back().surface_velocity = Vec3(0, 0, surface_speed);
+      out.back().still_surface = still_surface;
     }
     VecX v = VecX::Zero(18);
     for (int i : collider_held) node(v, i) = Vec3(speed, 0, 0);
@@ -650,8 +651,7 @@ TEST(SelfContact, AFreeLayerIsHeldAgainstALayerAColliderHoldsAtRest) {
   EXPECT_EQ(holds({0, 1}, 0), (std::vector<int>{3, 4}));
   EXPECT_EQ(holds({0, 1}, 0.5 * kHeldRestSpeed), (std::vector<int>{3, 4}));
   EXPECT_TRUE(holds({0, 1}, 2 * kHeldRestSpeed).empty());
-  EXPECT_EQ(holds({0, 1}, 0, 0.5 * kRestingSurfaceSpeed), (std::vector<int>{3, 4}));
-  EXPECT_TRUE(holds({0, 1}, 0, 2 * kRestingSurfaceSpeed).empty());
+  EXPECT_TRUE(holds({0, 1}, 0, false).empty());
   EXPECT_TRUE(holds({0, 3}, 0).empty());
 
   // A vertex a collider holds at rest under a free face (over the face's point with weights
@@ -667,6 +667,7 @@ TEST(SelfContact, AFreeLayerIsHeldAgainstALayerAColliderHoldsAtRest) {
     for (const double speed : {0.0, 2 * kHeldRestSpeed}) {
       std::vector<NodeContact> out(1);
       out[0].node = 3;
+      out[0].still_surface = true;
       VecX v = VecX::Zero(18);
       node(v, 3) = Vec3(speed, 0, 0);
       under.detect(y, v, 0, 0.005, out);
