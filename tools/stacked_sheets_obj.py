@@ -2,9 +2,11 @@
 """Writes scenes/stacked-sheets.obj: five square sheets of cloth, one OBJ of five separate
 pieces, stacked 2 cm apart, each turned a little further about the vertical axis.
 
-Usage: tools/stacked_sheets_obj.py [OUT] (default scenes/stacked-sheets.obj)."""
+Usage: tools/stacked_sheets_obj.py [OUT] [--sheets N] (default scenes/stacked-sheets.obj, five
+sheets; `--sheets 2` gives the two sheets of docs/collisions.md, "Layers on a layer a still
+collider holds")."""
+import argparse
 import math
-import sys
 
 SHEETS = 5
 SIZE = 0.6          # m, side of each sheet
@@ -15,11 +17,18 @@ TURN_DEG = 9.0      # each sheet turned this much more than the one below
 
 
 def main():
-    out = sys.argv[1] if len(sys.argv) > 1 else "scenes/stacked-sheets.obj"
-    lines = ["# weft: five stacked sheets (tools/stacked_sheets_obj.py)"]
+    parser = argparse.ArgumentParser(description="Writes an OBJ of square sheets stacked over each other.")
+    parser.add_argument("out", nargs="?", default="scenes/stacked-sheets.obj")
+    parser.add_argument("--sheets", type=int, default=SHEETS, help="how many sheets (default 5)")
+    args = parser.parse_args()
+    if args.sheets < 1:
+        parser.error(f"--sheets must be at least 1, got {args.sheets}")
+    words = {1: "one", 2: "two", 3: "three", 4: "four", 5: "five"}
+    count = words.get(args.sheets, str(args.sheets))
+    lines = [f"# weft: {count} stacked sheet{'s' if args.sheets > 1 else ''} (tools/stacked_sheets_obj.py)"]
     faces = []
     n = VERTICES
-    for k in range(SHEETS):
+    for k in range(args.sheets):
         angle = math.radians(TURN_DEG * k)
         c, s = math.cos(angle), math.sin(angle)
         y = BOTTOM + SPACING * k
@@ -39,7 +48,7 @@ def main():
                 else:
                     faces += [(a, d, b), (b, d, e)]
     lines += [f"f {a} {b} {c}" for a, b, c in faces]
-    with open(out, "w") as f:
+    with open(args.out, "w") as f:
         f.write("\n".join(lines) + "\n")
 
 
