@@ -5,7 +5,8 @@ Each mutation below is a one-line change to the sources (a file, an exact fragme
 text that must occur exactly once, and what replaces it). For each one the tool applies it
 to a scratch copy of the tree, rebuilds weft and weft_tests there (one build folder for all,
 so each mutation is an incremental rebuild), runs the tests, restores the file and records
-whether a test failed. The suite should catch every mutation. ctest runs `--list` (test `tools_mutate_list`), so a fragment that no longer applies fails the suite.
+whether a test failed. The suite should catch every mutation. ctest runs `--list` (test
+`tools_mutate_list`), so a fragment that no longer applies fails the suite.
 
 Tests run in two rounds: first the tests named by the mutation's `hint` (a gtest filter:
 where the fault should show, so most verdicts come quickly), then, if they all passed, the
