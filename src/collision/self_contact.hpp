@@ -91,9 +91,9 @@ class SelfContacts : public ContactHandler {
   /// each other (each end carrying at least kEdgeHoldWeight of its edge's closest point, and
   /// no node of the pair held by a collider), each against the other edge. Where a collider
   /// that never moves holds one side of a pair at rest (every node of it, none of the other
-  /// side; NodeContact::still_surface), the other side's nodes carrying at least kEdgeHoldWeight
-  /// are held against it instead: a layer lying on cloth that rests on a box or a floor. No approach along
-  /// the pair's normal (a surface drawing back is followed at its velocity at the start), the
+  /// side; NodeContact::still_surface), the other side's nodes carrying at least
+  /// kEdgeHoldWeight are held against it instead: a layer lying on cloth that rests on a box
+  /// or a floor. No approach along the pair's normal (a surface drawing back is followed at its velocity at the start), the
   /// missing thickness restored over kRepulsionTime, and the layers' friction. A node is held
   /// against a second pair as well (NodeContact::normal2) where that pair's normal leans from
   /// the first's by more than kSecondHoldSine and no collider holds a node of it. The

@@ -29,10 +29,10 @@ struct NodeContact {
   /// along it is prescribed as well (normal_displacement2), so the node moves freely only
   /// along the direction orthogonal to both; a second direction that pulls is let go alone.
   Vec3 normal2 = Vec3::Zero();
+  double normal_displacement2 = 0;     ///< the node's prescribed dx . normal2 over the step (m)
   /// Held against a collider that never moves (no rigid motion, not a body): cloth lying on
   /// this node at rest is held against it in the solve (collision/self_contact.hpp).
   bool still_surface = false;
-  double normal_displacement2 = 0;     ///< the node's prescribed dx . normal2 over the step (m)
   bool has_normal2() const { return normal2.squaredNorm() > 0; }
 };
 
