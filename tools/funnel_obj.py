@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes scenes/funnel.obj: a closed funnel with walls of 1 cm and rounded rims, its axis the
+"""Writes scenes/funnel.obj: a closed funnel with walls of 4 cm and rounded rims, its axis the
 y axis: a cone from a mouth of radius 0.3 m at y = 0.6 m down to a neck of radius 0.07 m at
 y = 0.3 m, then a straight spout down to y = 0.1 m. The wall's section (a band about the
 profile line, closed by half circles at both rims) is turned about the axis, so the surface is

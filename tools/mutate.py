@@ -202,6 +202,11 @@ MUTATIONS = [
       "if (c.still_surface && !c.kinematic && node(v, i).norm() <= kHeldRestSpeed) ++resting[side];",
       "if (false) ++resting[side];",
       "no holds against a layer a still collider holds at rest", "SelfContact.*"),
+    M("contact-prediction-reach", "contacts", "src/collision/colliders.cpp",
+      "const double reach = 2 * thickness + dt * node(v, i).norm() + c->step_motion();",
+      "const double reach = 2 * thickness;",
+      "the solve's collider contacts no longer reach as far as the node's motion in the step",
+      "MeshCollider.*:ContactResponse.*"),
     # Outputs and run checks
     M("instability-threshold", "outputs", "src/sim/model_data.cpp",
       "+ cloth.mass.sum() * M.scene.gravity.norm() * (hi - lo).norm();",

@@ -597,3 +597,57 @@ TEST(MeshCollider, OpenPlateHoldsTheClothOnItsSideWhicheverWayItIsWound) {
   }
   std::remove(obj.c_str());
 }
+
+// A closed mesh thinner than the step's travel (a plate 5 mm thick, against 2.5 cm per 5 ms
+// step at 5 m/s) is not passed through, whichever side moves: cloth thrown at the resting plate
+// at 5 m/s, and the plate driven at 5 m/s up into resting cloth, ends every step on the
+// plate's near side, at the thickness once it rests there. (Inside and outside are told apart
+// by the nearest surface, so a vertex that ended a step past the plate's middle would come out
+// on the far side: the contacts are found at the step's start, on the right side.)
+TEST(MeshCollider, AThinClosedPlateIsNotPassedThroughAtFiveMetresPerSecond) {
+  const std::string obj = ::testing::TempDir() + "weft_thin_plate_" + std::to_string(::getpid()) + ".obj";
+  const double half = 0.0025;  // the plate's half thickness
+  {
+    std::ofstream out(obj);
+    // A box 0.4 m x 5 mm x 0.4 m about the origin, its triangles counter-clockwise from outside.
+    for (int k = 0; k < 8; ++k)
+      out << "v " << (k & 4 ? 0.2 : -0.2) << " " << (k & 2 ? half : -half) << " " << (k & 1 ? 0.2 : -0.2) << "\n";
+    out << "f 1 2 4\nf 1 4 3\nf 5 7 8\nf 5 8 6\nf 1 5 6\nf 1 6 2\n"
+        << "f 3 4 8\nf 3 8 7\nf 1 3 7\nf 1 7 5\nf 2 6 8\nf 2 8 4\n";
+  }
+  for (const bool plate_moves : {false, true})
+    for (const char* method : {"bdf2", "backward-euler", "implicit-midpoint"}) {
+      const std::string what = std::string(method) + (plate_moves ? ", the plate driven up" : ", the cloth thrown");
+      // Placed so that a step without contacts would end past the plate's middle (1 to 1.5 mm).
+      Scene s = patch(0.1, 6, Vec3(-0.05, plate_moves ? 0.0485 : 0.024, -0.05), method);
+      s.gravity = Vec3::Zero();
+      s.integrator.dt = 0.005;
+      s.duration = 0.1;
+      ColliderSpec spec;
+      spec.shape = ColliderShape::kMesh;
+      spec.obj_path = obj;
+      spec.thickness = kThickness;
+      spec.friction = 0.3;
+      if (plate_moves) {
+        spec.motion.kind = RigidMotion::Kind::kVelocity;
+        spec.motion.linear_velocity = Vec3(0, 5, 0);
+      } else {
+        s.cloth.initial_velocity = Vec3(0, -5, 0);
+      }
+      s.colliders.push_back(spec);
+      Simulation sim(s);
+      double lowest = std::numeric_limits<double>::infinity();
+      for (int k = 1; k <= 20; ++k) {
+        sim.advance_to(k * s.integrator.dt);
+        const double top = half + (plate_moves ? 5.0 * sim.time() : 0.0);
+        for (int i = 0; i < sim.vertex_count(); ++i) lowest = std::min(lowest, sim.positions()[3 * i + 1] - top);
+      }
+      // Every node above the plate's top face in every step, and at the end resting at the
+      // thickness over it (the plate's velocity along the normal, the cloth's own relative one).
+      EXPECT_GT(lowest, 0.5 * kThickness) << what;
+      const double top = half + (plate_moves ? 5.0 * sim.time() : 0.0);
+      for (int i = 0; i < sim.vertex_count(); ++i)
+        EXPECT_NEAR(sim.positions()[3 * i + 1] - top, kThickness, 1e-6) << what << " node " << i;
+    }
+  std::remove(obj.c_str());
+}
