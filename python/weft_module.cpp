@@ -172,6 +172,7 @@ class PySimulation {
     d["guard_max_alpha"] = s.guard_max_alpha;
     d["guard_split_steps"] = s.guard_split_steps;
     d["guard_futile_splits"] = s.guard_futile_splits;
+    d["guard_newton_steps"] = s.guard_newton_steps;
     d["guard_parts"] = s.guard_parts;
     d["assembly_seconds"] = s.assembly_seconds;
     d["solve_seconds"] = s.solve_seconds;

@@ -207,6 +207,10 @@ MUTATIONS = [
       "const double reach = 2 * thickness;",
       "the solve's collider contacts no longer reach as far as the node's motion in the step",
       "MeshCollider.*:ContactResponse.*"),
+    M("guard-last-resort-newton", "integrators", "src/integrate/integrator.cpp",
+      "if (c_.settings.guard_last_resort_newton && newton_limit() < kGuardLastResortNewton &&",
+      "if (false && newton_limit() < kGuardLastResortNewton &&",
+      "the guarded midpoint keeps its linearised last resort", "ContactResponse.*"),
     # Outputs and run checks
     M("instability-threshold", "outputs", "src/sim/model_data.cpp",
       "+ cloth.mass.sum() * M.scene.gravity.norm() * (hi - lo).norm();",

@@ -53,6 +53,10 @@ struct IntegratorSettings {
   /// overshoot are taken again as halves"). Off for the quasi-static sewing of garments, whose
   /// velocities are reset between intervals.
   bool halve_overshooting_solves = true;
+  /// The guarded midpoint's last resort (alpha at its top, halving done) that still puts
+  /// energy in is taken again with Newton iterations where `newton_iterations` asks for fewer
+  /// (docs/guarded-midpoint.md, "The last resort, iterated"); off keeps the linearised one.
+  bool guard_last_resort_newton = true;
   /// Newton iterations a semi-implicit step (alpha family, BDF-2) may add to its linearised
   /// solve: the step's nonlinear equations re-linearised at the
   /// iterate, with a backtracking line search. 0: one linearisation per step, as the paper's

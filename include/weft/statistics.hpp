@@ -77,6 +77,7 @@ struct StepStatistics {
   long guard_split_steps = 0;    ///< guarded steps (or parts) taken again as two halves
   long guard_futile_splits = 0;  ///< halvings given up because the first half put in as much
   long guard_parts = 0;          ///< parts the guarded steps were taken in, halvings included
+  long guard_newton_steps = 0;   ///< last resorts taken again with Newton iterations (kGuardLastResortNewton)
   double guard_seconds = 0;      ///< the guard's own work: saving the start, the energy check
   long newton_iterations = 0;    ///< Newton iterations (one linear solve each) beyond the linearised step
   long newton_steps = 0;         ///< steps (or parts) that took at least one

@@ -346,6 +346,20 @@ bool Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
       // would only repeat it at more cost.
       d_.guard_depth = 0;
       d_.guard_depth_calm_steps = 0;
+      // Where the scene iterates no step, it is taken once more with Newton iterations: what a
+      // stiffening fabric's linearised step books as elastic energy past the start's tangent,
+      // neither halving nor alpha remove, and the iterations do.
+      const double scale = std::max(d_.energy_scale, kinetic_energy(d_.guard_start.v) + d_.step.elastic_energy);
+      if (c_.settings.guard_last_resort_newton && newton_limit() < kGuardLastResortNewton &&
+          d_.guard_gain > kGuardLastResortShare * scale) {
+        restart();
+        d_.newton_now = kGuardLastResortNewton;
+        if (d_.newton_step.matrix.pattern == nullptr) d_.newton_step.matrix.reset(system_.pattern());
+        linear_step(s, dt, alpha, 0.0, dt, stats);
+        d_.newton_now = 0;
+        ++stats.guard_newton_steps;
+        puts_energy_in(s);
+      }
       break;
     }
     restart();
@@ -639,7 +653,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   }
   stats.solve_seconds += seconds_since(t1) - (stats.detection_seconds + stats.response_seconds - contact_seconds_before);
   const int newton_iterations =
-      c_.settings.newton_iterations > 0 && alpha > 0.0 ? newton_iterate(s, dt, alpha, beta, dt_b, stats) : 0;
+      newton_limit() > 0 && alpha > 0.0 ? newton_iterate(s, dt, alpha, beta, dt_b, stats) : 0;
   if (!d_.handlers.empty()) d_.x_start = s.x;
 
   // dx = beta dx_p + dt_b (v + alpha dv), built in dx_prev's storage (no allocation per step);
@@ -732,7 +746,7 @@ int Integrator::newton_iterate(const State& s, double dt, double alpha, double b
   bool stuck = false;
   for (int round = 0;; ++round) {
     // A round after nodes joined the contacts gets at least one iteration.
-    const int limit = round == 0 ? c_.settings.newton_iterations : std::max(c_.settings.newton_iterations, taken + 1);
+    const int limit = round == 0 ? newton_limit() : std::max(newton_limit(), taken + 1);
     const int taken_before = taken;
     while (std::isfinite(residual) && !converged() && taken < limit) {
       d_.newton_step.ck = alpha * alpha * dt_b * dt_b;

@@ -42,6 +42,14 @@ constexpr double kGuardTolerance = 1e-4;
 constexpr double kGuardFailSafeShare = 0.05;
 /// How many times a guarded step that puts energy in is halved before alpha is raised.
 constexpr int kGuardMaxSplits = 4;
+/// Newton iterations of a guarded midpoint step's last resort (alpha at its top, halving
+/// done) that still puts energy in, where the scene asks for none: a stiffening fabric's
+/// linearised step overshoots into the steep part of its stress curve, which neither a smaller
+/// step nor a larger alpha remove (docs/guarded-midpoint.md, "The last resort, iterated").
+constexpr int kGuardLastResortNewton = 2;
+/// Only a last resort that puts in more than this share of the energy scale is iterated (one
+/// that puts in less is kept as it is: the run's energy rule stops runs at the whole scale).
+constexpr double kGuardLastResortShare = 0.05;
 /// Where contacts acted, a halved guarded step whose half puts in more than this share of the
 /// energy the whole step put in is not halved further: halving does not slow the rate at which
 /// that energy goes in (a contact pushing the cloth, not elements turning within the step), and
@@ -184,6 +192,9 @@ class Integrator {
     VecX x_round;                           ///< finish_contacts: the positions the first handler left
     std::vector<ContactHandler*> handler_group;  ///< finish_contacts: the handlers of one group
     StepAssembly newton_step;  ///< newton_iterate's assembly (step keeps the step start's)
+    /// Newton iterations for the linear steps taken now, when more than the settings' (the
+    /// guard's last resort, kGuardLastResortNewton); 0 otherwise.
+    int newton_now = 0;
     VecX newton_x, newton_v, newton_r, newton_r_trial, newton_dv_trial, newton_delta, newton_w;
     VecX newton_rhs;                ///< the residual filtered by the contacts
     std::vector<int> contact_slot;  ///< per node: its contact this step, or -1
@@ -258,6 +269,8 @@ class Integrator {
   /// positions (Data::energy_x; forgotten at the start of every advance).
   void potential_energy(const VecX& x, double& elastic, double& gravity);
   void linear_step(State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
+  /// Newton iterations a linear step takes now (the settings', or the guard's last resort's).
+  int newton_limit() const { return std::max(c_.settings.newton_iterations, d_.newton_now); }
   /// Newton iterations on the step's equations from the linearised solution in Data::dv
   /// (IntegratorSettings::newton_iterations); returns how many changed it.
   int newton_iterate(const State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);

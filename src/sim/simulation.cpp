@@ -278,6 +278,7 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
     j["guard"] = {{"parts_per_step", st.steps ? static_cast<double>(st.guard_parts) / st.steps : 0.0},
                   {"split_steps", st.guard_split_steps},
                   {"futile_splits", st.guard_futile_splits},
+                  {"newton_last_resorts", st.guard_newton_steps},
                   {"seconds", st.guard_seconds},
                   {"redone_steps", st.guard_redone_steps},
                   {"raised_steps", st.guard_raised_steps},
