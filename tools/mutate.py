@@ -78,6 +78,10 @@ MUTATIONS = [
       "const T kw_u = area * (du * U[c] + ds * V[c] + k.s00 * dU[c]);",
       "K w misses a stress-matrix term", "MembraneElement.*:ClothAssembly.*"),
     # Integrators
+    M("guard-last-resort-newton", "integrators", "src/integrate/integrator.cpp",
+      "if (c_.settings.guard_last_resort_newton && newton_limit() < kGuardLastResortNewton &&",
+      "if (false && newton_limit() < kGuardLastResortNewton &&",
+      "the guarded midpoint keeps its linearised last resort", "ContactResponse.*"),
     M("viscous-work-half", "integrators", "src/integrate/integrator.cpp",
       "s.viscous_dissipated -= dt * system_.step_viscous_power(s.x, d_.mean_velocity, d_.step);",
       "s.viscous_dissipated -= 0.5 * dt * system_.step_viscous_power(s.x, d_.mean_velocity, d_.step);",
@@ -207,10 +211,6 @@ MUTATIONS = [
       "const double reach = 2 * thickness;",
       "the solve's collider contacts no longer reach as far as the node's motion in the step",
       "MeshCollider.*:ContactResponse.*"),
-    M("guard-last-resort-newton", "integrators", "src/integrate/integrator.cpp",
-      "if (c_.settings.guard_last_resort_newton && newton_limit() < kGuardLastResortNewton &&",
-      "if (false && newton_limit() < kGuardLastResortNewton &&",
-      "the guarded midpoint keeps its linearised last resort", "ContactResponse.*"),
     # Outputs and run checks
     M("instability-threshold", "outputs", "src/sim/model_data.cpp",
       "+ cloth.mass.sum() * M.scene.gravity.norm() * (hi - lo).norm();",

@@ -349,9 +349,8 @@ bool Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
       // Where the scene iterates no step, it is taken once more with Newton iterations: what a
       // stiffening fabric's linearised step books as elastic energy past the start's tangent,
       // neither halving nor alpha remove, and the iterations do.
-      const double scale = std::max(d_.energy_scale, kinetic_energy(d_.guard_start.v) + d_.step.elastic_energy);
       if (c_.settings.guard_last_resort_newton && newton_limit() < kGuardLastResortNewton &&
-          d_.guard_gain > kGuardLastResortShare * scale) {
+          d_.guard_gain > kGuardLastResortShare * d_.guard_scale) {
         restart();
         d_.newton_now = kGuardLastResortNewton;
         if (d_.newton_step.matrix.pattern == nullptr) d_.newton_step.matrix.reset(system_.pattern());
@@ -411,6 +410,7 @@ bool Integrator::puts_energy_in(const State& s) {
   const double fail_safe = s.fail_safe_work - d_.guard_start.fail_safe_work;
   if (c_.settings.method == Method::AlphaFamily && fail_safe > kGuardFailSafeShare * scale) gain += fail_safe;
   d_.guard_gain = gain;
+  d_.guard_scale = scale;
   // A non-finite end is a step that put energy in too.
   return !(gain <= kGuardTolerance * scale);
 }
