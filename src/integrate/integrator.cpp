@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace weft {
@@ -313,13 +314,16 @@ bool Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
   };
   const int top = static_cast<int>(c_.guard_alphas.size()) - 1;
   bool may_halve = splits < kGuardMaxSplits;
+  double first_gain = 0;
   for (bool first = true;; first = false) {
     const double alpha = c_.guard_alphas[d_.guard_rung];
     stats.guard_seconds += seconds_since(tg);
     const long failures = stats.cg_failures;
     linear_step(s, dt, alpha, 0.0, dt, stats);
     tg = Clock::now();
-    if (!puts_energy_in(s)) break;
+    const bool gained = puts_energy_in(s);
+    if (first) first_gain = d_.guard_gain;
+    if (!gained) break;
     const double gain = d_.guard_gain;
     stats.guard_seconds += seconds_since(tg);
     tg = Clock::now();
@@ -334,6 +338,7 @@ bool Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
       stats.cg_failures = failures;
       restart();
       stats.guard_seconds += seconds_since(tg);
+      d_.guard_first_gain = first_gain;
       return false;
     }
     // The attempt is discarded unless it is the last resort kept below; a discarded attempt's
@@ -370,12 +375,25 @@ bool Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
       d_.guard_depth = std::max(d_.guard_depth, splits + 1);
       if (guarded_step(s, 0.5 * dt, stats, splits + 1, gain)) {
         ++stats.guard_split_steps;
+        double halves_gain = d_.guard_first_gain;
         // The second half likewise; where it puts in as much as the whole did, it is taken
         // whole at larger alphas.
         if (!guarded_step(s, 0.5 * dt, stats, splits + 1, gain)) {
           ++stats.guard_futile_splits;
+          halves_gain = std::numeric_limits<double>::infinity();
           guarded_step(s, 0.5 * dt, stats, kGuardMaxSplits);
+        } else {
+          halves_gain = std::max(halves_gain, d_.guard_first_gain);
         }
+        // The next steps start as finely divided where the halving removed what the whole
+        // step put in as stiff turning elements let it (each half a quarter of it at most:
+        // they go on turning). Where contacts acted and the halves did not show it, what put
+        // energy in came and went with the contacts, and the next steps are not divided for
+        // it (unless the halves' own halvings did): at rest in a funnel's neck, halvings of
+        // steps just over the tolerance had every step taken as 8 to 16 parts.
+        if (contacts_acted && !(halves_gain <= kGuardFutileShare * gain) && d_.guard_depth == splits + 1)
+          d_.guard_depth = depth;
+        d_.guard_first_gain = first_gain;
         return true;
       }
       // Halving did not help: s is back at the start; the whole step again at the next
@@ -392,6 +410,7 @@ bool Integrator::guarded_step(State& s, double dt, StepStatistics& stats, int sp
   }
   stats.guard_seconds += seconds_since(tg);
   accept_guarded(c_.guard_alphas[d_.guard_rung], stats);
+  d_.guard_first_gain = first_gain;
   return true;
 }
 

@@ -187,6 +187,9 @@ class Integrator {
     State guard_start;              ///< the guarded step's start, to take it again from
     double guard_gain = 0;          ///< the energy the last checked attempt put in (J)
     double guard_scale = 0;         ///< and the energy scale it was weighed against (J)
+    /// What the first attempt of the last guarded step (or part) to return put in (J): its
+    /// caller weighs a halving's parts against the whole.
+    double guard_first_gain = 0;
     bool guard_raised_now = false;  ///< a part of this step was taken above the scene's alpha
     VecX v_before_fail_safe;               ///< finish_contacts: the velocities before every correction
     VecX x_before_fail_safe, v_before_group;  ///< finish_contacts: the state before one group of handlers

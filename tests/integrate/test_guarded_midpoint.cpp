@@ -72,6 +72,19 @@ State linear_chain_end(const IntegratorSettings& settings, StepStatistics& st) {
   return s;
 }
 
+// 1 kg at rest at the end of a spring of 1 m and 10^4 N/m from the origin, at its rest length,
+// stepped by the guarded midpoint at 10 ms against an energy scale of 1 J.
+struct NodeAtRest {
+  SpringSystem sys{VecX::Constant(1, 1.0), {Spring{0, -1, 1e4, 1.0, 0.0}}};
+  State s;
+  Integrator in{sys, midpoint(0.01, true)};
+  NodeAtRest() {
+    s.x = Vec3(1, 0, 0);
+    s.v = Vec3::Zero();
+    in.set_energy_scale(1.0);
+  }
+};
+
 void expect_same_bits(const State& a, const State& b) {
   EXPECT_TRUE((a.x.array() == b.x.array()).all());
   EXPECT_TRUE((a.v.array() == b.v.array()).all());
@@ -109,12 +122,9 @@ class LiftingWall : public ContactHandler {
 
 TEST(GuardedMidpoint, AStepAContactPutsEnergyIntoWhateverItsSizeIsNotHalved) {
   const double k = 1e4;
-  SpringSystem sys(VecX::Constant(1, 1.0), {Spring{0, -1, k, 1.0, 0.0}});
-  State s;
-  s.x = Vec3(1, 0, 0);
-  s.v = Vec3::Zero();
-  Integrator in(sys, midpoint(0.01, true));
-  in.set_energy_scale(1.0);
+  NodeAtRest n;
+  State& s = n.s;
+  Integrator& in = n.in;
   LiftingWall wall;
   in.add_contact_handler(&wall);
   StepStatistics st;
@@ -156,12 +166,9 @@ class KickingFailSafe : public ContactHandler {
 // the last rung is kept).
 TEST(GuardedMidpoint, AStepWhoseFailSafesPutInASizeableShareOfTheScaleIsTakenAgainAtLargerAlphas) {
   for (const double share : {0.5, 2.0}) {
-    SpringSystem sys(VecX::Constant(1, 1.0), {Spring{0, -1, 1e4, 1.0, 0.0}});
-    State s;
-    s.x = Vec3(1, 0, 0);
-    s.v = Vec3::Zero();
-    Integrator in(sys, midpoint(0.01, true));
-    in.set_energy_scale(1.0);
+    NodeAtRest n;
+    State& s = n.s;
+    Integrator& in = n.in;
     // Kinetic energy 0.5 speed^2 = share times the threshold.
     KickingFailSafe kick(std::sqrt(2 * share * kGuardFailSafeShare));
     in.add_contact_handler(&kick);
@@ -201,6 +208,85 @@ TEST(GuardedMidpoint, WithoutContactsAStepIsHalvedAsBefore) {
   const Spin guarded = spin(midpoint(0.02, true));
   EXPECT_EQ(guarded.stats.guard_futile_splits, 0);
   EXPECT_GT(guarded.stats.guard_split_steps, 0);
+}
+
+// A frictionless contact that holds the spinning spring's mass in its plane of turning (the
+// normal across the plane, nothing to prescribe): the spring turns as before, but contacts act
+// in every attempt.
+class PlaneOfTurning : public ContactHandler {
+ public:
+  void detect(const VecX&, const VecX&, double, double, std::vector<NodeContact>& out) override {
+    NodeContact c;
+    c.node = 0;
+    c.normal = Vec3::UnitZ();
+    out.push_back(c);
+  }
+  void detect_end(const VecX&, const VecX&, double, double, const std::vector<char>&, std::vector<NodeContact>&) override {}
+  void finish_step(const VecX&, VecX&, VecX&, double, double, ContactReport&) override {}
+};
+
+// A contact that lifts a node lying on its spring's line by lift * (dt / 10 ms)^(3/8) in a step
+// of dt (a node already lifted is left alone): the stretch's elastic energy, which the
+// linearised step does not book as the contact's work, goes as dt^(3/2), so a half step puts in
+// 0.35 of what the whole did, not the eighth or less of a stiff turning element.
+class GrowingLift : public ContactHandler {
+ public:
+  explicit GrowingLift(double lift) : lift_(lift) {}
+  void detect(const VecX& x, const VecX&, double, double dt, std::vector<NodeContact>& out) override {
+    if (x[1] > 0.25 * lift_) return;
+    NodeContact c;
+    c.node = 0;
+    c.normal = Vec3::UnitY();
+    c.normal_displacement = lift_ * std::pow(dt / 0.01, 0.375);
+    out.push_back(c);
+  }
+  void detect_end(const VecX&, const VecX&, double, double, const std::vector<char>&, std::vector<NodeContact>&) override {}
+  void finish_step(const VecX&, VecX&, VecX&, double, double, ContactReport&) override {}
+
+ private:
+  double lift_;
+};
+
+// The steps after a halving start as finely divided where its halves showed stiff turning
+// elements (each half a quarter of the whole's energy at most), contacts or not; where contacts
+// acted and the halves did not show it, the next step starts whole.
+TEST(GuardedMidpoint, AHalvingIsCarriedIntoTheNextStepsWhereItsHalvesShowTurningElements) {
+  for (const bool held : {false, true}) {
+    const double k = 1e6;
+    SpringSystem sys(VecX::Constant(1, 1.0), {Spring{0, -1, k, 1.0, 0.0}});
+    State s = spinning_spring_state(k, 5.0);
+    Integrator in(sys, midpoint(0.02, true));
+    PlaneOfTurning plane;
+    if (held) in.add_contact_handler(&plane);
+    StepStatistics st;
+    const double start = mechanical_energy(sys, s);
+    int deepest = 0;
+    for (int n = 0; n < 200; ++n) {
+      in.step(s, 0.02, st);
+      deepest = std::max(deepest, in.data().guard_depth);
+    }
+    EXPECT_GT(st.guard_split_steps, 0) << held;
+    EXPECT_GT(deepest, 0) << held;
+    EXPECT_EQ(s.x[2], 0.0) << held;
+    EXPECT_LT(mechanical_energy(sys, s), start) << held;
+    EXPECT_EQ(st.contacts > 0, held);
+  }
+  // The lift of 2 cm puts in twice the guard's tolerance in a step of 10 ms (k/8 lift^4 at the
+  // spring's rest length), 0.35 of that in its first half and nothing in the second.
+  NodeAtRest n;
+  State& s = n.s;
+  Integrator& in = n.in;
+  GrowingLift lift(0.02);
+  in.add_contact_handler(&lift);
+  StepStatistics st;
+  in.step(s, 0.01, st);
+  EXPECT_EQ(st.guard_split_steps, 1);
+  EXPECT_EQ(st.guard_futile_splits, 0);
+  EXPECT_EQ(st.guard_parts, 2);
+  EXPECT_EQ(in.data().guard_depth, 0);
+  EXPECT_NEAR(s.x[1], 0.02 * std::pow(0.5, 0.375), 1e-5);  // lifted once, by the first half
+  in.step(s, 0.01, st);  // nothing lifts: one part
+  EXPECT_EQ(st.guard_parts, 3);
 }
 
 // A solve that stops at the iteration cap counts as failed (summary.json's solver_failures,
