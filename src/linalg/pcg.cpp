@@ -278,6 +278,7 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
   PcgResult result;
   double rnorm = true_residual();
   int it = 0;
+  bool first_run = true;
   constexpr double kRunReduction = 1e-6;
   while (rnorm > target && it < settings.max_iterations) {
     // A run aims at most kRunReduction below its start: beyond, the single-precision recursion
@@ -288,7 +289,7 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
                            ws.fw);
     S.pad(ws.residual, ws.fw);
     ws.fdx.setZero();
-    const double rz = space.start(rnorm, ws.ssor_residual_ratio);
+    const double rz = space.start(rnorm, first_run ? ws.ssor_residual_ratio : 0.0);
     const CgRun run = conjugate_gradient(space, rz, settings.max_iterations - it);
     it += run.iterations;
     // What the run reached (at its check, the iteration cap or a breakdown) goes into x.
@@ -296,7 +297,8 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
     S.unpad(ws.fdx, ws.correction);
     x += ws.correction;
     rnorm = true_residual();
-    if (space.checked_at() >= 0) ws.ssor_residual_ratio = rnorm / std::max(space.checked_at(), 1e-300);
+    // A restart takes its scale from its own true residual (below).
+    first_run = false;
     if (rnorm <= target || it >= settings.max_iterations) break;
     if (run.breakdown || !(rnorm < 0.5 * run_start)) {
       ++ws.ssor_single_fallbacks;
@@ -308,6 +310,17 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
       result.converged = rest.converged;
       return result;
     }
+  }
+  // The next solve's first run takes its scale from this solve's last residual: the ratio
+  // |r| / |(B + L)^-1 r| of the true residual, one lower solve. Not from the run's own
+  // recursion: a run that goes on below single precision's reach shrinks |r^| while |r| stays,
+  // and such a ratio would make the next solve aim deeper still, a feedback that ends in a
+  // solve that never checks and does not converge.
+  if (it > 0 && rnorm > 0) {
+    S.pad(ws.residual, ws.fw);
+    S.solve_lower(ws.fw.data(), ws.fr.data());
+    const double rh = ws.fr.template cast<double>().norm();
+    if (rh > 0 && std::isfinite(rh)) ws.ssor_residual_ratio = rnorm / rh;
   }
   result.iterations = it;
   result.relative_residual = rnorm / bnorm;

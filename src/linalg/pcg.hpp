@@ -48,8 +48,9 @@ struct PcgWorkspace {
   /// kSsor: the SSOR operators on a copy of A, and vectors with 4 doubles per node.
   SsorOperator ssor;
   VecX t, w, x4, b4;
-  /// kSsor: |r| / |r^| (true over transformed residual) at the last solve's last check of
-  /// the true residual, from which the next solve predicts when to check; 0: none yet.
+  /// kSsor: |r| / |r^| (true over transformed residual, r^ = (B + L)^-1 r) of the last solve's
+  /// final true residual (single precision: measured with one lower solve; double precision: at
+  /// its last check), from which the next solve predicts when to check; 0: none yet.
   double ssor_residual_ratio = 0;
   /// kSsor in single precision: the operator, its vectors, and node-ordered residual and
   /// correction in double precision.

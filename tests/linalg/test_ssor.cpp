@@ -610,6 +610,61 @@ TEST(Ssor, StopsOnTheTrueResidualWhateverRatioThePreviousSolveLeft) {
   }
 }
 
+TEST(Ssor, SinglePrecisionSolvesLeaveTheRatioOfTheirTrueResidual) {
+  // The next solve predicts when its run reaches the target from the ratio |r| / |r^| this
+  // one leaves (r^ = (B + L)^-1 r). In single precision a run's recursion |r^| keeps shrinking
+  // once the true residual has stopped at the copy's rounding, so a ratio taken from the
+  // recursion is too large, and a solve started with one aims deeper and leaves a larger one
+  // (in a simulation this fed on itself from step to step until a solve never checked and
+  // diverged). The ratio left must be the true residual's, here measured again in double
+  // precision, whatever ratio the solve was given; and solves repeated with the workspace
+  // carried over must not grow their work.
+  test::ClothStepProblem p;
+  Scene scene = test::cloth_step_scene(33);
+  scene.cloth.material.weft = scene.cloth.material.warp = StressCurve::linear(1e5);  // stiff
+  scene.cloth.material.shear = StressCurve::linear(1e4);
+  test::make_cloth_step_problem(scene, 0.02, p);
+  const BlockMatrix& A = p.matrix();
+  const std::vector<char>& fixed = p.fixed();
+  PcgSettings s;
+  s.relative_tolerance = 1e-6;
+  s.preconditioner = Preconditioner::kSsor;
+  s.ssor_single_precision = true;
+  int free_nodes = 0;
+  for (char f : fixed) free_nodes += !f;
+  SsorOperator S;
+  S.assign(A, fixed, ssor_relaxation_for(free_nodes));
+  VecX b = p.rhs;
+  zero_fixed(fixed, b);
+  const auto true_ratio = [&](const VecX& x) {
+    VecX r;
+    A.multiply(x, r);
+    r = b - r;
+    zero_fixed(fixed, r);
+    SsorOperator::Vector rp, rh;
+    S.pad(r, rp);
+    rh.resize(rp.size());
+    S.solve_lower(rp.data(), rh.data());
+    return r.norm() / rh.norm();
+  };
+  PcgWorkspace fresh;
+  VecX x_fresh = p.guess;
+  const PcgResult first = solve_pcg(A, p.rhs, fixed, s, x_fresh, fresh);
+  ASSERT_TRUE(first.converged);
+  EXPECT_NEAR(fresh.ssor_residual_ratio / true_ratio(x_fresh), 1.0, 0.01);
+  for (double given : {1e-4, 1e4}) {
+    PcgWorkspace ws;
+    ws.ssor_residual_ratio = given * fresh.ssor_residual_ratio;
+    for (int k = 0; k < 10; ++k) {
+      VecX x = p.guess;
+      const PcgResult r = solve_pcg(A, p.rhs, fixed, s, x, ws);
+      ASSERT_TRUE(r.converged) << "given " << given << ", solve " << k;
+      EXPECT_NEAR(ws.ssor_residual_ratio / true_ratio(x), 1.0, 0.01) << "given " << given << ", solve " << k;
+      if (k > 0) EXPECT_LE(r.iterations, first.iterations + first.iterations / 4) << "given " << given << ", solve " << k;
+    }
+  }
+}
+
 // Outside 0 < omega < 2 the SSOR operator is not positive definite; the solver refuses
 // (0 asks for the automatic choice, which must lie inside and grow with the mesh).
 TEST(Ssor, RejectsRelaxationOutsideTheOpenInterval) {
