@@ -77,6 +77,19 @@ void validate_timing(const Scene& s, const std::string& where) {
   }
   const double frames = s.duration / s.frame_interval;
   if (frames > 1e7) throw InputError(where + ": duration / frame_interval is absurdly large (" + nlohmann::json(frames).dump() + " frames)");
+  // Frames are written at whole intervals, and the run ends at the last one: a duration between
+  // two would be cut to the earlier (nothing at all below one interval).
+  if (frames < 1 - 1e-9 || std::abs(frames - std::round(frames)) > 1e-6 * frames) {
+    const auto num = [](double v) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%.9g", v);
+      return std::string(buf);
+    };
+    const double below = std::floor(frames + 1e-6) * s.frame_interval, above = std::ceil(frames - 1e-6) * s.frame_interval;
+    throw InputError(where + ": duration " + num(s.duration) + " s is not a whole number of frame_interval " +
+                     num(s.frame_interval) + " s (" + num(frames) + " frames); frames are written at whole intervals, so choose " +
+                     (below > 0 ? num(below) + " or " : std::string()) + num(above) + " s");
+  }
   if (s.duration / s.integrator.dt > 1e9)
     throw InputError(where + ": duration / dt is absurdly large (" + nlohmann::json(s.duration / s.integrator.dt).dump() + " steps)");
   if (s.damping_ratio && !(*s.damping_ratio >= 0 && *s.damping_ratio <= 10))

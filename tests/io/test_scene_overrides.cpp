@@ -102,6 +102,17 @@ TEST(SceneOverrides, BadOverridesNameTheOptionAndTheValue) {
   SceneOverrides dt;
   dt.dt = 0.003;  // 0.02 s frames are not a whole number of 3 ms steps
   EXPECT_EQ(override_error(dt), "command line: frame_interval 0.02 s is not a whole number of steps of dt 0.003 s");
+  // A duration between two frames would be cut to the earlier one (below one frame, to
+  // nothing): refused, with the two whole numbers of frames either side.
+  SceneOverrides duration;
+  duration.duration = 0.05;
+  EXPECT_EQ(override_error(duration), "command line: duration 0.05 s is not a whole number of frame_interval 0.02 s "
+                                      "(2.5 frames); frames are written at whole intervals, so choose 0.04 or 0.06 s");
+  duration.duration = 0.01;
+  EXPECT_EQ(override_error(duration), "command line: duration 0.01 s is not a whole number of frame_interval 0.02 s "
+                                      "(0.5 frames); frames are written at whole intervals, so choose 0.02 s");
+  duration.duration = 0.3;  // 15 frames of 0.02 s, though 0.3 / 0.02 is not exactly 15 in binary
+  EXPECT_EQ(override_error(duration), "");
   SceneOverrides damping;
   damping.damping_ratio = -0.1;
   EXPECT_EQ(override_error(damping), "command line: damping ratio must be in [0, 10], got -0.1");
