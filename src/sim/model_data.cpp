@@ -291,7 +291,7 @@ void set_pin_velocity(const SimulationModel& M, SimulationData& D, int i, const 
   set_pin_velocity(M, D.state, i, v);
 }
 
-void advance(const SimulationModel& M, SimulationData& D, double t) {
+void advance(const SimulationModel& M, SimulationData& D, double t, bool stop_on_runaway) {
   ClothSystem system(*M.cloth, M.system, D.system);
   Integrator integrator(system, M.integrator, D.integrator);
   State& s = D.state;
@@ -315,7 +315,27 @@ void advance(const SimulationModel& M, SimulationData& D, double t) {
       return true;
     });
   }
-  integrator.advance(s, t, D.statistics);
+  if (!stop_on_runaway || M.scene.integrator.method == Method::Rk45) {
+    integrator.advance(s, t, D.statistics);
+    return;
+  }
+  // A step at a time, looking at the energy after each: first the kinetic energy alone (one
+  // pass over the velocities), and the whole balance only when that alone is past the limit
+  // (a long free fall gains kinetic energy that its lost height balances).
+  const VecX& mass = M.cloth->mass;
+  const double limit = kRunawayEnergyFactor * D.energy_scale;
+  while (s.t < t - slack) {
+    // The last step ends at t itself, as a single call to t would (the steps keep their own
+    // clock either way).
+    integrator.advance(s, std::lround((t - s.t) / dt) <= 1 ? t : s.t + dt, D.statistics);
+    double kinetic = 0;
+    for (int i = 0; i < M.cloth->num_vertices(); ++i) kinetic += 0.5 * mass[i] * node(s.v, i).squaredNorm();
+    if (!std::isfinite(kinetic)) return;
+    if (kinetic - s.contact_work - D.total0 > limit) {
+      const EnergyRow e = energies(M, D);
+      if (!std::isfinite(e.total()) || e.total() - e.contact_work - D.total0 > limit) return;
+    }
+  }
 }
 
 void set_energy_reference(const SimulationModel& M, SimulationData& D) {

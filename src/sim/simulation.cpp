@@ -31,7 +31,7 @@ SimulationCore::SimulationCore(std::shared_ptr<const Model> model)
 
 SimulationCore::~SimulationCore() = default;
 
-void SimulationCore::advance_to(double t) { advance(*m_, *data_, t); }
+void SimulationCore::advance_to(double t, bool stop_on_runaway) { advance(*m_, *data_, t, stop_on_runaway); }
 
 double SimulationCore::arrival_time(double arrival, const std::string& what) const {
   const double now = data_->state.t, dt = m_->scene.integrator.dt;
@@ -155,7 +155,9 @@ RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResul
   // The reference state's energy: a resumed run compares with the energy its first part did.
   const double total0 = sim.initial_total_energy();
   for (long f = static_cast<long>(res.energy.size()); f <= frames; ++f) {
-    if (f > 0) sim.advance_to(std::min(sc.duration, f * sc.frame_interval));
+    // A step whose energy ran away ends the frame early, and the check below stops the run
+    // there: a cloth blowing up can make each later step's collision handling take minutes.
+    if (f > 0) sim.core().advance_to(std::min(sc.duration, f * sc.frame_interval), true);
     const EnergyRow e = sim.energies();
     const State& s = sim.core().state();
     std::string problem;

@@ -45,7 +45,9 @@ class SimulationCore {
   /// the energy accounting: time 0, no dissipation yet, no BDF-2 history.
   void reset_state(const VecX& x, const VecX& v);
   /// Advances to time t (s), stopping pins on their targets when they arrive (move_pins).
-  void advance_to(double t);
+  /// With `stop_on_runaway`, stops early after a step at which the energy ran away
+  /// (sim/model_data.hpp, advance).
+  void advance_to(double t, bool stop_on_runaway = false);
 
   /// Moves pinned vertices in straight lines at constant velocities from where they are to
   /// `targets` (one per vertex of `nodes`), arriving at time `arrival` (s, after now; for a
