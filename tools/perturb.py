@@ -71,7 +71,15 @@ def run(weft, out, name, duration, method, alpha):
         command += ["--method", method]
     if alpha is not None:
         command += ["--alpha", str(alpha)]
+    # A summary an earlier run left there must not stand for this one (a run refused as bad
+    # input writes nothing).
+    try:
+        os.remove(os.path.join(folder, "summary.json"))
+    except FileNotFoundError:
+        pass
     proc = subprocess.run(command, capture_output=True, text=True)
+    if proc.returncode not in (0, 3):  # ok, unstable: both write their summary
+        return {"status": f"failed (exit {proc.returncode}): {proc.stderr.strip()[:200]}"}
     try:
         with open(os.path.join(folder, "summary.json")) as f:
             s = json.load(f)
