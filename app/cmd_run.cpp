@@ -206,6 +206,15 @@ std::string stability_advice(const weft::Scene& sc) {
   std::snprintf(buf, sizeof buf, "a smaller time step than the current %g s (e.g. --dt %g)", sc.integrator.dt,
                 sc.integrator.dt / 2);
   items.push_back(buf);
+  // An unguarded step with a guarded form: the guard keeps its method's motion wherever the
+  // step does not put energy in (docs/guarded-midpoint.md).
+  if (!sc.integrator.guard && sc.integrator.method == Method::AlphaFamily && sc.integrator.alpha == 0.5) {
+    items.push_back("the guarded step (--method implicit-midpoint)");
+  } else if (!sc.integrator.guard && sc.integrator.method == Method::Bdf2 && sc.integrator.alpha > 0 &&
+             sc.integrator.alpha < 1) {
+    std::snprintf(buf, sizeof buf, "the guarded step (--method bdf2-alpha-guarded --alpha %g)", sc.integrator.alpha);
+    items.push_back(buf);
+  }
   if (!(sc.integrator.method == Method::AlphaFamily && sc.integrator.alpha == 1.0))
     items.push_back("a more implicit method (--method backward-euler)");
   const double zeta = sc.effective_damping_ratio();

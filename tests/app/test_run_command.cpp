@@ -270,6 +270,7 @@ TEST_F(RunCommand, StabilityAdviceNamesOnlyChangesFromTheSettingsInForce) {
   EXPECT_NE(e.find("more damping than the current ratio of 0.05 (e.g. --damping-ratio 0.1)"), std::string::npos) << e;
   EXPECT_NE(e.find("a smaller time step than the current 0.02 s (e.g. --dt 0.01)"), std::string::npos) << e;
   EXPECT_NE(e.find("--method backward-euler"), std::string::npos) << e;
+  EXPECT_NE(e.find("the guarded step (--method implicit-midpoint)"), std::string::npos) << e;
   // Forward Euler without damping: adaptive damping is off, so turning it on is the advice.
   const auto s = write("scene.json", scene(R"({"method": "forward-euler", "dt": 0.02})",
                                            R"({"grid": {"size": [0.2, 0.2], "vertices": [9, 9]}})", "2.0"));
@@ -277,6 +278,7 @@ TEST_F(RunCommand, StabilityAdviceNamesOnlyChangesFromTheSettingsInForce) {
   ASSERT_EQ(fe.exit_code, 3);
   EXPECT_NE(fe.error_output.find("adaptive damping, off now (e.g. --damping-ratio 0.05)"), std::string::npos)
       << fe.error_output;
+  EXPECT_EQ(fe.error_output.find("guarded"), std::string::npos) << fe.error_output;  // none for it
 }
 
 TEST_F(RunCommand, AnOutputFolderNeverMixesTwoRuns) {
