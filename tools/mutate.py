@@ -228,7 +228,7 @@ MUTATIONS = [
       "+ 100 * cloth.mass.sum() * M.scene.gravity.norm() * (hi - lo).norm();",
       "energy-rise instability threshold's gravity term times 100", "InstabilityRule.*"),
     M("kinetic-energy", "outputs", "src/sim/model_data.cpp",
-      "r.kinetic += 0.5 * m[i] * node(state.v, i).squaredNorm();", "r.kinetic += 0.49 * m[i] * node(state.v, i).squaredNorm();",
+      "kinetic += 0.5 * m[i] * node(s.v, i).squaredNorm();", "kinetic += 0.49 * m[i] * node(s.v, i).squaredNorm();",
       "kinetic energy reported 2% low", "EnergyAccount.*:EnergyBalance.*"),
     M("energy-csv-column", "outputs", "src/sim/simulation.cpp",
       "e.gravity, e.viscous_dissipated, e.numerical_dissipated, e.contact_work, e.total());",

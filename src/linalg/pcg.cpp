@@ -278,7 +278,6 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
   PcgResult result;
   double rnorm = true_residual();
   int it = 0;
-  bool first_run = true;
   constexpr double kRunReduction = 1e-6;
   while (rnorm > target && it < settings.max_iterations) {
     // A run aims at most kRunReduction below its start: beyond, the single-precision recursion
@@ -289,7 +288,8 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
                            ws.fw);
     S.pad(ws.residual, ws.fw);
     ws.fdx.setZero();
-    const double rz = space.start(rnorm, first_run ? ws.ssor_residual_ratio : 0.0);
+    // A restart (it > 0) takes its scale from its own true residual.
+    const double rz = space.start(rnorm, it == 0 ? ws.ssor_residual_ratio : 0.0);
     const CgRun run = conjugate_gradient(space, rz, settings.max_iterations - it);
     it += run.iterations;
     // What the run reached (at its check, the iteration cap or a breakdown) goes into x.
@@ -297,8 +297,6 @@ PcgResult solve_ssor_single(const BlockMatrix& A, const std::vector<char>& fixed
     S.unpad(ws.fdx, ws.correction);
     x += ws.correction;
     rnorm = true_residual();
-    // A restart takes its scale from its own true residual (below).
-    first_run = false;
     if (rnorm <= target || it >= settings.max_iterations) break;
     if (run.breakdown || !(rnorm < 0.5 * run_start)) {
       ++ws.ssor_single_fallbacks;

@@ -291,6 +291,15 @@ void set_pin_velocity(const SimulationModel& M, SimulationData& D, int i, const 
   set_pin_velocity(M, D.state, i, v);
 }
 
+namespace {
+double kinetic_energy(const SimulationModel& M, const State& s) {
+  const VecX& m = M.cloth->mass;
+  double kinetic = 0;
+  for (int i = 0; i < M.cloth->num_vertices(); ++i) kinetic += 0.5 * m[i] * node(s.v, i).squaredNorm();
+  return kinetic;
+}
+}  // namespace
+
 void advance(const SimulationModel& M, SimulationData& D, double t, bool stop_on_runaway) {
   ClothSystem system(*M.cloth, M.system, D.system);
   Integrator integrator(system, M.integrator, D.integrator);
@@ -322,14 +331,12 @@ void advance(const SimulationModel& M, SimulationData& D, double t, bool stop_on
   // A step at a time, looking at the energy after each: first the kinetic energy alone (one
   // pass over the velocities), and the whole balance only when that alone is past the limit
   // (a long free fall gains kinetic energy that its lost height balances).
-  const VecX& mass = M.cloth->mass;
   const double limit = kRunawayEnergyFactor * D.energy_scale;
   while (s.t < t - slack) {
     // The last step ends at t itself, as a single call to t would (the steps keep their own
     // clock either way).
     integrator.advance(s, std::lround((t - s.t) / dt) <= 1 ? t : s.t + dt, D.statistics);
-    double kinetic = 0;
-    for (int i = 0; i < M.cloth->num_vertices(); ++i) kinetic += 0.5 * mass[i] * node(s.v, i).squaredNorm();
+    const double kinetic = kinetic_energy(M, s);
     if (!std::isfinite(kinetic)) return;
     if (kinetic - s.contact_work - D.total0 > limit) {
       const EnergyRow e = energies(M, D);
@@ -369,8 +376,7 @@ EnergyRow energies(const SimulationModel& M, SimulationData& D) {
   system.evaluate(state.x, state.v, false, D.eval);
   EnergyRow r;
   r.time = state.t;
-  const VecX& m = M.cloth->mass;
-  for (int i = 0; i < M.cloth->num_vertices(); ++i) r.kinetic += 0.5 * m[i] * node(state.v, i).squaredNorm();
+  r.kinetic = kinetic_energy(M, state);
   r.elastic = D.eval.elastic_energy;
   r.gravity = D.eval.gravity_energy - D.gravity0;
   r.viscous_dissipated = state.viscous_dissipated;
