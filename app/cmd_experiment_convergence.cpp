@@ -1,4 +1,5 @@
-// `weft experiment convergence`: observed orders of accuracy of every integrator (METHOD.md 2).
+// `weft experiment convergence`: observed orders of accuracy of every integrator
+// (docs/method.md 2).
 #include <cmath>
 #include <cstdio>
 #include <memory>

@@ -1,4 +1,4 @@
-// `weft experiment energy`: the paper's energy, accuracy and speed comparison (METHOD.md 7,
+// `weft experiment energy`: the paper's energy, accuracy and speed comparison (docs/method.md 7,
 // figures 8-10) on one scene.
 #include <cmath>
 #include <cstdio>

@@ -1,5 +1,5 @@
 // `weft experiment tensile` and `weft experiment cantilever`: validation of the fabric model
-// (METHOD.md 5, docs/fabric-validation.md). Each writes CSV tables, a gnuplot script and,
+// (docs/method.md 5, docs/fabric-validation.md). Each writes CSV tables, a gnuplot script and,
 // when gnuplot is installed, the plot as PNG and SVG.
 #include <cmath>
 #include <cstdio>

@@ -1,5 +1,5 @@
 // `weft stability`: spectral-radius map of an integrator on one damped spring
-// (METHOD.md 3, the paper's figures 2-4), written as a PNG picture and a CSV table.
+// (docs/method.md 3, the paper's figures 2-4), written as a PNG picture and a CSV table.
 #include <cmath>
 #include <cstdio>
 #include <filesystem>

@@ -1,5 +1,5 @@
 #pragma once
-// Validation experiments of the fabric model (METHOD.md 5, docs/fabric-validation.md):
+// Validation experiments of the fabric model (docs/method.md 5, docs/fabric-validation.md):
 // a quasi-static tensile test along weft, warp and bias, and the cantilever bending test
 // (ASTM D1388). Both solve static equilibria of the full cloth system (membrane triangles,
 // bending stencils, gravity), so they check the assembled model against its input data.
@@ -12,7 +12,7 @@ namespace weft {
 
 // ---------------------------------------------------------------- tensile test
 
-/// Uniaxial response of the membrane model (METHOD.md 5) of one homogeneous element loaded
+/// Uniaxial response of the membrane model (docs/method.md 5) of one homogeneous element loaded
 /// along the pattern direction at `angle_deg` from the weft (0 = weft, 90 = warp, 45 = bias):
 /// the lateral strain and the in-plane shear strain are solved so that the lateral and shear
 /// stresses vanish (free long edges). Returns the axial stress S_xx (N/m, second
@@ -81,7 +81,7 @@ struct CantileverOptions {
   int sweep_points = 8;   ///< overhangs from 0.8 to 3.2 bending lengths, for the plot
   double angle_tolerance_deg = 0.01;
   int load_steps = 4;     ///< gravity ramp of each equilibrium from the flat strip
-  std::string bending_model = "hinge";  ///< "hinge" (METHOD.md 5) or "plate"
+  std::string bending_model = "hinge";  ///< "hinge" (docs/method.md 5) or "plate"
   /// "equilateral": near-equilateral triangles (rows shifted by half a cell; cells_across
   /// follows from the width), like a garment mesh; "grid": make_grid's squares split along
   /// alternating diagonals, cells_across rows.

@@ -1,5 +1,5 @@
 #pragma once
-// Fabric materials (METHOD.md section 5): surface density, weft/warp/shear stress-strain
+// Fabric materials (docs/method.md section 5): surface density, weft/warp/shear stress-strain
 // curves, weft/warp bending rigidity and strain-rate viscosity, all in SI units.
 #include <nlohmann/json_fwd.hpp>
 #include <string>

@@ -25,7 +25,7 @@ struct SimulationModel;
 /// fraction of the set-up done before it (1 with stage "done" at the end).
 using SetupProgress = std::function<void(const std::string& stage, double fraction)>;
 
-/// Energies at one output frame (METHOD.md 6), in joules.
+/// Energies at one output frame (docs/method.md 6), in joules.
 struct EnergyRow {
   double time = 0;
   double kinetic = 0;

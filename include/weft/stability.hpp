@@ -1,5 +1,5 @@
 #pragma once
-// Linear stability of weft's integrators on one damped spring (METHOD.md 3, paper eq. 3-13).
+// Linear stability of weft's integrators on one damped spring (docs/method.md 3, paper eq. 3-13).
 //
 // One mass m on a spring k with viscosity l, m p'' = -(k p + l p'), advanced with step dt.
 // Everything depends on the two stiffness factors
@@ -13,7 +13,7 @@
 
 namespace weft {
 
-/// The step matrix H of the alpha family (METHOD.md 1 and 3, paper eq. 4-5):
+/// The step matrix H of the alpha family (docs/method.md 1 and 3, paper eq. 4-5):
 /// q(t + dt) = H q(t) with q = [p, p' dt]. With B = [[0, 1], [-kappa, -lambda]] and
 /// D = 1 + lambda alpha + kappa alpha^2,
 ///   H = I + (I - alpha B)^-1 B
@@ -25,7 +25,7 @@ Eigen::Matrix2d alpha_family_step_matrix(double alpha, double kappa, double lamb
 /// closed-form eigenvalues of a real 2x2 matrix, so it is exact up to rounding).
 double alpha_family_spectral_radius(double alpha, double kappa, double lambda);
 
-/// The 4x4 step map of progressive BDF-2 (METHOD.md 2-3, paper eq. 13) acting on
+/// The 4x4 step map of progressive BDF-2 (docs/method.md 2-3, paper eq. 13) acting on
 /// [q, dq], dq the previous step's change of q. With beta = (2 alpha - 1) / (2 alpha + 1),
 /// c = dt_b / dt = 2 / (2 alpha + 1) and A = (I - alpha c B)^-1:
 ///   dq_next = A (beta dq + c B q),   q_next = q + dq_next.
@@ -34,7 +34,7 @@ Eigen::Matrix4d bdf2_step_matrix(double alpha, double kappa, double lambda);
 /// Spectral radius of bdf2_step_matrix (Eigen::EigenSolver on the 4x4 map).
 double bdf2_spectral_radius(double alpha, double kappa, double lambda);
 
-/// The analytic stability conditions of the alpha family (METHOD.md 3, paper eq. 10):
+/// The analytic stability conditions of the alpha family (docs/method.md 3, paper eq. 10):
 ///   (10a) kappa > 0,
 ///   (10b) lambda > (1 - 2 alpha) kappa,
 ///   (10c) for alpha < 1/2 only: lambda < 2 / (1 - 2 alpha) + kappa (1 - 2 alpha) / 2.

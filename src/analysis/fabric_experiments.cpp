@@ -21,7 +21,7 @@ double degrees(double rad) { return rad * 180.0 / std::numbers::pi; }
 
 // Second Piola-Kirchhoff stresses (S_xx, S_yy, S_xy) in the loading frame (x along the pattern
 // direction (cos t, sin t), y across it) for Green strains (E_xx, E_yy, E_xy) in that frame,
-// through the material's curves in the weft/warp frame (METHOD.md 5: e_uv = U.V = 2 E_uv).
+// through the material's curves in the weft/warp frame (docs/method.md 5: e_uv = U.V = 2 E_uv).
 Vec3 loading_frame_stress(const Material& m, double angle_rad, double exx, double eyy, double exy) {
   const Vec2 a(std::cos(angle_rad), std::sin(angle_rad)), b(-a.y(), a.x());
   const Mat2 E = exx * a * a.transpose() + eyy * b * b.transpose() +

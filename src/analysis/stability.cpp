@@ -13,7 +13,7 @@
 namespace weft {
 namespace {
 
-/// B of METHOD.md 3: the spring's time derivative of q = [p, p' dt], scaled by dt.
+/// B of docs/method.md 3: the spring's time derivative of q = [p, p' dt], scaled by dt.
 Eigen::Matrix2d spring_derivative_matrix(double kappa, double lambda) {
   Eigen::Matrix2d b;
   b << 0.0, 1.0, -kappa, -lambda;
@@ -29,7 +29,7 @@ std::string format_number(double v) {
 }  // namespace
 
 Eigen::Matrix2d alpha_family_step_matrix(double alpha, double kappa, double lambda) {
-  // METHOD.md 1: dq = (I - alpha dt dQ'/dQ)^-1 Q'(t) dt, which for the spring is
+  // docs/method.md 1: dq = (I - alpha dt dQ'/dQ)^-1 Q'(t) dt, which for the spring is
   // (I - alpha B)^-1 B q; det(I - alpha B) = D = 1 + lambda alpha + kappa alpha^2.
   const Eigen::Matrix2d b = spring_derivative_matrix(kappa, lambda);
   const Eigen::Matrix2d implicit = Eigen::Matrix2d::Identity() - alpha * b;
@@ -37,7 +37,7 @@ Eigen::Matrix2d alpha_family_step_matrix(double alpha, double kappa, double lamb
 }
 
 double alpha_family_spectral_radius(double alpha, double kappa, double lambda) {
-  // Closed-form eigenvalues (METHOD.md 3, paper eq. 6):
+  // Closed-form eigenvalues (docs/method.md 3, paper eq. 6):
   // z = [(1 - lambda/2) + (lambda - kappa) alpha + kappa alpha^2 +- sqrt(lambda^2/4 - kappa)] / D
   const double d = 1.0 + lambda * alpha + kappa * alpha * alpha;
   const double mean = (1.0 - 0.5 * lambda) + (lambda - kappa) * alpha + kappa * alpha * alpha;
@@ -51,7 +51,7 @@ double alpha_family_spectral_radius(double alpha, double kappa, double lambda) {
 }
 
 Eigen::Matrix4d bdf2_step_matrix(double alpha, double kappa, double lambda) {
-  // METHOD.md 2-3 (paper eq. 13): Q(t+dt) - Q(t) = beta dQ_prev + Q'(t + alpha dt) dt_b,
+  // docs/method.md 2-3 (paper eq. 13): Q(t+dt) - Q(t) = beta dQ_prev + Q'(t + alpha dt) dt_b,
   // linearised: dq = (I - alpha c B)^-1 (beta dq_prev + c B q), c = dt_b / dt.
   const double beta = (2.0 * alpha - 1.0) / (2.0 * alpha + 1.0);
   const double c = 2.0 / (2.0 * alpha + 1.0);
@@ -117,7 +117,7 @@ StabilityScheme stability_scheme_by_name(const std::string& method, double alpha
   if (method == "backward-euler") return {Kind::AlphaFamily, 1.0};
   if (method == "alpha") return {Kind::AlphaFamily, alpha};
   if (method == "bdf2") return {Kind::ProgressiveBdf2, 1.0};
-  // bdf2-alpha: the paper's low-dissipation variant by default (METHOD.md 2).
+  // bdf2-alpha: the paper's low-dissipation variant by default (docs/method.md 2).
   return {Kind::ProgressiveBdf2, alpha_given ? alpha : 1.0 / std::sqrt(3.0)};
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-// Stiffness factors and adaptive damping (METHOD.md 4, paper 2.3-2.4). For an element of
+// Stiffness factors and adaptive damping (docs/method.md 4, paper 2.3-2.4). For an element of
 // stiffness k, viscosity l and mass m, kappa = k dt^2 / m and lambda = l dt / m; the
 // damping ratio is lambda / (2 sqrt(kappa)). Adaptive damping raises each element's
 // strain-rate viscosity so that its damping ratio is at least a target zeta.
@@ -12,7 +12,7 @@
 
 namespace weft {
 
-/// Spring (METHOD.md 4): kappa = dt^2 k / m_r and lambda = dt l / m_r with the reduced mass
+/// Spring (docs/method.md 4): kappa = dt^2 k / m_r and lambda = dt l / m_r with the reduced mass
 /// m_r = m1 m2 / (m1 + m2), i.e. 1/m_r = 1/m1 + 1/m2 (a fixed end has 1/m = 0). This is
 /// exactly dt^2 times the largest eigenvalue of M^-1/2 K_e M^-1/2 for the spring's axial stiffness.
 double spring_kappa(double stiffness, double inverse_mass_1, double inverse_mass_2, double dt);

@@ -29,11 +29,12 @@ bool make_bending_geometry(const Vec2& a, const Vec2& b, const Vec2& c, const Ve
   if (!g.alpha.allFinite() || g.alpha.cwiseAbs().maxCoeff() > 1e3) return false;
   const Vec2 n = Vec2(-cd.y(), cd.x()) / len;
   const double rigidity = rigidity_weft_Nm * n.x() * n.x() + rigidity_warp_Nm * n.y() * n.y();
-  // k_b = 2 (h_A + h_B) / (h_A^2 h_B^2) |CD| B. METHOD.md 5 writes 2/3 for the constant, which
-  // assumes every hinge sees the whole curvature; a hinge measures the difference of the
-  // curvatures along its quad's two diagonals, and a sheet rolled into a cylinder (the bend
-  // that B is measured in) then stores a third of B k^2 / 2 per area, on square grids and on
-  // equilateral meshes alike. With 2 it stores B k^2 / 2 (tests/elements/test_elements.cpp).
+  // k_b = 2 (h_A + h_B) / (h_A^2 h_B^2) |CD| B (docs/method.md 5). The formula the hinge was
+  // first written from has 2/3 for the constant, which assumes every hinge sees the whole
+  // curvature; a hinge measures the difference of the curvatures along its quad's two
+  // diagonals, and a sheet rolled into a cylinder (the bend that B is measured in) then stores
+  // a third of B k^2 / 2 per area, on square grids and on equilateral meshes alike. With 2 it
+  // stores B k^2 / 2 (tests/elements/test_elements.cpp).
   g.stiffness = 2.0 * (ha + hb) / (ha * ha * hb * hb) * len * rigidity;
   g.kappa_factor = g.alpha.squaredNorm();
   return true;

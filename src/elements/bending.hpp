@@ -1,5 +1,5 @@
 #pragma once
-// Linear bending element (METHOD.md 5): for the edge CD shared by triangles with tips A and B,
+// Linear bending element (docs/method.md 5): for the edge CD shared by triangles with tips A and B,
 // R = sum_i alpha_i x_i vanishes on the flat rest shape and measures the bend;
 // energy k_b |R|^2 / 2, forces F_i = -k_b alpha_i R, constant Jacobian -k_b alpha alpha^T (x) I3.
 #include <array>
@@ -17,8 +17,8 @@ struct BendingGeometry {
 
 /// Builds the stencil from flat pattern coordinates of tips A, B and edge C, D.
 /// The coefficients make R vanish on the pattern: alpha_A A + alpha_B B is the point where line
-/// AB crosses line CD, as is -(alpha_C C + alpha_D D) (the |N| ratios of METHOD.md 5 when ACBD
-/// is convex). `rigidity_weft_Nm`/`rigidity_warp_Nm` weigh the rigidity by the direction
+/// AB crosses line CD, as is -(alpha_C C + alpha_D D) (the height ratios of docs/method.md 5 when
+/// ACBD is convex). `rigidity_weft_Nm`/`rigidity_warp_Nm` weigh the rigidity by the direction
 /// across the edge: B = B_weft n_u^2 + B_warp n_v^2, n the unit normal of CD in the pattern.
 /// Returns false for a degenerate stencil.
 bool make_bending_geometry(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d,
@@ -39,7 +39,7 @@ struct LinearBendingStencil {
   VecX weights;               ///< m weights w_m (N/m)
   MatX Q;                     ///< k by k, sum_m w_m c_m c_m^T
   void finish() { Q = measures.transpose() * weights.asDiagonal() * measures; }
-  /// sum_m w_m sum_k c_mk^2 / m_k: kappa = dt^2 times this (METHOD.md 4 per-mode bound).
+  /// sum_m w_m sum_k c_mk^2 / m_k: kappa = dt^2 times this (docs/method.md 4 per-mode bound).
   double stiffness_mass_sum(const VecX& inverse_mass) const;
 };
 

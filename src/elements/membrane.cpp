@@ -7,7 +7,7 @@
 namespace weft {
 
 bool make_membrane_geometry(const Vec2& pa, const Vec2& pb, const Vec2& pc, MembraneGeometry& g) {
-  // METHOD.md 5: d = u_a (v_b - v_c) + u_b (v_c - v_a) + u_c (v_a - v_b)
+  // docs/method.md 5: d = u_a (v_b - v_c) + u_b (v_c - v_a) + u_c (v_a - v_b)
   const double d = pa.x() * (pb.y() - pc.y()) + pb.x() * (pc.y() - pa.y()) + pc.x() * (pa.y() - pb.y());
   const double scale = (pb - pa).squaredNorm() + (pc - pa).squaredNorm();
   if (!(std::abs(d) > 1e-12 * scale) || !std::isfinite(d)) return false;

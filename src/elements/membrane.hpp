@@ -1,5 +1,5 @@
 #pragma once
-// The anisotropic triangle membrane of METHOD.md section 5 with strain-rate viscosity.
+// The anisotropic triangle membrane of docs/method.md section 5 with strain-rate viscosity.
 // Vertex i has pattern coordinates (u_i, v_i) (weft, warp). The deformation gradient columns
 // are U = sum_i r_u,i x_i and V = sum_i r_v,i x_i; Green strains e_uu = (U.U - 1)/2,
 // e_vv = (V.V - 1)/2, e_uv = U.V; stresses s_m from the material curves; energy
@@ -50,7 +50,7 @@ struct MembraneResult {
 
 /// Evaluates one triangle. `viscosity` holds the strain-rate viscosity (N s/m) of the
 /// three modes (weft, warp, shear). With `definite` the stiffness is projected to be
-/// negative semi-definite (compressed membranes, METHOD.md 1); without, it is the exact
+/// negative semi-definite (compressed membranes, docs/method.md 1); without, it is the exact
 /// Jacobian of the elastic force. With `expand` false only the factored form is filled.
 void evaluate_membrane(const MembraneGeometry& g, const Material& m, const Vec3& viscosity,
                        const std::array<Vec3, 3>& x, const std::array<Vec3, 3>& v,

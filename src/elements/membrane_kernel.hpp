@@ -1,5 +1,5 @@
 #pragma once
-// The membrane element's arithmetic (METHOD.md 5), written once for every path that runs it:
+// The membrane element's arithmetic (docs/method.md 5), written once for every path that runs it:
 // evaluate_membrane (one triangle, elements/membrane.cpp), the step assembly one triangle at
 // a time and four at a time, and the viscous power over a step (system/cloth.cpp). Those
 // callers only gather a triangle's vertices and scatter its results.
@@ -150,7 +150,7 @@ struct Forces {
   T energy, viscous_power;
 };
 
-/// The viscous power -A sum_m eta_m rate_m^2 (eta_m rate_m the viscous stress of METHOD.md 5).
+/// The viscous power -A sum_m eta_m rate_m^2 (eta_m rate_m the viscous stress of docs/method.md 5).
 template <class T>
 WEFT_ALWAYS_INLINE T viscous_power(const T& area, const Modes<T>& eta, const Modes<T>& rate) {
   const T sv0 = eta.uu * rate.uu, sv1 = eta.vv * rate.vv, sv2 = eta.uv * rate.uv;
@@ -221,7 +221,7 @@ WEFT_ALWAYS_INLINE void project_stress(Double4& a, Double4& b, Double4& c) {
 }
 
 /// The semi-definite stiffness's moduli: clamped tangents and the stress matrix projected
-/// (compressed membranes otherwise make the step matrix indefinite; METHOD.md 1).
+/// (compressed membranes otherwise make the step matrix indefinite; docs/method.md 1).
 template <class T, class Curves>
 WEFT_ALWAYS_INLINE Stiffness<T> definite_stiffness(const Curves& curves, const Forces<T>& f) {
   Stiffness<T> k;

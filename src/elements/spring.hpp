@@ -1,5 +1,5 @@
 #pragma once
-// A linear spring with viscosity between two points (the one-spring model of METHOD.md 3
+// A linear spring with viscosity between two points (the one-spring model of docs/method.md 3
 // and a building block for tests). One end may be a fixed anchor.
 #include "weft/types.hpp"
 

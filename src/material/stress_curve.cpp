@@ -1,4 +1,4 @@
-// Stress-strain curves of the membrane (METHOD.md section 5): linear, or monotone
+// Stress-strain curves of the membrane (docs/method.md section 5): linear, or monotone
 // piecewise-cubic Hermite splines (Fritsch & Carlson 1980, SIAM J. Numer. Anal. 17(2)) through
 // tabulated points, with linear extrapolation and an exact energy integral.
 #include <algorithm>

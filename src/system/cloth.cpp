@@ -210,7 +210,7 @@ ClothSystem::Constants ClothSystem::make_constants(const ClothModel& model, Damp
   Constants c;
   c.damping = damping;
   // kappa_b = dt^2 S and lambda_b = dt gamma S, so lambda >= 2 zeta sqrt(kappa) means
-  // gamma >= 2 zeta / sqrt(S): a constant per stencil (METHOD.md 4).
+  // gamma >= 2 zeta / sqrt(S): a constant per stencil (docs/method.md 4).
   const double zeta = c.damping.damping_ratio;
   c.bending_damping.resize(model.bending.size());
   c.bending_slot_damping.assign(model.pattern.num_blocks(), 0.0);
@@ -352,7 +352,7 @@ void ClothSystem::prepare_linear_damping(double dt) {
 }
 
 void ClothSystem::begin_step(const VecX& x, const VecX&, double step_dt) {
-  // METHOD.md 4: per element and step, kappa and lambda from the tangent stiffness at the
+  // docs/method.md 4: per element and step, kappa and lambda from the tangent stiffness at the
   // current strain; raise the viscosity of each mode to reach the target damping ratio.
   const double dt = c_.damping.reference_dt > 0 ? c_.damping.reference_dt : step_dt;
   const double zeta = c_.damping.damping_ratio;

@@ -33,8 +33,8 @@ struct ClothModel {
   BlockPattern pattern;
   std::vector<std::array<int, 9>> membrane_slots;   ///< block slots (i, j) row-major
   std::vector<std::vector<int>> bending_slots;      ///< k by k block slots per stencil
-  std::vector<Vec3> membrane_mass_sums;             ///< per triangle (METHOD.md 4)
-  std::vector<double> bending_mass_sums;            ///< kappa / dt^2 per stencil (METHOD.md 4)
+  std::vector<Vec3> membrane_mass_sums;             ///< per triangle (docs/method.md 4)
+  std::vector<double> bending_mass_sums;            ///< kappa / dt^2 per stencil (docs/method.md 4)
   /// Sum of the stencils' Q_ij per block slot (i, j): the bending stiffness is -Q (x) I3,
   /// constant, so a step applies it as one pass over the pattern.
   std::vector<double> bending_slot_q;
@@ -57,7 +57,7 @@ struct ClothModel {
 /// mass take its own material; a hinge between triangles of two materials takes the mean of
 /// their bending rigidities (weft and warp each); the plate element takes one material only.
 /// Materials with the same parameters (same_parameters) are merged.
-/// Bending discretisation: the hinge element of METHOD.md 5 (default; one stencil per
+/// Bending discretisation: the hinge element of docs/method.md 5 (default; one stencil per
 /// interior edge) or the plate element (a quadratic fit per edge; exact energy for every
 /// quadratic bend on any mesh; docs/fabric-validation.md compares them).
 enum class BendingModel { kHinge, kPlate };
@@ -75,7 +75,7 @@ struct DampingSettings {
   /// Target damping ratio (fraction of critical); 0 disables adaptive damping.
   double damping_ratio = 0.0;
   /// Step (s) at which the stiffness factors kappa and lambda are reported; 0 = each step's
-  /// own dt. The added viscosity does not depend on the step (METHOD.md 4), so an adaptive
+  /// own dt. The added viscosity does not depend on the step (docs/method.md 4), so an adaptive
   /// method (RK45) given the scene's dt here reports factors comparable with a fixed-step run.
   double reference_dt = 0.0;
 };

@@ -12,7 +12,7 @@ namespace weft {
 /// One evaluation of the system at a state (x, v).
 struct Evaluation {
   VecX force;                  ///< total force, 3n
-  BlockMatrix stiffness;       ///< K = df/dx, made negative semi-definite (METHOD.md 1)
+  BlockMatrix stiffness;       ///< K = df/dx, made negative semi-definite (docs/method.md 1)
   BlockMatrix damping;         ///< D = df/dv, negative semi-definite
   double elastic_energy = 0;   ///< membrane + bending + springs (J)
   double gravity_energy = 0;   ///< gravitational potential (J), -sum m g.x
@@ -20,7 +20,7 @@ struct Evaluation {
 };
 
 /// What one semi-implicit step needs, assembled in one pass: the forces, the step matrix
-/// A = M - cd D - ck K (METHOD.md 1-2) and the product K w for the right-hand side.
+/// A = M - cd D - ck K (docs/method.md 1-2) and the product K w for the right-hand side.
 struct StepAssembly {
   double ck = 0, cd = 0;       ///< alpha^2 dt_b^2 and alpha dt_b
   VecX force;                  ///< f, 3n

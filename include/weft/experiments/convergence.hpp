@@ -1,5 +1,5 @@
 #pragma once
-// Orders of accuracy measured on a scene (METHOD.md 2): the RMS vertex error at a fixed time
+// Orders of accuracy measured on a scene (docs/method.md 2): the RMS vertex error at a fixed time
 // against a tight adaptive RK45 reference, for dt halving from dt_max, for every integrator;
 // the slope of log(error) against log(dt) is the observed order.
 #include <filesystem>
@@ -22,7 +22,7 @@ struct ConvergenceOptions {
 
 struct ConvergenceMethod {
   MethodConfiguration configuration;
-  double expected_order = 0;  ///< METHOD.md 2
+  double expected_order = 0;  ///< docs/method.md 2
 };
 std::vector<ConvergenceMethod> convergence_methods(double damping_ratio);
 

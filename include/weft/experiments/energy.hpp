@@ -1,5 +1,5 @@
 #pragma once
-// The paper's energy and accuracy comparison (METHOD.md 7, figures 8-10): one scene run with
+// The paper's energy and accuracy comparison (docs/method.md 7, figures 8-10): one scene run with
 // backward Euler undamped, Implicit Midpoint damped, BDF-2 undamped, BDF-2 alpha = 1/sqrt(3)
 // damped, all at the same dt, and adaptive RK45 damped and undamped as references. Motion
 // accuracy is the RMS vertex distance from the RK45 run with the same damping; speed is
@@ -29,7 +29,7 @@ struct EnergyExperimentOptions {
 };
 
 /// Energy the integrator created (J): the falls of the numerical dissipation from one output
-/// frame to the next (METHOD.md 6: the numerical dissipation is what is left of the initial
+/// frame to the next (docs/method.md 6: the numerical dissipation is what is left of the initial
 /// energy and the contacts' work after the mechanical energies and the viscous work, so a fall
 /// is energy no force put in).
 struct EnergyCreated {

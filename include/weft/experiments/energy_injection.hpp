@@ -5,7 +5,7 @@
 // For a step without contacts, with the forces the step applied f_step = f(x0) + alpha K(x0) dx
 // (+ viscous and gravity; K the assembled, projected Jacobian) and dx = dt (v0 + alpha dv), the
 // kinetic energy changes by f_step . dx + (1/2 - alpha) dv^T M dv, gravity's energy by exactly
-// -f_gravity . dx and the viscous work booked is -f_viscous,step . dx (METHOD.md 6). So the
+// -f_gravity . dx and the viscous work booked is -f_viscous,step . dx (docs/method.md 6). So the
 // energy the step created, minus the fall of the numerical dissipation, is
 //   sum over elements e of [E_e(x1) - E_e(x0) + f_e,step . dx]  -  (alpha - 1/2) dv^T M dv.
 // The membranes' terms are computed here per triangle; what they do not explain (bending,

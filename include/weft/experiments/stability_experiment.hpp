@@ -4,7 +4,7 @@
 // step and adaptive damping ratio. Each cell records whether the run stayed stable (and why
 // not: non-finite state, energy growth, linear-solver failure) and when the cloth came to rest.
 // Without gravity and pins only internal forces act, so the cell isolates the integrator's
-// treatment of the cloth's own stiffness (METHOD.md 3-4).
+// treatment of the cloth's own stiffness (docs/method.md 3-4).
 #include <cstdint>
 #include <functional>
 #include <optional>
