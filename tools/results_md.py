@@ -16,7 +16,7 @@ import shutil
 import subprocess
 
 # What the paper reports (Volino & Magnenat-Thalmann 2005, section 4 and figures 8-10) and what
-# METHOD.md 2 derives; these are the claims the page checks, not results.
+# docs/method.md 2 derives; these are the claims the page checks, not results.
 PAPER_SPEED = {"implicit_midpoint_s": 21, "backward_euler_s": 29}
 PAPER_BDF2 = {"bdf2_s": 30, "bdf2_alpha_s": 25}
 PAPER_RK45 = {"damped_s": 170, "undamped_s": 420}
@@ -115,7 +115,7 @@ ORDER_TOLERANCE = 0.25  # as in tests/experiments: three points over a factor 4 
 
 
 def orders_verdict(exact_rows, swing_rows):
-    """Compares measured slopes with METHOD.md 2's orders (expected_order in the outputs)."""
+    """Compares measured slopes with docs/method.md 2's orders (expected_order in the outputs)."""
     def off(rows):
         return [label for label, s in rows.items()
                 if s["slope"] is None or abs(s["slope"] - s["expected_order"]) > ORDER_TOLERANCE]
