@@ -25,7 +25,7 @@ EXPECTED_ORDER_NOTE = {
     "backward-euler": "1",
     "implicit-midpoint": "2",
     "bdf2": "2",
-    "bdf2-alpha": "paper: 3; METHOD.md 2: 2",
+    "bdf2-alpha": "paper: 3; [method.md](method.md) 2: 2",
     "rk4": "4",
 }
 
@@ -121,7 +121,7 @@ def orders_verdict(exact_rows, swing_rows):
                 if s["slope"] is None or abs(s["slope"] - s["expected_order"]) > ORDER_TOLERANCE]
     parts = []
     bad = off(exact_rows)
-    parts.append("drum: every slope within %s of METHOD.md 2" % ORDER_TOLERANCE if not bad
+    parts.append("drum: every slope within %s of [method.md](method.md) 2" % ORDER_TOLERANCE if not bad
                  else "drum: off for " + ", ".join(bad))
     if "bdf2-alpha" in exact_rows:
         parts.append("alpha = 1/sqrt(3) measures %s (paper: 3)" % g(exact_rows["bdf2-alpha"]["slope"], 2))
@@ -312,7 +312,7 @@ def paper_section(md, args, paper, runs, rows, newton, newton_runs, newton_rows)
         md.append("### Stiffening fabric: Newton iterations within the step\n")
         md.append("The paper evaluates the Jacobian \"on the fly\" to follow the fabric's nonlinearity (its "
                   "section 3, citing its authors' 2001 comparison of integration methods); weft's step linearises "
-                  "the forces once, at the step's start (METHOD.md 1-2). On a curve that stiffens a hundredfold "
+                  "the forces once, at the step's start ([method.md](method.md) 1-2). On a curve that stiffens a hundredfold "
                   "between rest and 40%% strain, the start's tangent can let an element stretch far along the curve "
                   "within one step; the next step then meets a force hundreds of times larger. With "
                   "`integrator.newton_iterations` (or `--newton N`) each step re-linearises where it ends up (the "
@@ -356,7 +356,7 @@ def paper_section(md, args, paper, runs, rows, newton, newton_runs, newton_rows)
                       percent(gd.get("raised_fraction", 0.0)), g(max(falls) if falls else 0.0, 2), g(sum(falls), 2),
                       float(erows[-1]["time"]), g(dissipated(erows[-1]))))
     md.append("### Energy created: where and why\n")
-    md.append("`energy created` is the energy no force put in: the falls of the numerical dissipation (METHOD.md 6) "
+    md.append("`energy created` is the energy no force put in: the falls of the numerical dissipation ([method.md](method.md) 6) "
               "from one output frame to the next, largest and summed. To see where it comes from, "
               "`weft experiment energy` steps Implicit Midpoint (damped) once more and splits each step's energy "
               "balance among the triangles: a triangle's term is its elastic energy change plus the work of the "
@@ -600,7 +600,7 @@ def main():
     # Energy.
     md.append("## Energy (the paper's figures 9 and 10)\n")
     md.append("Scene `%s`: %g s, frames every %g s, fixed-step methods at dt = %g ms; damped configurations "
-              "use %g%% of critical damping (adaptive, METHOD.md 4), compared with the RK45 reference of the "
+              "use %g%% of critical damping (adaptive, [method.md](method.md) 4), compared with the RK45 reference of the "
               "same damping. Potential energy is gravitational, relative to the start.\n" % (
                   os.path.relpath(energy["scene"]) if energy["scene"].startswith("/") else energy["scene"],
                   duration, energy["frame_interval"], dt_ms, zeta_pct))
@@ -687,7 +687,7 @@ def main():
     md.append("## Notes\n")
     swing_im = sw_rows.get("implicit-midpoint", {})
     md.append("- **Linearised second-order methods and the definite Jacobian.** weft makes each element's Hessian "
-              "positive semi-definite before assembly (METHOD.md 1: compressed or sheared membranes are projected). "
+              "positive semi-definite before assembly ([method.md](method.md) 1: compressed or sheared membranes are projected). "
               "The linearised alpha-family and BDF-2 steps are second order only with the exact Jacobian; with the "
               "projected one they keep an O(dt) error term. On the drum nothing is projected and the slopes are the "
               "theoretical ones. On the swing, Implicit Midpoint's slope over the finest points is %s: second order "
