@@ -1,5 +1,5 @@
 # Contacts' work and kinetic energy over time of two runs of one scene, from their energy.csv
-# (docs/collisions.md, "Self-collision"):
+# (the plots of docs/notes/self-collision.md; docs/collisions.md, "Self-collision"):
 #   gnuplot -e "before='RUN_A'; after='RUN_B'; a='label A'; b='label B'; title='...'; out='FILE.png'" \
 #     tools/contact_work_plot.gp
 set terminal pngcairo size 900,420 font "sans,11"

@@ -90,8 +90,8 @@ std::unique_ptr<Collider> make_mesh_collider(const ColliderSpec& spec, const Tri
 
 /// The distance (in thicknesses) at which the colliders' fail-safe stops a cloth edge short of
 /// a mesh collider's edge, and the height (in thicknesses, halved in the fail-safe's later
-/// rounds) it then lifts the edge to (smaller heights measured and not kept: docs/collisions.md,
-/// "Fail-safe").
+/// rounds) it then lifts the edge to (docs/collisions.md, "Fail-safe"; smaller heights measured
+/// and not kept: docs/notes/collider-fail-safe.md).
 constexpr double kEdgeCrossingGap = 0.1;
 constexpr double kEdgeLiftHeight = 0.5;
 
