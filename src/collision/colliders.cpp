@@ -524,7 +524,8 @@ class MeshCollider : public Collider {
     }
     // Searching farther pays while the surface moves less in a step than a fraction of the
     // extra reach (the bound then rules out several steps' queries); past that the wider
-    // searches cost more than the queries they rule out (docs/performance.md).
+    // searches cost more than the queries they rule out (docs/notes/contact-cost.md, "Distance
+    // bounds and the swept tree").
     const bool extend = bounded && step_motion_ < kBoundReach * kBoundMotionShare;
     const double search = extend ? reach + kBoundReach : reach;
     // The nearest triangle within the search (its point found again for the winner only).
