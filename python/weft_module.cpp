@@ -161,6 +161,7 @@ class PySimulation {
     d["cg_solves"] = s.cg_solves;
     d["cg_failures"] = s.cg_failures;
     d["contacts"] = s.contacts;
+    d["contact_solves"] = s.contact_solves;
     d["max_contacts"] = s.max_contacts;
     d["released_contacts"] = s.released_contacts;
     d["fail_safe_moves"] = s.fail_safe_moves;

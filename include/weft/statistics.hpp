@@ -62,8 +62,9 @@ struct StepStatistics {
   long cg_failures = 0;      ///< solves that hit the iteration cap
   double assembly_seconds = 0;
   double solve_seconds = 0;      ///< the linear solves and their warm start (not the contacts within)
-  long contacts = 0;             ///< node contacts held by linear solves, summed over steps
-  long max_contacts = 0;         ///< the most in one step
+  long contacts = 0;             ///< node contacts held by linear steps (whole steps or their parts), summed
+  long contact_solves = 0;       ///< linear steps (whole steps or their parts) that held contacts
+  long max_contacts = 0;         ///< the most in one linear step (never below contacts / contact_solves)
   long released_contacts = 0;    ///< contacts let go because they pulled at the previous step
   long fail_safe_moves = 0;      ///< nodes moved by the contact fail-safe after a step
   long contact_passes = 0;       ///< solves repeated because nodes would have ended in a collider

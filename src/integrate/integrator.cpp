@@ -269,7 +269,7 @@ void Integrator::bdf2_step(State& s, double dt, double alpha, StepStatistics& st
   if (!s.has_history) {
     linear_step(s, dt, alpha, 0.0, dt, stats);  // start with one alpha-family step
   } else {
-    // METHOD.md 2: beta = (2 alpha - 1)/(2 alpha + 1), dt_b = 2 dt/(2 alpha + 1)
+    // docs/method.md 2: beta = (2 alpha - 1)/(2 alpha + 1), dt_b = 2 dt/(2 alpha + 1)
     linear_step(s, dt, alpha, (2 * alpha - 1) / (2 * alpha + 1), 2 * dt / (2 * alpha + 1), stats);
   }
 }
@@ -280,7 +280,7 @@ double Integrator::kinetic_energy(const VecX& v) const {
 
 // The energy balance of one step: with static pins, gravity the only external force and the
 // contacts' work counted in State::contact_work, the mechanical energy can only fall by the
-// viscous work and what contacts took (METHOD.md 6). Linearised Implicit Midpoint does not
+// viscous work and what contacts took (docs/method.md 6). Linearised Implicit Midpoint does not
 // keep to it where elements are stiff and turn within the step (docs/guarded-midpoint.md): a
 // step that breaks it is taken again from its start as two halves, and where a sixteenth of
 // the step still breaks it, with the next larger alpha (numerical dissipation of order
@@ -446,7 +446,7 @@ void Integrator::accept_guarded(double alpha, StepStatistics& stats, int parts) 
   }
 }
 
-// The guard for BDF-2 (alpha family of BDF-2 steps, METHOD.md 2): the same energy balance as
+// The guard for BDF-2 (alpha family of BDF-2 steps, docs/method.md 2): the same energy balance as
 // guarded_step. A step that breaks it is taken again from its start with the next larger alpha
 // (up to alpha = 1, standard BDF-2, whose numerical dissipation of fast modes is strongest),
 // and past that as a backward Euler step, which needs no history; where even that puts energy
@@ -531,7 +531,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   const VecX& m = system_.node_mass();
   // w = beta dx_p + dt_b v, so that the right-hand side is
   //   beta M dv_p + dt_b f + alpha dt_b K w
-  // and the matrix M - alpha dt_b D - alpha^2 dt_b^2 K (METHOD.md 1-2).
+  // and the matrix M - alpha dt_b D - alpha^2 dt_b^2 K (docs/method.md 1-2).
   d_.w = dt_b * s.v;
   if (beta != 0.0) d_.w += beta * s.dx_prev;
   d_.step.ck = alpha * alpha * dt_b * dt_b;
@@ -667,6 +667,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   }
   if (!d_.contacts.empty()) {
     stats.contacts += static_cast<long>(d_.contacts.size());
+    ++stats.contact_solves;
     stats.max_contacts = std::max(stats.max_contacts, static_cast<long>(d_.contacts.size()));
     if (r.converged) d_.history.record(d_.rhs, system_.fixed(), d_.dv);
   }
@@ -683,7 +684,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     s.dx_prev = dt_b * (s.v + alpha * d_.dv);
   }
   // Viscous work over the step, at the start's positions with the step's mean velocity
-  // dx/dt (METHOD.md 6); for forward Euler the start's velocity. A step Newton iterated
+  // dx/dt (docs/method.md 6); for forward Euler the start's velocity. A step Newton iterated
   // evaluated its forces at x_a = x + alpha dx: its viscous force does its work there.
   if (newton_iterations > 0) {
     d_.mean_velocity = s.dx_prev / dt;
@@ -733,7 +734,7 @@ double Integrator::newton_residual(const State& s, double alpha, double beta, do
   return std::sqrt(sum);
 }
 
-// Newton's method on the step's equations before linearisation (METHOD.md 1-2): the step
+// Newton's method on the step's equations before linearisation (docs/method.md 1-2): the step
 // evaluates the derivative at Q + alpha dQ,
 //   g(dv) = M dv - beta M dv_p - dt_b f(x_a, v_a) = 0,
 //   x_a = x + alpha (beta dx_p + dt_b (v + alpha dv)),  v_a = v + alpha dv,

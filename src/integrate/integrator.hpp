@@ -1,5 +1,5 @@
 #pragma once
-// Time integrators (METHOD.md 1-2). All semi-implicit methods share one linear step:
+// Time integrators (docs/method.md 1-2). All semi-implicit methods share one linear step:
 //   (M - alpha dt_b D - alpha^2 dt_b^2 K) dv = beta M dv_p + dt_b f + alpha dt_b K (beta dx_p + dt_b v)
 //   dx = beta dx_p + dt_b (v + alpha dv)
 // with beta = 0, dt_b = dt for the alpha family (forward Euler alpha = 0, Implicit Midpoint
@@ -26,7 +26,7 @@ namespace weft {
 constexpr int kNewtonMaxHalvings = 6;
 
 /// The alphas a guarded step climbs through when a step puts energy in even after
-/// kGuardMaxSplits halvings, after the scene's own (only those above it). 0.6 keeps a second-order-like accuracy (METHOD.md 3: the step is
+/// kGuardMaxSplits halvings, after the scene's own (only those above it). 0.6 keeps a second-order-like accuracy (docs/method.md 3: the step is
 /// stable when lambda > (1 - 2 alpha) kappa, so alpha 0.6 needs no damping at all), 1 is
 /// backward Euler, stable whatever the stiffness.
 constexpr double kGuardAlphas[] = {0.6, 0.75, 1.0};
@@ -258,7 +258,7 @@ class Integrator {
   /// The step from the saved start guard_start to s put more energy in than the guard's
   /// tolerance (or ended non-finite); the step's assembly holds the start's energies.
   bool puts_energy_in(const State& s);
-  /// One BDF-2 step at the given alpha (METHOD.md 2); the first step of a run, with no
+  /// One BDF-2 step at the given alpha (docs/method.md 2); the first step of a run, with no
   /// history, is an alpha-family step.
   void bdf2_step(State& s, double dt, double alpha, StepStatistics& stats);
   /// Counts an accepted guarded step (or part) taken in `parts` parts at the guard's rung and

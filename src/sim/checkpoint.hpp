@@ -20,7 +20,7 @@
 
 namespace weft {
 
-constexpr std::uint32_t kCheckpointFormatVersion = 9;
+constexpr std::uint32_t kCheckpointFormatVersion = 10;
 
 
 /// Appends values in binary to a byte string.

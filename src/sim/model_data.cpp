@@ -491,7 +491,7 @@ void save_data(const SimulationModel& M, const SimulationData& D, BinaryWriter& 
   out.f64(s.rk45_step);
   out.f64(s.step_clock);
   for (long c : {D.statistics.steps, D.statistics.rejected_steps, D.statistics.cg_iterations, D.statistics.cg_solves, D.statistics.cg_failures,
-                 D.statistics.contacts, D.statistics.max_contacts, D.statistics.released_contacts, D.statistics.fail_safe_moves,
+                 D.statistics.contacts, D.statistics.contact_solves, D.statistics.max_contacts, D.statistics.released_contacts, D.statistics.fail_safe_moves,
                  D.statistics.contact_passes, D.statistics.failed_contact_steps, D.statistics.halved_steps, D.statistics.guard_redone_steps,
                  D.statistics.guard_raised_steps, D.statistics.guard_split_steps, D.statistics.guard_futile_splits, D.statistics.guard_parts, D.statistics.guard_newton_steps, D.statistics.newton_iterations,
                  D.statistics.newton_steps, D.statistics.newton_halvings, D.statistics.newton_unconverged})
@@ -557,7 +557,7 @@ void restore_data(const SimulationModel& M, SimulationData& D, BinaryReader& in)
   s.step_clock = in.f64();
   StepStatistics st;
   for (long* c : {&st.steps, &st.rejected_steps, &st.cg_iterations, &st.cg_solves, &st.cg_failures, &st.contacts,
-                  &st.max_contacts, &st.released_contacts, &st.fail_safe_moves, &st.contact_passes,
+                  &st.contact_solves, &st.max_contacts, &st.released_contacts, &st.fail_safe_moves, &st.contact_passes,
                   &st.failed_contact_steps, &st.halved_steps, &st.guard_redone_steps, &st.guard_raised_steps,
                   &st.guard_split_steps, &st.guard_futile_splits, &st.guard_parts, &st.guard_newton_steps, &st.newton_iterations, &st.newton_steps,
                   &st.newton_halvings, &st.newton_unconverged})

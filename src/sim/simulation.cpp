@@ -252,7 +252,7 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
   if (!sim.core().colliders().empty() || sim.core().self_contacts()) {
     const StepStatistics& st = r.steps;
     j["contacts"] = {{"colliders", sim.core().colliders().size()},
-                     {"node_contacts_mean", st.steps ? static_cast<double>(st.contacts) / st.steps : 0.0},
+                     {"node_contacts_mean", st.contact_solves ? static_cast<double>(st.contacts) / st.contact_solves : 0.0},
                      {"node_contacts_max", st.max_contacts},
                      {"released", st.released_contacts},
                      {"fail_safe_moves", st.fail_safe_moves},

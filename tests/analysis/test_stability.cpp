@@ -1,4 +1,4 @@
-// Stability of the alpha family and progressive BDF-2 on one damped spring (METHOD.md 3).
+// Stability of the alpha family and progressive BDF-2 on one damped spring (docs/method.md 3).
 #include <cstring>
 #include <gtest/gtest.h>
 
@@ -62,7 +62,7 @@ TEST(StabilityAlphaFamily, StepMatrixMatchesMethodClosedForm) {
     for (double kappa : {0.01, 0.7, 3.0, 40.0})
       for (double lambda : {0.0, 0.05, 1.3, 12.0}) {
         const Eigen::Matrix2d h = alpha_family_step_matrix(alpha, kappa, lambda);
-        // METHOD.md 3, with D = 1 + lambda alpha + kappa alpha^2.
+        // docs/method.md 3, with D = 1 + lambda alpha + kappa alpha^2.
         const double d = 1.0 + lambda * alpha + kappa * alpha * alpha;
         Eigen::Matrix2d expected;
         expected << 1.0 - kappa * alpha / d, 1.0 / d, -kappa / d, 1.0 - (lambda + kappa * alpha) / d;
@@ -86,7 +86,7 @@ TEST(StabilityAlphaFamily, StepMatrixMatchesMethodClosedForm) {
 }
 
 TEST(StabilityAlphaFamily, StepMatrixAdvancesTheLinearisedSpring) {
-  // One step of METHOD.md 1 written for the spring (dt = 1 in the scaled variables):
+  // One step of docs/method.md 1 written for the spring (dt = 1 in the scaled variables):
   // (1 - alpha lambda' - alpha^2 kappa') dv = f + alpha K v with f = -kappa p - lambda v.
   const double alpha = 0.3, kappa = 2.5, lambda = 0.4, p = 0.7, v = -1.1;
   const double dv = (-kappa * p - lambda * v - alpha * kappa * v) /
@@ -140,7 +140,7 @@ TEST(StabilityAlphaFamily, ConditionsAssumeNonNegativeViscosity) {
 }
 
 TEST(StabilityAlphaFamily, MethodSpecialCases) {
-  // METHOD.md 3: FE needs kappa < lambda < 2 + kappa/2, IM lambda > 0, BE always stable.
+  // docs/method.md 3: FE needs kappa < lambda < 2 + kappa/2, IM lambda > 0, BE always stable.
   for (double kappa : {0.5, 2.0, 3.5}) {
     EXPECT_LT(alpha_family_spectral_radius(0.0, kappa, (kappa + 2.0 + kappa / 2) / 2), 1.0);
     EXPECT_GT(alpha_family_spectral_radius(0.0, kappa, 0.9 * kappa), 1.0);
@@ -204,7 +204,7 @@ TEST(StabilityBdf2, EigenvaluesSolveTheSchemeCharacteristicEquation) {
 }
 
 TEST(StabilityBdf2, HalfAlphaIsImplicitMidpoint) {
-  // beta = 0 and dt_b = dt at alpha = 1/2 (METHOD.md 2): the history drops out.
+  // beta = 0 and dt_b = dt at alpha = 1/2 (docs/method.md 2): the history drops out.
   for (double kappa : {0.1, 2.0, 50.0})
     for (double lambda : {0.0, 0.5, 8.0})
       EXPECT_NEAR(bdf2_spectral_radius(0.5, kappa, lambda),
@@ -212,7 +212,7 @@ TEST(StabilityBdf2, HalfAlphaIsImplicitMidpoint) {
 }
 
 TEST(StabilityBdf2, StableForAllStiffnessAndDamping) {
-  // METHOD.md 3: alpha = 1 and 1/sqrt(3) are stable for all kappa > 0, lambda >= 0.
+  // docs/method.md 3: alpha = 1 and 1/sqrt(3) are stable for all kappa > 0, lambda >= 0.
   std::vector<double> values;
   for (int e = -40; e <= 60; ++e) values.push_back(std::pow(10.0, e / 10.0));  // 1e-4 .. 1e6
   for (double alpha : {1.0, kInvSqrt3}) {
@@ -223,7 +223,7 @@ TEST(StabilityBdf2, StableForAllStiffnessAndDamping) {
     }
     EXPECT_LE(worst, 1.0 + weft::kStabilityTolerance) << "alpha " << alpha;
   }
-  // The same check finds the instability of the third-order point alpha = 1/3 (METHOD.md 2).
+  // The same check finds the instability of the third-order point alpha = 1/3 (docs/method.md 2).
   double worst_third = 0.0;
   for (double kappa : values) worst_third = std::max(worst_third, bdf2_spectral_radius(1.0 / 3.0, kappa, 0.0));
   EXPECT_GT(worst_third, 1.0 + 1e-6);

@@ -1,4 +1,4 @@
-// Stiffness factors and adaptive damping (METHOD.md 4): kappa against the exact eigenvalue
+// Stiffness factors and adaptive damping (docs/method.md 4): kappa against the exact eigenvalue
 // definition, the damping ratio reached per element, and that damping never slows rigid motion.
 #include <gtest/gtest.h>
 

@@ -112,7 +112,7 @@ TEST_F(ExperimentCommand, EnergyWritesEveryFileAndEnergiesClose) {
     const double initial = std::stod(rows[0].at("total"));
     EXPECT_EQ(std::stod(rows[0].at("viscous_dissipated")), 0.0) << label;
     for (const auto& row : rows) {
-      // METHOD.md 6: kinetic + elastic + potential + viscous + numerical = initial total.
+      // docs/method.md 6: kinetic + elastic + potential + viscous + numerical = initial total.
       double sum = 0, scale = 1e-15;
       for (const char* k :
            {"kinetic", "elastic", "gravity", "viscous_dissipated", "numerical_dissipated"}) {
@@ -164,7 +164,7 @@ TEST_F(ExperimentCommand, EnergyWritesEveryFileAndEnergiesClose) {
 }
 
 TEST_F(ExperimentCommand, MidpointWithFivePercentDampingDissipatesLessThanBackwardEuler) {
-  // The paper's central claim (METHOD.md 7): at the same dt, Implicit Midpoint with 5% adaptive
+  // The paper's central claim (docs/method.md 7): at the same dt, Implicit Midpoint with 5% adaptive
   // damping loses far less energy (viscous + numerical) than undamped backward Euler.
   const fs::path out = folder_ / "energy";
   const CommandResult r =
@@ -194,8 +194,8 @@ TEST_F(ExperimentCommand, MidpointWithFivePercentDampingDissipatesLessThanBackwa
 /// A pre-tensioned drum: the reduced cloth stretched 5% both ways (pattern coordinates from the
 /// OBJ's texture coordinates, positions 1.05 times larger), its border pinned, sagging under
 /// gravity. Every membrane stays in biaxial tension, so the definite projection of the element
-/// Hessians (METHOD.md 1) changes nothing and the linearised steps use the exact Jacobian, the
-/// premise of the orders in METHOD.md 2. (On the swinging cloth compressed elements are
+/// Hessians (docs/method.md 1) changes nothing and the linearised steps use the exact Jacobian, the
+/// premise of the orders in docs/method.md 2. (On the swinging cloth compressed elements are
 /// projected, which leaves linearised Implicit Midpoint and BDF-2 first order as dt -> 0:
 /// docs/results.md.)
 // The drum measures the integrators' orders: no contact handling (BDF-2 at the finest step

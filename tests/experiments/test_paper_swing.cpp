@@ -80,7 +80,7 @@ TEST_F(PaperSwing, EnergyBalanceClosesAndEnergyCreatedIsWhatTheColumnsImply) {
     SCOPED_TRACE(label);
     const auto rows = read_numbers(out / label / "energy.csv");
     ASSERT_GE(rows.size(), 2u);
-    // The numerical dissipation as the columns imply it (METHOD.md 6): the initial total and
+    // The numerical dissipation as the columns imply it (docs/method.md 6): the initial total and
     // the contacts' work, less the mechanical energies and the viscous work.
     const double initial = rows[0].at("kinetic") + rows[0].at("elastic") + rows[0].at("gravity");
     std::vector<double> numerical;

@@ -70,7 +70,7 @@ TEST(NonlinearMembrane, ForcesAndExactJacobiansMatchFiniteDifferencesAcrossTheCu
 
 TEST(NonlinearMembrane, AdaptiveDampingStiffnessFactorFollowsTheCurveTangent) {
   // A grid stretched uniformly along the weft: the largest kappa must follow the weft tangent
-  // at the current strain (METHOD.md 4: nonlinear laws use the tangent stiffness every step).
+  // at the current strain (docs/method.md 4: nonlinear laws use the tangent stiffness every step).
   const Material mat = material_preset("cotton");
   const ClothModel model = build_cloth_model(make_grid(0.1, 0.1, 6, 6), mat, Vec3::Zero(), {});
   const ClothSystem system(model, DampingSettings{0.05});

@@ -1,4 +1,4 @@
-// An energy account kept apart from the integrators' own (METHOD.md 6): the viscous work is
+// An energy account kept apart from the integrators' own (docs/method.md 6): the viscous work is
 // integrated here from the viscous forces each step applied, and checked against the
 // dissipation the integrator reports and, where the method must close the balance, against
 // the change in mechanical energy. The systems are linear (zero-rest-length springs), so the

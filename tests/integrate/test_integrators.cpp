@@ -1,5 +1,5 @@
 // Integrators on spring systems: the one-spring step matrix against the paper's H
-// (METHOD.md 3), measured global convergence orders (METHOD.md 2), and energy behaviour.
+// (docs/method.md 3), measured global convergence orders (docs/method.md 2), and energy behaviour.
 #include <gtest/gtest.h>
 
 #include <cmath>

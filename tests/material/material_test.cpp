@@ -294,7 +294,7 @@ TEST(MaterialPreset, ShippedPresetsAreSane) {
   for (const std::string& name : names) {
     SCOPED_TRACE(name);
     const Material m = material_preset(name);
-    // The woven presets keep to METHOD.md section 5's ranges; the jersey of the paper's swing
+    // The woven presets keep to docs/method.md section 5's ranges; the jersey of the paper's swing
     // test is a soft knit far below them (tests/fabric/jersey_test.cpp checks it).
     const bool woven = name != "jersey";
     EXPECT_EQ(m.name, name);
@@ -307,7 +307,7 @@ TEST(MaterialPreset, ShippedPresetsAreSane) {
     if (woven) {
       // The woven presets are estimates, and each file's source says so first.
       EXPECT_EQ(m.source.rfind("Estimated, not measured", 0), 0u) << m.source;
-      // METHOD.md section 5 ranges for the fabric classes.
+      // docs/method.md section 5 ranges for the fabric classes.
       for (double b : {m.bending_rigidity_weft_Nm, m.bending_rigidity_warp_Nm}) {
         EXPECT_GE(b, 1e-6);
         EXPECT_LE(b, 1e-4);

@@ -1,4 +1,4 @@
-// The stress-strain spline stays between its data on every segment (METHOD.md 5: monotone
+// The stress-strain spline stays between its data on every segment (docs/method.md 5: monotone
 // piecewise cubics). A Hermite segment from y0 to y1 (step d = y1 - y0) with end slopes s0,
 // s1 (per segment length) is monotone only if both are at most 3 d (Fritsch-Carlson): the
 // interior slopes are limited by a weighted harmonic mean of the neighbouring secants, the

@@ -1,4 +1,4 @@
-// The energy account of a cloth run, kept here from the definitions (METHOD.md 6): kinetic
+// The energy account of a cloth run, kept here from the definitions (docs/method.md 6): kinetic
 // energy from the masses, bending energy and the bending viscous forces from the stencils'
 // Q and damping gamma, gravity from the weights. The membrane has no stiffness and no
 // viscosity, so the forces are linear in the state (F = m g - Q x - gamma Q v): Implicit

@@ -2,7 +2,7 @@
 // The linear system of one Implicit Midpoint step of the benchmark cloth (bench/bench_step.cpp):
 // 1 m x 1 m, n x n vertices, pinned at two corners, dt = 5 ms, cotton-like linear material;
 // or of another scene's cloth.
-// A = M - cd D - ck K and b are assembled as the integrator does (METHOD.md 1-2).
+// A = M - cd D - ck K and b are assembled as the integrator does (docs/method.md 1-2).
 #include <memory>
 #include <string>
 #include <utility>
