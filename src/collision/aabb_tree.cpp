@@ -79,18 +79,20 @@ void AabbTree::refit_boxes(const Corners& corners, double margin) {
   }
 }
 
-void AabbTree::self_pair_pieces(std::array<int, 2> item, int depth, std::vector<std::array<int, 2>>& pieces) const {
+void AabbTree::self_pair_pieces(std::array<int, 2> item, int depth, std::vector<std::array<int, 2>>& pieces,
+                                const char* skip) const {
   // As self_pairs_from's stack takes them: the children pushed last are finished first.
   const auto [a, b] = item;
   const Node& na = nodes_[a];
   if (a == b) {
+    if (skip && skip[a]) return;
     if (depth == 0 || na.leaf()) {
       pieces.push_back(item);
       return;
     }
-    self_pair_pieces({a + 1, na.right}, depth - 1, pieces);
-    self_pair_pieces({na.right, na.right}, depth - 1, pieces);
-    self_pair_pieces({a + 1, a + 1}, depth - 1, pieces);
+    self_pair_pieces({a + 1, na.right}, depth - 1, pieces, skip);
+    self_pair_pieces({na.right, na.right}, depth - 1, pieces, skip);
+    self_pair_pieces({a + 1, a + 1}, depth - 1, pieces, skip);
     return;
   }
   const Node& nb = nodes_[b];
@@ -98,11 +100,11 @@ void AabbTree::self_pair_pieces(std::array<int, 2> item, int depth, std::vector<
   if (depth == 0 || (na.leaf() && nb.leaf())) {
     pieces.push_back(item);
   } else if (split_first(na, nb)) {
-    self_pair_pieces({na.right, b}, depth - 1, pieces);
-    self_pair_pieces({a + 1, b}, depth - 1, pieces);
+    self_pair_pieces({na.right, b}, depth - 1, pieces, skip);
+    self_pair_pieces({a + 1, b}, depth - 1, pieces, skip);
   } else {
-    self_pair_pieces({a, nb.right}, depth - 1, pieces);
-    self_pair_pieces({a, b + 1}, depth - 1, pieces);
+    self_pair_pieces({a, nb.right}, depth - 1, pieces, skip);
+    self_pair_pieces({a, b + 1}, depth - 1, pieces, skip);
   }
 }
 

@@ -48,6 +48,16 @@ class AabbTree {
   /// The box of triangle f as last refitted.
   const Box& triangle_box(int f) const { return boxes_[slot_of_[f]]; }
 
+  /// The tree's nodes, in depth-first order (0 is the root): a node's first child follows it,
+  /// its second is node_right(i); a node holds the triangles of slots [node_begin, node_end)
+  /// of slot_triangles(), its descendants' together.
+  int node_count() const { return static_cast<int>(nodes_.size()); }
+  bool node_leaf(int i) const { return nodes_[i].leaf(); }
+  int node_right(int i) const { return nodes_[i].right; }
+  int node_begin(int i) const { return nodes_[i].begin; }
+  int node_end(int i) const { return nodes_[i].end; }
+  const std::vector<int>& slot_triangles() const { return order_; }
+
   /// Calls f(triangle) for every triangle whose box overlaps `box`.
   template <class F>
   void for_each_overlapping(const Box& box, F&& f) const;
@@ -68,10 +78,12 @@ class AabbTree {
   /// (the same cut at any thread count), each piece's pairs collected apart and the pieces
   /// joined in the traversal's order, so `out` holds the same pairs in the same order whatever
   /// the number of threads. keep is called from several threads at once. `pieces` is scratch
-  /// kept between calls.
+  /// kept between calls. `skip_within` (one flag per node, or null): the pairs of triangles
+  /// both in a flagged node's subtree are left out (SelfCulling), the others keep their order.
   template <class Keep>
   void collect_self_pairs(const Keep& keep, std::vector<std::array<int, 2>>& out,
-                          std::vector<std::vector<std::array<int, 2>>>& pieces) const;
+                          std::vector<std::vector<std::array<int, 2>>>& pieces,
+                          const std::vector<char>* skip_within = nullptr) const;
   /// Calls f(mine, theirs) for every pair of a triangle of this tree and one of `other` whose
   /// boxes overlap.
   template <class F>
@@ -92,11 +104,13 @@ class AabbTree {
   }
   int build(int begin, int end, const std::vector<Vec3>& centroid);
   // for_each_self_pair's traversal from one pair of nodes (a == b: the pairs within a subtree).
+  // `skip` (or null): nodes whose own pairs are left out.
   template <class F>
-  void self_pairs_from(std::array<int, 2> start, F&& f) const;
+  void self_pairs_from(std::array<int, 2> start, F&& f, const char* skip = nullptr) const;
   // Appends the pairs of nodes that the traversal from `item` reaches `depth` levels down, in
   // the order it finishes them (items that give nothing are left out).
-  void self_pair_pieces(std::array<int, 2> item, int depth, std::vector<std::array<int, 2>>& pieces) const;
+  void self_pair_pieces(std::array<int, 2> item, int depth, std::vector<std::array<int, 2>>& pieces,
+                        const char* skip = nullptr) const;
   template <class Corners>
   void refit_boxes(const Corners& corners, double margin);
 
@@ -185,30 +199,36 @@ void AabbTree::for_each_self_pair(F&& f) const {
 
 template <class Keep>
 void AabbTree::collect_self_pairs(const Keep& keep, std::vector<std::array<int, 2>>& out,
-                                  std::vector<std::vector<std::array<int, 2>>>& pieces) const {
+                                  std::vector<std::vector<std::array<int, 2>>>& pieces,
+                                  const std::vector<char>* skip_within) const {
   out.clear();
   if (nodes_.empty()) return;
+  const char* skip =
+      skip_within && skip_within->size() == nodes_.size() ? skip_within->data() : nullptr;
   // Subtree pairs six levels down (a few hundred on a cloth of thousands of triangles), taken
   // 8 to a piece of work.
   constexpr int kDepth = 6;
   constexpr size_t kPerPiece = 8;
   std::vector<std::array<int, 2>> starts;
-  self_pair_pieces({0, 0}, kDepth, starts);
+  self_pair_pieces({0, 0}, kDepth, starts, skip);
   const size_t count = (starts.size() + kPerPiece - 1) / kPerPiece;
   if (pieces.size() < count) pieces.resize(count);
   parallel_chunks(count, [&](size_t k) {
     std::vector<std::array<int, 2>>& found = pieces[k];
     found.clear();
     for (size_t s = k * kPerPiece, end = std::min(starts.size(), s + kPerPiece); s < end; ++s)
-      self_pairs_from(starts[s], [&](int i, int j) {
-        if (keep(i, j)) found.push_back({i, j});
-      });
+      self_pairs_from(
+          starts[s],
+          [&](int i, int j) {
+            if (keep(i, j)) found.push_back({i, j});
+          },
+          skip);
   });
   for (size_t k = 0; k < count; ++k) out.insert(out.end(), pieces[k].begin(), pieces[k].end());
 }
 
 template <class F>
-void AabbTree::self_pairs_from(std::array<int, 2> start, F&& f) const {
+void AabbTree::self_pairs_from(std::array<int, 2> start, F&& f, const char* skip) const {
   // Pairs (a, b) of nodes to visit; a == b stands for the pairs within one subtree.
   std::vector<std::array<int, 2>> stack;
   stack.reserve(256);
@@ -218,6 +238,7 @@ void AabbTree::self_pairs_from(std::array<int, 2> start, F&& f) const {
     stack.pop_back();
     const Node& na = nodes_[a];
     if (a == b) {
+      if (skip && skip[a]) continue;
       if (na.leaf()) {
         for (int i = na.begin; i < na.end; ++i)
           for (int j = i + 1; j < na.end; ++j)

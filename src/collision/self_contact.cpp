@@ -74,6 +74,7 @@ SelfContacts::SelfContacts(const std::vector<std::array<int, 3>>& triangles, con
   // The tree's shape comes from the rest positions, so it is the same however the run started
   // (a resumed run visits the pairs in the same order and gives the same bits).
   tree_ = AabbTree(triangles_, rest_positions.data());
+  culling_ = SelfCulling(triangles_, tree_);
   group_.resize(n);
   std::iota(group_.begin(), group_.end(), 0);
   set_primitive_groups();
@@ -100,8 +101,16 @@ bool SelfContacts::holds(int f, int v) const {
 }
 
 template <class VertexFace, class EdgeEdge>
-void SelfContacts::for_each_candidate(const VecX& xa, const VecX& xb, double margin, bool only_changed,
-                                      VertexFace&& vertex_face, EdgeEdge&& edge_edge) {
+void SelfContacts::for_each_candidate(const VecX& xa, const VecX& xb, double margin, double reach,
+                                      bool only_changed, VertexFace&& vertex_face, EdgeEdge&& edge_edge) {
+  // Regions that cannot hold a pair within reach are passed over; when that is the whole cloth,
+  // there is nothing to look at.
+  if (culling_on_) {
+    culling_.find(triangles_, tree_, xa, xb, reach, culled_);
+    if (!culled_.empty() && culled_[0]) return;
+  }
+  // The tree's boxes hold the primitives at xa and xb, grown by the margin.
+  if (&xa == &xb) tree_.refit(xa.data(), margin); else tree_.refit(xa.data(), xb.data(), margin);
   const int n = static_cast<int>(fixed_.size());
   std::vector<Box>& vb = vertex_box_;
   std::vector<Box>& eb = edge_box_;
@@ -128,7 +137,7 @@ void SelfContacts::for_each_candidate(const VecX& xa, const VecX& xb, double mar
         return !only_changed || changed_[tg[0]] || changed_[tg[1]] || changed_[tg[2]] || changed_[th[0]] ||
                changed_[th[1]] || changed_[th[2]];
       },
-      triangle_pairs_, triangle_pair_pieces_);
+      triangle_pairs_, triangle_pair_pieces_, culling_on_ ? &culled_ : nullptr);
   // Their primitives' pairs, tested in chunks of triangle pairs on every thread; each chunk
   // keeps what it finds, and the chunks are joined in order: pairs_ holds the same pairs in
   // the same order whatever the number of threads.
@@ -182,9 +191,8 @@ void SelfContacts::find_proximities(const VecX& x0) {
   }
   const double h = thickness_;
   const double reach = kHoldReach * h;  // the repulsions take those within h
-  tree_.refit(x0.data(), 0.5 * reach);
   for_each_candidate(
-      x0, x0, 0.5 * reach, false,
+      x0, x0, 0.5 * reach, reach, false,
       [&](int v, int f, Stencil& s) {
         const auto& t = triangles_[f];
         const PointTriangleClosest c = closest_point_triangle(node(x0, v), node(x0, t[0]), node(x0, t[1]), node(x0, t[2]));
@@ -401,7 +409,6 @@ size_t SelfContacts::find_collisions(const VecX& x0, double dt, bool skip_zones)
   pairs_.clear();
   const double delta = kCollisionDistanceFraction * thickness_;
   x_end_ = x0 + dt * u_;
-  tree_.refit(x0.data(), x_end_.data(), 0.5 * delta);
   const VecX& x1 = x_end_;
   auto same_zone = [&](const std::array<int, 4>& nodes) {
     if (!skip_zones) return false;
@@ -437,7 +444,7 @@ size_t SelfContacts::find_collisions(const VecX& x0, double dt, bool skip_zones)
     return true;
   };
   for_each_candidate(
-      x0, x1, 0.5 * delta, true,
+      x0, x1, 0.5 * delta, delta, true,
       [&](int v, int f, Stencil& s) {
         const auto& t = triangles_[f];
         s = Stencil{};

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "collision/aabb_tree.hpp"
+#include "collision/self_culling.hpp"
 #include "integrate/contact.hpp"
 
 namespace weft {
@@ -133,6 +134,12 @@ class SelfContacts : public ContactHandler {
   const SelfContactStatistics& statistics() const { return stats_; }
   void set_statistics(const SelfContactStatistics& s) { stats_ = s; }
 
+  /// Whether the searches pass over regions of the cloth that cannot hold a pair
+  /// (collision/self_culling.hpp); on by default. The pairs found are the same either way:
+  /// the switch is for the tests that check so and for the benchmarks.
+  void set_culling(bool on) { culling_on_ = on; }
+  const SelfCullingStatistics& culling_statistics() const { return culling_.statistics(); }
+
   /// A vertex-face or edge-edge pair: four nodes and their weights in the relative position
   /// (vertex-face: 1, -w_a, -w_b, -w_c; edge-edge: 1 - s, s, -(1 - t), -t), which sum to 0.
   struct Stencil {
@@ -149,14 +156,16 @@ class SelfContacts : public ContactHandler {
 
  private:
   /// Calls vertex_face(v, f, s) and edge_edge(e, e2, s) for the pairs of primitives sharing no
-  /// node whose boxes (holding them at xa and xb, grown by `margin`) overlap, the tree
-  /// refitted the same way, and appends to pairs_ the stencils s of the calls that return
+  /// node whose boxes (holding them at xa and xb, grown by `margin`; xa alone when xb is the
+  /// same vector) overlap, the tree refitted the same way, and appends to pairs_ the stencils s of the calls that return
   /// true, in the tree's order; `only_changed`: only pairs with a node whose u changed since
   /// the last detection. The calls run on several threads (sim/threads.hpp) and must only
-  /// read shared state.
+  /// read shared state. They must return false for every pair that stays `reach` (m) apart or
+  /// more along the straight motions from xa to xb: pairs inside regions that culling shows to
+  /// hold none are not offered.
   template <class VertexFace, class EdgeEdge>
-  void for_each_candidate(const VecX& xa, const VecX& xb, double margin, bool only_changed, VertexFace&& vertex_face,
-                          EdgeEdge&& edge_edge);
+  void for_each_candidate(const VecX& xa, const VecX& xb, double margin, double reach, bool only_changed,
+                          VertexFace&& vertex_face, EdgeEdge&& edge_edge);
   /// Pairs within the thickness at x0 into pairs_. detect and finish_step look at the same
   /// start positions in a step: the second call reuses the first's pairs (proximity_x_ and
   /// proximity_pairs_), only turning the normals of touching pairs to the current u.
@@ -208,6 +217,9 @@ class SelfContacts : public ContactHandler {
   double thickness_, friction_;
   AabbTree tree_;
   SelfContactStatistics stats_;
+  SelfCulling culling_;
+  bool culling_on_ = true;
+  std::vector<char> culled_;  ///< per tree node: its own pairs passed over (this search)
 
   // Scratch of one step (rewritten by every call).
   VecX u_, u_start_, x_end_;

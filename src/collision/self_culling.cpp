@@ -1,0 +1,279 @@
+#include "collision/self_culling.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <limits>
+
+#include "sim/threads.hpp"
+
+namespace weft {
+
+namespace {
+
+/// The conditions are met with this much to spare (rounding of the cones and distances).
+constexpr double kSafety = 1.001;
+constexpr double kCosineSlack = 1e-9;
+constexpr size_t kTriangleChunk = 1024;
+
+Vec3 at(const VecX& x, int i) { return Vec3(x[3 * i], x[3 * i + 1], x[3 * i + 2]); }
+
+// The directed edges of `in` left after each edge met in both directions is taken out.
+void cancel_opposites(std::vector<std::array<int, 2>>& edges) {
+  std::sort(edges.begin(), edges.end(), [](const std::array<int, 2>& p, const std::array<int, 2>& q) {
+    const auto kp = std::minmax(p[0], p[1]), kq = std::minmax(q[0], q[1]);
+    return kp < kq || (kp == kq && p < q);
+  });
+  size_t kept = 0;
+  for (size_t k = 0; k < edges.size();) {
+    // Edges of the same key are adjacent; with only good edges (at most one each way) a key
+    // has one or two entries.
+    if (k + 1 < edges.size() && edges[k + 1][0] == edges[k][1] && edges[k + 1][1] == edges[k][0]) {
+      k += 2;
+      continue;
+    }
+    edges[kept++] = edges[k++];
+  }
+  edges.resize(kept);
+}
+
+double point_segment_distance(const std::array<double, 2>& p, const std::array<double, 2>& a,
+                              const std::array<double, 2>& b) {
+  const double dx = b[0] - a[0], dy = b[1] - a[1];
+  const double len2 = dx * dx + dy * dy;
+  double s = len2 > 0 ? ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2 : 0.0;
+  s = std::clamp(s, 0.0, 1.0);
+  const double ex = a[0] + s * dx - p[0], ey = a[1] + s * dy - p[1];
+  return std::sqrt(ex * ex + ey * ey);
+}
+
+}  // namespace
+
+SelfCulling::SelfCulling(const std::vector<std::array<int, 3>>& triangles, const AabbTree& tree) {
+  const int nodes = tree.node_count();
+  never_.assign(nodes, 0);
+  contour_begin_.assign(nodes + 1, 0);
+  if (nodes == 0) return;
+  // Edges no region may hold in its contour: met twice in one direction or by over two triangles.
+  std::map<std::pair<int, int>, std::array<int, 2>> uses;  // key -> uses each way
+  for (const auto& t : triangles)
+    for (int k = 0; k < 3; ++k) {
+      const int a = t[k], b = t[(k + 1) % 3];
+      ++uses[std::minmax(a, b)][a < b ? 0 : 1];
+    }
+  std::vector<char> bad_triangle(triangles.size(), 0);
+  for (size_t f = 0; f < triangles.size(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const auto& u = uses[std::minmax(triangles[f][k], triangles[f][(k + 1) % 3])];
+      if (u[0] > 1 || u[1] > 1) bad_triangle[f] = 1;
+    }
+  // Contours bottom up (children follow their parent in depth-first order), each kept apart,
+  // then laid out in node order.
+  std::vector<std::vector<std::array<int, 2>>> contour(nodes);
+  const std::vector<int>& slot = tree.slot_triangles();
+  for (int i = nodes - 1; i >= 0; --i) {
+    std::vector<std::array<int, 2>>& c = contour[i];
+    if (tree.node_leaf(i)) {
+      for (int k = tree.node_begin(i); k < tree.node_end(i); ++k) {
+        const auto& t = triangles[slot[k]];
+        if (bad_triangle[slot[k]]) never_[i] = 1;
+        for (int e = 0; e < 3; ++e) c.push_back({t[e], t[(e + 1) % 3]});
+      }
+    } else {
+      const int l = i + 1, r = tree.node_right(i);
+      never_[i] = never_[l] || never_[r];
+      c = contour[l];
+      c.insert(c.end(), contour[r].begin(), contour[r].end());
+    }
+    cancel_opposites(c);
+  }
+  for (int i = 0; i < nodes; ++i) {
+    contour_begin_[i] = static_cast<int>(contour_.size());
+    contour_.insert(contour_.end(), contour[i].begin(), contour[i].end());
+  }
+  contour_begin_[nodes] = static_cast<int>(contour_.size());
+}
+
+void SelfCulling::find(const std::vector<std::array<int, 3>>& triangles, const AabbTree& tree, const VecX& xa,
+                       const VecX& xb, double r, std::vector<char>& skip) {
+  const int nodes = tree.node_count();
+  skip.assign(nodes, 0);
+  ++stats_.calls;
+  if (nodes == 0 || !(r > 0) || static_cast<int>(never_.size()) != nodes) return;
+  const bool moving = &xa != &xb && xa != xb;
+  const size_t faces = triangles.size();
+  control_.resize(faces);
+  altitude_.resize(faces);
+  // Per triangle (in tree order, as the leaves read them): the unit control vectors of its
+  // normal over the step (n(t) = e1(t) x e2(t), a quadratic in t whose Bernstein coefficients
+  // are n(0), n(0) + (e1 x d2 + d1 x e2) / 2 and n(1); at rest n alone), all zero where one is
+  // zero, and its altitude bound.
+  const std::vector<int>& slot = tree.slot_triangles();
+  const int controls = moving ? 3 : 1;
+  parallel_chunks((faces + kTriangleChunk - 1) / kTriangleChunk, [&](size_t chunk) {
+    for (size_t k = chunk * kTriangleChunk, end = std::min(faces, k + kTriangleChunk); k < end; ++k) {
+      const auto& t = triangles[slot[k]];
+      const Vec3 a0 = at(xa, t[0]), b0 = at(xa, t[1]), c0 = at(xa, t[2]);
+      const Vec3 e1 = b0 - a0, e2 = c0 - a0;
+      std::array<Vec3, 3>& control = control_[k];
+      control[0] = e1.cross(e2);
+      double longest2 = std::max({e1.squaredNorm(), e2.squaredNorm(), (c0 - b0).squaredNorm()});
+      if (moving) {
+        const Vec3 a1 = at(xb, t[0]), b1 = at(xb, t[1]), c1 = at(xb, t[2]);
+        const Vec3 f1 = b1 - a1, f2 = c1 - a1;
+        control[2] = f1.cross(f2);
+        control[1] = control[0] + 0.5 * (e1.cross(f2 - e2) + (f1 - e1).cross(e2));
+        longest2 = std::max({longest2, f1.squaredNorm(), f2.squaredNorm(), (c1 - b1).squaredNorm()});
+      }
+      double shortest2 = std::numeric_limits<double>::infinity();
+      for (int j = 0; j < controls; ++j) shortest2 = std::min(shortest2, control[j].squaredNorm());
+      const bool degenerate = !(shortest2 > 0) || !(longest2 > 0);
+      altitude_[k] = degenerate ? 0.0 : std::sqrt(shortest2 / longest2);
+      for (int j = 0; j < controls; ++j) control[j] = degenerate ? Vec3::Zero() : Vec3(control[j].normalized());
+    }
+  });
+  // Cones bottom up: a leaf's about the mean of its unit control vectors; a node's the best of
+  // three about its children's axes and their bisector that holds both children's cones
+  // (cosines and sines only: cos(a + b) = cos a cos b - sin a sin b).
+  cone_.resize(nodes);
+  auto holding = [](const Vec3& axis, const Cone& p, const Cone& q, Cone& c) {
+    double lowest = 1;
+    for (const Cone* k : {&p, &q}) {
+      const double ca = std::clamp(axis.dot(k->axis), -1.0, 1.0), sa = std::sqrt(1 - ca * ca);
+      lowest = std::min(lowest, ca * k->cosine - sa * k->sine);
+    }
+    if (lowest > c.cosine) {
+      c.axis = axis;
+      c.cosine = lowest;
+    }
+  };
+  for (int i = nodes - 1; i >= 0; --i) {
+    Cone& c = cone_[i];
+    c.cosine = 0;
+    if (tree.node_leaf(i)) {
+      Vec3 sum = Vec3::Zero();
+      bool degenerate = false;
+      double altitude = std::numeric_limits<double>::infinity();
+      for (int k = tree.node_begin(i); k < tree.node_end(i); ++k) {
+        altitude = std::min(altitude, altitude_[k]);
+        if (!(altitude_[k] > 0)) degenerate = true;
+        for (int j = 0; j < controls; ++j) sum += control_[k][j];
+      }
+      c.altitude = altitude;
+      const double len = sum.norm();
+      if (degenerate || !(len > 0)) continue;
+      c.axis = sum / len;
+      double lowest = 1;
+      for (int k = tree.node_begin(i); k < tree.node_end(i); ++k)
+        for (int j = 0; j < controls; ++j) lowest = std::min(lowest, c.axis.dot(control_[k][j]));
+      c.cosine = lowest;
+    } else {
+      const Cone& p = cone_[i + 1];
+      const Cone& q = cone_[tree.node_right(i)];
+      c.altitude = std::min(p.altitude, q.altitude);
+      if (p.cosine <= 0 || q.cosine <= 0) continue;
+      holding(p.axis, p, q, c);
+      holding(q.axis, p, q, c);
+      const Vec3 bisector = p.axis + q.axis;
+      if (bisector.norm() > 0) holding(bisector.normalized(), p, q, c);
+    }
+    c.cosine -= kCosineSlack;  // rounding
+    c.sine = c.cosine > 0 ? std::sqrt(1 - c.cosine * c.cosine) : 1.0;
+  }
+  // The top-most regions that pass, from the root down.
+  std::vector<int> stack{0};
+  while (!stack.empty()) {
+    const int i = stack.back();
+    stack.pop_back();
+    const Cone& c = cone_[i];
+    bool pass = false;
+    if (!never_[i] && c.cosine > 0) {
+      const double bound = (moving ? c.cosine * c.cosine : c.cosine) * c.altitude;
+      if (bound >= kSafety * r) {
+        ++stats_.contour_checks;
+        pass = contour_clear(i, c.axis, xa, xb, moving, r);
+        if (!pass) ++stats_.contour_failures;
+      }
+    }
+    if (pass) {
+      skip[i] = 1;
+      ++stats_.regions_culled;
+      stats_.triangles_culled += tree.node_end(i) - tree.node_begin(i);
+    } else if (!tree.node_leaf(i)) {
+      stack.push_back(tree.node_right(i));
+      stack.push_back(i + 1);
+    }
+  }
+}
+
+bool SelfCulling::contour_clear(int node, const Vec3& axis, const VecX& xa, const VecX& xb, bool moving, double r) {
+  // A basis of the plane orthogonal to the axis.
+  Vec3 helper = std::abs(axis.x()) < 0.6 ? Vec3::UnitX() : Vec3::UnitY();
+  const Vec3 u = axis.cross(helper).normalized();
+  const Vec3 w = axis.cross(u);
+  auto project = [&](const VecX& x, int i) {
+    const Vec3 p = at(x, i);
+    return std::array<double, 2>{p.dot(u), p.dot(w)};
+  };
+  const double grow = 0.5 * kSafety * r;
+  segments_.clear();
+  for (int k = contour_begin_[node]; k < contour_begin_[node + 1]; ++k) {
+    const auto& e = contour_[k];
+    Segment s;
+    s.a = e[0];
+    s.b = e[1];
+    const auto pa = project(xa, s.a), pb = project(xa, s.b);
+    for (int d = 0; d < 2; ++d) {
+      s.lo[d] = std::min(pa[d], pb[d]);
+      s.hi[d] = std::max(pa[d], pb[d]);
+    }
+    if (moving) {
+      const auto qa = project(xb, s.a), qb = project(xb, s.b);
+      for (int d = 0; d < 2; ++d) {
+        s.lo[d] = std::min({s.lo[d], qa[d], qb[d]});
+        s.hi[d] = std::max({s.hi[d], qa[d], qb[d]});
+      }
+    }
+    for (int d = 0; d < 2; ++d) {
+      s.lo[d] -= grow;
+      s.hi[d] += grow;
+    }
+    segments_.push_back(s);
+  }
+  sorted_.resize(segments_.size());
+  for (size_t k = 0; k < sorted_.size(); ++k) sorted_[k] = static_cast<int>(k);
+  std::sort(sorted_.begin(), sorted_.end(), [&](int p, int q) {
+    return segments_[p].lo[0] < segments_[q].lo[0] || (segments_[p].lo[0] == segments_[q].lo[0] && p < q);
+  });
+  // How far a vertex's projection moves over the step.
+  auto motion = [&](int i) {
+    if (!moving) return 0.0;
+    const auto p = project(xa, i), q = project(xb, i);
+    return std::hypot(q[0] - p[0], q[1] - p[1]);
+  };
+  // Segments s and t share the end `c`: each far end at least r from the other segment, at
+  // every time of the step.
+  auto far_ends_clear = [&](const Segment& s, const Segment& t, int c) {
+    const int fs = s.a == c ? s.b : s.a, ft = t.a == c ? t.b : t.a;
+    if (fs == ft) return false;  // the same edge twice
+    const double mc = motion(c), mfs = motion(fs), mft = motion(ft);
+    const auto pc = project(xa, c), pfs = project(xa, fs), pft = project(xa, ft);
+    return point_segment_distance(pfs, pc, pft) - mfs - std::max(mc, mft) >= kSafety * r &&
+           point_segment_distance(pft, pc, pfs) - mft - std::max(mc, mfs) >= kSafety * r;
+  };
+  for (size_t i = 0; i < sorted_.size(); ++i) {
+    const Segment& s = segments_[sorted_[i]];
+    for (size_t j = i + 1; j < sorted_.size(); ++j) {
+      const Segment& t = segments_[sorted_[j]];
+      if (t.lo[0] > s.hi[0]) break;
+      if (t.lo[1] > s.hi[1] || s.lo[1] > t.hi[1]) continue;
+      const bool sa = s.a == t.a || s.a == t.b, sb = s.b == t.a || s.b == t.b;
+      if (sa && sb) return false;
+      if (!sa && !sb) return false;  // two segments sharing no end within r
+      if (!far_ends_clear(s, t, sa ? s.a : s.b)) return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace weft
