@@ -14,10 +14,18 @@
 //   Implicit Midpoint at dt = 5 ms, no collider), timed over the 100 steps from t = 0.3 s;
 //   self: 0 self-collision off, 1 on (the default), 2 on with its culling off. It never touches
 //   itself: the ratio of 1 to 0 is what looking for self-contact costs a sheet that has none.
+// - WalkSegment: scenes/walk.json (the coat on the walking mannequin, Implicit Midpoint at
+//   5 ms), the 20 steps from t = from: 0.2 s (the coat settling on the standing body) or 1.6 s
+//   (walking), resumed from a checkpoint the first run leaves in the system's temporary folder
+//   (weft-bench-walk-<from>-<fingerprint>.ckpt; delete it to take it anew); cull: the
+//   self-collision culling off (0) or on (1).
 // Counters are per step: milliseconds of detection, response, assembly and solve, CG
 // iterations, solves, and node contacts held.
 #include <benchmark/benchmark.h>
 
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include "collision/self_contact.hpp"
@@ -80,13 +88,10 @@ Scene body_drape(int n) {
   return s;
 }
 
-void run(benchmark::State& bs, const Scene& scene, double from = 0.3, bool culling = true) {
-  set_thread_count(1);  // the targets are for one thread
-  Simulation sim(scene);
-  if (SelfContacts* self = sim.core().simulation_data().self_contacts.get()) self->set_culling(culling);
-  sim.advance_to(from);
+// The timed steps of sim (its scene's dt), with their split per step as counters.
+StepStatistics time_steps(benchmark::State& bs, Simulation& sim) {
   StepStatistics stats;
-  for (auto _ : bs) sim.core().integrator().step(sim.core().state(), scene.integrator.dt, stats);
+  for (auto _ : bs) sim.core().integrator().step(sim.core().state(), sim.scene().integrator.dt, stats);
   const double per = 1.0 / std::max(1L, stats.steps);
   bs.counters["detection_ms"] = 1e3 * stats.detection_seconds * per;
   bs.counters["response_ms"] = 1e3 * stats.response_seconds * per;
@@ -94,6 +99,16 @@ void run(benchmark::State& bs, const Scene& scene, double from = 0.3, bool culli
   bs.counters["solve_ms"] = 1e3 * stats.solve_seconds * per;
   bs.counters["cg_iterations"] = stats.cg_iterations * per;
   bs.counters["solves"] = stats.cg_solves * per;
+  return stats;
+}
+
+void run(benchmark::State& bs, const Scene& scene, double from = 0.3, bool culling = true) {
+  set_thread_count(1);  // the targets are for one thread
+  Simulation sim(scene);
+  if (SelfContacts* self = sim.core().simulation_data().self_contacts.get()) self->set_culling(culling);
+  sim.advance_to(from);
+  const StepStatistics stats = time_steps(bs, sim);
+  const double per = 1.0 / std::max(1L, stats.steps);
   bs.counters["contacts"] = stats.contacts * per;
   bs.counters["vertices"] = sim.core().model().num_vertices();
   if (const SelfContacts* self = sim.core().self_contacts(); self && culling) {
@@ -115,6 +130,41 @@ void SphereDrop(benchmark::State& bs) {
 void SphereDropFree(benchmark::State& bs) { run(bs, sphere_drop(static_cast<int>(bs.range(0)), false)); }
 void BodyDrape(benchmark::State& bs) { run(bs, body_drape(static_cast<int>(bs.range(0)))); }
 void BodyDrapeWalking(benchmark::State& bs) { run(bs, body_drape(static_cast<int>(bs.range(0))), 1.6); }
+// The walk scene at `from` seconds: restored from the cached checkpoint, or run there (and
+// cached).
+void walk_to(Simulation& sim, double from) {
+  char name[96];
+  std::snprintf(name, sizeof name, "weft-bench-walk-%.3f-%016llx.ckpt", from,
+                static_cast<unsigned long long>(sim.fingerprint()));
+  const std::filesystem::path path = std::filesystem::temp_directory_path() / name;
+  if (std::ifstream in{path, std::ios::binary}) {
+    std::stringstream bytes;
+    bytes << in.rdbuf();
+    restore_checkpoint(bytes.str(), path.string(), sim);
+    return;
+  }
+  sim.advance_to(from);
+  const std::string bytes = checkpoint_bytes(nlohmann::json::object(), sim, RunResult{});
+  const std::filesystem::path partial = path.string() + ".part";
+  std::ofstream(partial, std::ios::binary) << bytes;
+  std::filesystem::rename(partial, path);
+}
+
+void WalkSegment(benchmark::State& bs) {
+  set_thread_count(1);
+  const Scene scene = load_scene(std::string(WEFT_SOURCE_DIR) + "/scenes/walk.json");
+  Simulation sim(scene);
+  walk_to(sim, bs.range(0) / 10.0);
+  sim.core().simulation_data().self_contacts->set_culling(bs.range(1) != 0);
+  const double self_before = sim.core().self_contacts()->statistics().seconds;
+  const StepStatistics stats = time_steps(bs, sim);
+  const double per = 1.0 / std::max(1L, stats.steps);
+  bs.counters["guard_ms"] = 1e3 * stats.guard_seconds * per;
+  bs.counters["parts"] = stats.guard_parts * per;
+  // the fail-safe's share of the response (SelfContactStatistics::seconds)
+  bs.counters["self_fail_safe_ms"] = 1e3 * (sim.core().self_contacts()->statistics().seconds - self_before) * per;
+}
+
 void FreeSheet(benchmark::State& bs) {
   Scene s = test::cloth_step_scene(static_cast<int>(bs.range(0)));
   s.cloth.self_collision = bs.range(1) != 0;
@@ -127,6 +177,11 @@ BENCHMARK(SphereDrop)->ArgsProduct({{65, 129}, {1, 2}})->ArgNames({"n", "pc"})->
 BENCHMARK(SphereDropFree)->Arg(65)->Arg(129)->ArgName("n")->Unit(benchmark::kMillisecond)->Iterations(kSteps);
 BENCHMARK(BodyDrape)->Arg(65)->ArgName("n")->Unit(benchmark::kMillisecond)->Iterations(kSteps);
 BENCHMARK(BodyDrapeWalking)->Arg(65)->ArgName("n")->Unit(benchmark::kMillisecond)->Iterations(kSteps);
+BENCHMARK(WalkSegment)
+    ->ArgsProduct({{2, 16}, {0, 1}})
+    ->ArgNames({"from_ds", "cull"})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(20);
 BENCHMARK(FreeSheet)
     ->ArgsProduct({{33, 65, 129}, {0, 1, 2}})
     ->ArgNames({"n", "self"})
