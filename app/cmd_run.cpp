@@ -217,6 +217,12 @@ std::string stability_advice(const weft::Scene& sc) {
   }
   if (!(sc.integrator.method == Method::AlphaFamily && sc.integrator.alpha == 1.0))
     items.push_back("a more implicit method (--method backward-euler)");
+  // A semi-implicit step linearised once: on a fabric that stiffens, Newton iterations follow
+  // the curve within the step (docs/results.md, "Stiffening fabric").
+  const bool semi_implicit = (sc.integrator.method == Method::AlphaFamily && sc.integrator.alpha > 0) ||
+                             sc.integrator.method == Method::Bdf2;
+  if (semi_implicit && sc.integrator.newton_iterations < 4)
+    items.push_back("Newton iterations within each step, for a fabric that stiffens (e.g. --newton 4)");
   const double zeta = sc.effective_damping_ratio();
   if (zeta < 1.0) {
     const double more = zeta > 0 ? std::min(1.0, 2 * zeta) : 0.05;
@@ -567,6 +573,13 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
                  "summary.json's status is %s.\n",
                  r.steps.cg_failures, r.steps.cg_solves, scene.integrator.cg_max_iterations,
                  scene.integrator.cg_tolerance, summary["status"].get<std::string>().c_str());
+  if (r.steps.newton_automatic_steps > 0)
+    std::fprintf(stderr,
+                 "weft: note: %ld of %ld backward Euler steps put energy in (its linearisation's error on a "
+                 "stiffening fabric) and were taken again with %d Newton iterations (summary.json: "
+                 "newton.automatic_steps; --newton N iterates every step).\n",
+                 r.steps.newton_automatic_steps, r.steps.steps,
+                 summary["newton"].value("automatic_max_iterations", 0));
   if (r.status == "unstable") {
     std::fprintf(stderr, "weft: simulation became unstable at t = %.4f s: %s.\nKept %zu frames. %s\n", r.unstable_time,
                  r.message.c_str(), r.energy.size(), stability_advice(scene).c_str());

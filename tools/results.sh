@@ -14,9 +14,14 @@ wait $PAPER
 $WEFT experiment energy -q --out "$OUT/energy" --repeats 11 --no-injection
 $WEFT experiment energy -q --scene scenes/swing-21x21.json --out "$OUT/energy-21x21" --repeats 0 --no-injection
 rm -rf "$OUT/flat"
+# 0 iterations: the linearised step, without backward Euler's automatic Newton iterations.
+mkdir -p "$OUT"
+sed 's/"dt": 0.02,/"dt": 0.02, "automatic_newton": false,/' scenes/paper-swing-flat.json > "$OUT/paper-swing-flat-linearised.json"
 for m in backward-euler implicit-midpoint-plain; do
   for n in 0 4; do
-    $WEFT run -q scenes/paper-swing-flat.json --out "$OUT/flat/$m-newton$n" --method $m --newton $n --no-frames || true
+    scene=scenes/paper-swing-flat.json
+    [ $n = 0 ] && scene="$OUT/paper-swing-flat-linearised.json"
+    $WEFT run -q "$scene" --out "$OUT/flat/$m-newton$n" --method $m --newton $n --no-frames || true
   done
 done
 $WEFT run -q scenes/paper-swing.json --out "$OUT/paper-guarded" --method implicit-midpoint --no-frames || true

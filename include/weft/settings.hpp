@@ -57,6 +57,12 @@ struct IntegratorSettings {
   /// energy in is taken again with Newton iterations where `newton_iterations` asks for fewer
   /// (docs/guarded-midpoint.md, "The last resort, iterated"); off keeps the linearised one.
   bool guard_last_resort_newton = true;
+  /// An unguarded backward Euler step (alpha family at 1) that puts in more than a hundredth
+  /// of the energy scale is taken again with 4 Newton iterations where `newton_iterations` asks
+  /// for fewer: its own step never puts energy in, so what it gains is the linearisation's
+  /// error (a stiffening fabric). summary.json counts them (`newton.automatic_steps`). Scene
+  /// key `integrator.automatic_newton`.
+  bool backward_euler_newton = true;
   /// Newton iterations a semi-implicit step (alpha family, BDF-2) may add to its linearised
   /// solve: the step's nonlinear equations re-linearised at the
   /// iterate, with a backtracking line search. 0: one linearisation per step, as the paper's

@@ -84,6 +84,7 @@ struct StepStatistics {
   long newton_steps = 0;         ///< steps (or parts) that took at least one
   long newton_halvings = 0;      ///< line-search halvings
   long newton_unconverged = 0;   ///< steps that ended above the Newton tolerance
+  long newton_automatic_steps = 0;  ///< backward Euler steps taken again with Newton iterations (kBackwardEulerNewton)
   double newton_seconds = 0;     ///< the iterations' own work: residuals, assemblies, solves
 };
 

@@ -231,6 +231,8 @@ void Integrator::single_step(State& s, double dt, StepStatistics& stats) {
     case Method::AlphaFamily:
       if (c_.settings.guard) {
         guarded_parts(s, dt, stats);
+      } else if (alpha == 1.0 && c_.settings.backward_euler_newton && newton_limit() < kBackwardEulerNewton) {
+        backward_euler_step(s, dt, stats);
       } else {
         linear_step(s, dt, alpha, 0.0, dt, stats);
       }
@@ -263,6 +265,28 @@ void Integrator::potential_energy(const VecX& x, double& elastic, double& gravit
   }
   elastic = d_.energy_elastic;
   gravity = d_.energy_gravity;
+}
+
+void Integrator::backward_euler_step(State& s, double dt, StepStatistics& stats) {
+  // The check's own work (saving the start, the end's energy) counts as the Newton iterations'.
+  auto tg = Clock::now();
+  d_.guard_start = s;
+  const std::vector<char> pulling = d_.pulling, stuck = d_.stuck;
+  stats.newton_seconds += seconds_since(tg);
+  linear_step(s, dt, 1.0, 0.0, dt, stats);
+  tg = Clock::now();
+  puts_energy_in(s);
+  const bool gained = !(d_.guard_gain <= kBackwardEulerNewtonShare * d_.guard_scale);
+  stats.newton_seconds += seconds_since(tg);
+  if (!gained) return;
+  s = d_.guard_start;
+  d_.pulling = pulling;
+  d_.stuck = stuck;
+  d_.newton_now = kBackwardEulerNewton;
+  if (d_.newton_step.matrix.pattern == nullptr) d_.newton_step.matrix.reset(system_.pattern());
+  linear_step(s, dt, 1.0, 0.0, dt, stats);
+  d_.newton_now = 0;
+  ++stats.newton_automatic_steps;
 }
 
 void Integrator::bdf2_step(State& s, double dt, double alpha, StepStatistics& stats) {

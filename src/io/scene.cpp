@@ -414,7 +414,7 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
 
   const Reader in = r.object("integrator");
   in.allow_only({"method", "alpha", "dt", "tolerance", "max_iterations", "preconditioner", "ssor_relaxation",
-                 "ssor_precision", "newton_iterations", "newton_tolerance"});
+                 "ssor_precision", "newton_iterations", "newton_tolerance", "automatic_newton"});
   std::optional<double> alpha;
   if (in.has("alpha")) alpha = in.number("alpha");
   set_method(s, in.string("method"), alpha, in.where("method"));
@@ -447,6 +447,7 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
     s.integrator.newton_iterations = static_cast<int>(in.integer_in("newton_iterations", 0, 100));
   }
   if (in.has("newton_tolerance")) s.integrator.newton_tolerance = in.number_in("newton_tolerance", 0, 1, true);
+  if (in.has("automatic_newton")) s.integrator.backward_euler_newton = in.boolean("automatic_newton");
   if (r.has("damping")) {
     const Reader d = r.object("damping");
     d.allow_only({"ratio"});

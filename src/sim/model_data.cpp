@@ -454,6 +454,7 @@ std::uint64_t fingerprint(const SimulationModel& M) {
     w.i64(is.newton_iterations);
     w.f64(is.newton_tolerance);
   }
+  if (!is.backward_euler_newton) w.i64(-1);  // (likewise absent in the default)
   w.f64(M.system.damping.damping_ratio);
   w.f64(M.system.damping.reference_dt);
   for (const Material& m : M.cloth->materials)
@@ -494,7 +495,7 @@ void save_data(const SimulationModel& M, const SimulationData& D, BinaryWriter& 
                  D.statistics.contacts, D.statistics.contact_solves, D.statistics.max_contacts, D.statistics.released_contacts, D.statistics.fail_safe_moves,
                  D.statistics.contact_passes, D.statistics.failed_contact_steps, D.statistics.halved_steps, D.statistics.guard_redone_steps,
                  D.statistics.guard_raised_steps, D.statistics.guard_split_steps, D.statistics.guard_futile_splits, D.statistics.guard_parts, D.statistics.guard_newton_steps, D.statistics.newton_iterations,
-                 D.statistics.newton_steps, D.statistics.newton_halvings, D.statistics.newton_unconverged})
+                 D.statistics.newton_steps, D.statistics.newton_halvings, D.statistics.newton_unconverged, D.statistics.newton_automatic_steps})
     out.i64(c);
   out.f64(D.statistics.guard_max_alpha);
   for (double d : {D.statistics.assembly_seconds, D.statistics.solve_seconds, D.statistics.detection_seconds, D.statistics.response_seconds,
@@ -560,7 +561,7 @@ void restore_data(const SimulationModel& M, SimulationData& D, BinaryReader& in)
                   &st.contact_solves, &st.max_contacts, &st.released_contacts, &st.fail_safe_moves, &st.contact_passes,
                   &st.failed_contact_steps, &st.halved_steps, &st.guard_redone_steps, &st.guard_raised_steps,
                   &st.guard_split_steps, &st.guard_futile_splits, &st.guard_parts, &st.guard_newton_steps, &st.newton_iterations, &st.newton_steps,
-                  &st.newton_halvings, &st.newton_unconverged})
+                  &st.newton_halvings, &st.newton_unconverged, &st.newton_automatic_steps})
     *c = in.i64();
   st.guard_max_alpha = in.f64();
   for (double* d : {&st.assembly_seconds, &st.solve_seconds, &st.detection_seconds, &st.response_seconds,

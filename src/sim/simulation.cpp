@@ -3,6 +3,7 @@
 #include "collision/colliders.hpp"
 #include "collision/clamps.hpp"
 #include "collision/self_contact.hpp"
+#include "integrate/integrator.hpp"
 #include "weft/garment/sewing.hpp"
 #include "sim/checkpoint.hpp"
 #include "weft/error.hpp"
@@ -287,9 +288,15 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
                   {"raised_fraction", st.steps ? static_cast<double>(st.guard_raised_steps) / st.steps : 0.0},
                   {"max_alpha", std::max(sc.integrator.alpha, st.guard_max_alpha)}};
   }
-  if (sc.integrator.newton_iterations > 0) {
+  // Unguarded backward Euler takes a step that put energy in again with Newton iterations
+  // (IntegratorSettings::backward_euler_newton).
+  const bool automatic = sc.integrator.method == Method::AlphaFamily && sc.integrator.alpha == 1.0 &&
+                         !sc.integrator.guard && sc.integrator.backward_euler_newton &&
+                         sc.integrator.newton_iterations < kBackwardEulerNewton;
+  if (sc.integrator.newton_iterations > 0 || automatic) {
     const StepStatistics& st = r.steps;
     j["newton"] = {{"max_iterations", sc.integrator.newton_iterations},
+                   {"automatic_steps", st.newton_automatic_steps},
                    {"tolerance", sc.integrator.newton_tolerance},
                    {"iterations", st.newton_iterations},
                    {"iterations_per_step", st.steps ? static_cast<double>(st.newton_iterations) / st.steps : 0.0},
@@ -297,6 +304,7 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
                    {"line_search_halvings", st.newton_halvings},
                    {"unconverged_steps", st.newton_unconverged},
                    {"seconds", st.newton_seconds}};
+    if (automatic) j["newton"]["automatic_max_iterations"] = kBackwardEulerNewton;
   }
   j["damping_ratio"] = r.damping_ratio;
   j["kappa"] = stats_json(r.damping.membrane_kappa);

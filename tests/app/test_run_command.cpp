@@ -271,6 +271,8 @@ TEST_F(RunCommand, StabilityAdviceNamesOnlyChangesFromTheSettingsInForce) {
   EXPECT_NE(e.find("a smaller time step than the current 0.02 s (e.g. --dt 0.01)"), std::string::npos) << e;
   EXPECT_NE(e.find("--method backward-euler"), std::string::npos) << e;
   EXPECT_NE(e.find("the guarded step (--method implicit-midpoint)"), std::string::npos) << e;
+  EXPECT_NE(e.find("Newton iterations within each step, for a fabric that stiffens (e.g. --newton 4)"),
+            std::string::npos) << e;
   // Forward Euler without damping: adaptive damping is off, so turning it on is the advice.
   const auto s = write("scene.json", scene(R"({"method": "forward-euler", "dt": 0.02})",
                                            R"({"grid": {"size": [0.2, 0.2], "vertices": [9, 9]}})", "2.0"));
@@ -279,6 +281,7 @@ TEST_F(RunCommand, StabilityAdviceNamesOnlyChangesFromTheSettingsInForce) {
   EXPECT_NE(fe.error_output.find("adaptive damping, off now (e.g. --damping-ratio 0.05)"), std::string::npos)
       << fe.error_output;
   EXPECT_EQ(fe.error_output.find("guarded"), std::string::npos) << fe.error_output;  // none for it
+  EXPECT_EQ(fe.error_output.find("--newton"), std::string::npos) << fe.error_output;  // nor iterations
 }
 
 TEST_F(RunCommand, AnOutputFolderNeverMixesTwoRuns) {

@@ -136,10 +136,12 @@ TEST_F(PaperSwing, EnergyBalanceClosesAndEnergyCreatedIsWhatTheColumnsImply) {
 TEST_F(PaperSwing, NewtonIterationsCarryBackwardEulerThroughTheFlatStartedCurve) {
   // scenes/paper-swing-flat.json (the jersey with a curve flat at zero strain), whole, for 0.5 s:
   // the linearised step stretches elements far along the curve and the cloth blows up within
-  // a few steps; re-linearised within each step it swings on to the end.
+  // a few steps; re-linearised within each step it swings on to the end. (Backward Euler's own
+  // Newton iterations on steps that put energy in are off here: 0 is the linearised step.)
   std::ifstream in(std::string(WEFT_SOURCE_DIR) + "/scenes/paper-swing-flat.json");
   nlohmann::json j = nlohmann::json::parse(in);
   j["duration"] = 0.5;
+  j["integrator"]["automatic_newton"] = false;
   const fs::path scene = write("flat.json", j.dump());
   for (int newton : {0, 4}) {
     SCOPED_TRACE(newton);

@@ -66,6 +66,7 @@ IntegratorSettings backward_euler() {
   st.alpha = 1.0;
   st.dt = 0.01;
   st.cg_tolerance = 1e-12;
+  st.backward_euler_newton = false;  // each step taken once: the rounds are counted per step
   return st;
 }
 

@@ -24,6 +24,7 @@ IntegratorSettings settings(double alpha, double dt, int newton_iterations, doub
   st.cg_tolerance = 1e-13;
   st.newton_iterations = newton_iterations;
   st.newton_tolerance = newton_tolerance;
+  st.backward_euler_newton = false;  // 0 iterations: the linearised step
   return st;
 }
 
