@@ -110,6 +110,7 @@ SewnGarment sew_garment(const PlacedGarment& placed, const BindBody& body, const
   set_method(scene, "backward-euler", std::nullopt, "sewing");
   scene.integrator.dt = options.dt_s;
   scene.integrator.halve_overshooting_solves = false;  // quasi-static: velocities reset below
+  scene.integrator.backward_euler_newton = false;      // likewise: the seams' pull is not a motion's energy
   scene.frame_interval = options.interval_s;
   scene.duration = options.max_time_s;
   scene.damping_ratio = 0.0;
