@@ -1,6 +1,7 @@
 #include "weft/garment/sewing.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <map>
 #include <memory>
 #include <numeric>
@@ -18,7 +19,9 @@ Points as_points(const VecX& x) {
   return p;
 }
 
-FrameIntersections check_intersections(const TriMesh& mesh, const BindBody& body) {
+}  // namespace
+
+FrameIntersections garment_intersections(const TriMesh& mesh, const BindBody& body) {
   std::vector<double> cloth(3 * mesh.num_vertices()), skin(3 * body.positions.rows());
   for (int i = 0; i < mesh.num_vertices(); ++i)
     for (int k = 0; k < 3; ++k) cloth[3 * i + k] = mesh.positions(i, k);
@@ -30,8 +33,6 @@ FrameIntersections check_intersections(const TriMesh& mesh, const BindBody& body
   FrameChecker checker;
   return checker.check({cloth.data(), &mesh.triangles}, {{skin.data(), &body_triangles}});
 }
-
-}  // namespace
 
 EdgeUse edge_use(const std::vector<std::array<int, 3>>& triangles) {
   std::map<std::pair<int, int>, std::array<int, 2>> uses;  // (min, max) -> {forward, backward}
@@ -55,7 +56,7 @@ EdgeUse edge_use(const std::vector<std::array<int, 3>>& triangles) {
   return out;
 }
 
-SewnGarment weld_seams(const PlacedGarment& placed, const Points& positions) {
+SewnGarment weld_seams(const PlacedGarment& placed, const Points& positions, const std::vector<int>& open_stitches) {
   const TriMesh& in = placed.mesh;
   const int n = in.num_vertices();
   std::vector<int> parent(n);
@@ -64,7 +65,11 @@ SewnGarment weld_seams(const PlacedGarment& placed, const Points& positions) {
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
     return i;
   };
-  for (const auto& p : placed.seam_pairs) {
+  for (size_t q = 0; q < placed.seam_pairs.size(); ++q) {
+    if (q < placed.seam_stitch.size() &&
+        std::find(open_stitches.begin(), open_stitches.end(), placed.seam_stitch[q]) != open_stitches.end())
+      continue;
+    const auto& p = placed.seam_pairs[q];
     const int a = find(p[0]), b = find(p[1]);
     if (a != b) parent[std::max(a, b)] = std::min(a, b);
   }
@@ -152,11 +157,72 @@ SewnGarment sew_garment(const PlacedGarment& placed, const BindBody& body, const
   out.largest_gap_m = gap;
   out.converged = gap <= options.gap_m;
   out.sewn_positions = as_points(sim.core().state().x);
-  SewnGarment welded = weld_seams(placed, out.sewn_positions);
+  out.weld_gap_m = options.weld_gap_m;
+  for (size_t q = 0; q < placed.seam_pairs.size() && q < placed.seam_stitch.size(); ++q) {
+    const size_t s = static_cast<size_t>(placed.seam_stitch[q]);
+    if (s >= out.stitch_gap_m.size()) out.stitch_gap_m.resize(s + 1, 0.0);
+    const auto& pr = placed.seam_pairs[q];
+    out.stitch_gap_m[s] = std::max(out.stitch_gap_m[s], (out.sewn_positions.row(pr[0]) - out.sewn_positions.row(pr[1])).norm());
+  }
+  for (size_t s = 0; s < out.stitch_gap_m.size(); ++s)
+    if (out.stitch_gap_m[s] > options.weld_gap_m) out.open_stitches.push_back(static_cast<int>(s));
+  SewnGarment welded = weld_seams(placed, out.sewn_positions, out.open_stitches);
   out.mesh = std::move(welded.mesh);
   out.panel_of_triangle = std::move(welded.panel_of_triangle);
   out.welded_vertex = std::move(welded.welded_vertex);
-  out.intersections = check_intersections(out.mesh, body);
+  out.intersections = garment_intersections(out.mesh, body);
+  return out;
+}
+
+namespace {
+std::string mm(double m) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.2f mm", 1e3 * m);
+  return b;
+}
+size_t body_intersections(const SewnGarment& sewn) {
+  size_t n = 0;
+  for (const auto& b : sewn.intersections.cloth_body) n += b.count;
+  return n;
+}
+}  // namespace
+
+std::string unsewn_report(const Pattern& pattern, const SewnGarment& sewn) {
+  std::string out;
+  auto side = [&](const StitchSide& s) {
+    const std::string panel = s.panel >= 0 && static_cast<size_t>(s.panel) < pattern.panels.size()
+                                  ? pattern.panels[static_cast<size_t>(s.panel)].name
+                                  : "#" + std::to_string(s.panel);
+    return "panel '" + panel + "' edge " + std::to_string(s.edge);
+  };
+  for (int s : sewn.open_stitches) {
+    const size_t i = static_cast<size_t>(s);
+    out += "  stitch " + std::to_string(s);
+    if (i < pattern.stitches.size()) out += " (" + side(pattern.stitches[i].a) + " to " + side(pattern.stitches[i].b) + ")";
+    out += ": gap " + mm(i < sewn.stitch_gap_m.size() ? sewn.stitch_gap_m[i] : 0.0) + "\n";
+  }
+  const size_t self = sewn.intersections.cloth_self.count, body = body_intersections(sewn);
+  if (self + body > 0)
+    out += "  intersecting triangle pairs left in the garment: " + std::to_string(self) + " with itself, " +
+           std::to_string(body) + " with the body\n";
+  return out;
+}
+
+std::string unsewn_headline(const Pattern& pattern, const SewnGarment& sewn) {
+  std::string out = pattern.name + " did not sew:";
+  std::string sep = " ";
+  if (!sewn.open_stitches.empty()) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%.2f", sewn.sewing_time_s);
+    out += sep + std::to_string(sewn.open_stitches.size()) + " of " + std::to_string(pattern.stitches.size()) +
+           " stitches left open (their gap above the weld's " + mm(sewn.weld_gap_m) + " after " + b +
+           " s of sewing)";
+    sep = "; ";
+  }
+  const size_t self = sewn.intersections.cloth_self.count, body = body_intersections(sewn);
+  if (self + body > 0)
+    out += sep + "the garment " + (sewn.open_stitches.empty() ? "" : "as far as it sewed ") + "intersects itself in " +
+           std::to_string(self) + " triangle pairs and the body in " + std::to_string(body);
   return out;
 }
 
