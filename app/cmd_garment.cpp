@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -35,6 +36,8 @@ namespace {
 /// is hardly sampled at all.
 constexpr double kSmallestEdge_m = 0.002;
 constexpr double kLargestEdge_m = 0.5;
+/// garment.obj's positions: 9 significant digits (a nanometre at a metre).
+constexpr const char* kObjDigits = "%.9g";
 
 struct GarmentArgs {
   std::string pattern_file, out;
@@ -46,6 +49,7 @@ struct GarmentArgs {
   std::vector<std::string> panel_grains;     ///< NAME=DEGREES
   double seam_stiffness_N_m = 1e4;
   double sewing_time_s = 0.5;
+  bool allow_open_seams = false;  ///< write an unsewn garment as garment.obj and exit 0
 };
 
 std::string num(double v, const char* format = "%.10g") {
@@ -247,7 +251,7 @@ nlohmann::json garment_summary(const Pattern& pattern, const GarmentMesh& mesh,
   }
   return {{"pattern", pattern.name},
           {"file", a.pattern_file},
-          {"stage", "meshed (placement around the body and sewing are not implemented yet)"},
+          {"stage", "meshed"},
           {"edge_length_m", a.edge_length_m},
           {"panels", panels},
           {"stitches", stitches},
@@ -265,8 +269,8 @@ std::string garment_obj(const Pattern& pattern, const SewnGarment& sewn) {
   obj << "# weft garment: pattern " << pattern.name << ", sewn on the mannequin in its bind pose (m); texture "
       << "coordinates are the flat panels' coordinates (m), one group per panel\n";
   for (int v = 0; v < m.num_vertices(); ++v)
-    obj << "v " << num(m.positions(v, 0), "%.9g") << ' ' << num(m.positions(v, 1), "%.9g") << ' '
-        << num(m.positions(v, 2), "%.9g") << "\n";
+    obj << "v " << num(m.positions(v, 0), kObjDigits) << ' ' << num(m.positions(v, 1), kObjDigits) << ' '
+        << num(m.positions(v, 2), kObjDigits) << "\n";
   // One texture coordinate per distinct (vertex, place).
   std::map<std::pair<int, std::pair<double, double>>, int> uv_index;
   std::vector<std::array<int, 3>> corner_uv(m.triangles.size());
@@ -295,11 +299,15 @@ nlohmann::json sewing_summary(const Pattern& pattern, const PlacedGarment& place
                               const GarmentArgs& a, double wall_s) {
   nlohmann::json parts = nlohmann::json::object();
   for (size_t p = 0; p < pattern.panels.size(); ++p) parts[pattern.panels[p].name] = body_part_name(placed.panel_part[p]);
-  std::vector<double> gap(pattern.stitches.size(), 0.0);
-  for (size_t q = 0; q < placed.seam_pairs.size(); ++q) {
-    const auto& pr = placed.seam_pairs[q];
-    gap[static_cast<size_t>(placed.seam_stitch[q])] = std::max(
-        gap[static_cast<size_t>(placed.seam_stitch[q])], (sewn.sewn_positions.row(pr[0]) - sewn.sewn_positions.row(pr[1])).norm());
+  std::vector<double> gap = sewn.stitch_gap_m;
+  gap.resize(pattern.stitches.size(), 0.0);
+  nlohmann::json open = nlohmann::json::array();
+  for (int st : sewn.open_stitches) {
+    const Stitch& stitch = pattern.stitches[static_cast<size_t>(st)];
+    auto side = [&](const StitchSide& x) {
+      return nlohmann::json{{"panel", pattern.panels[static_cast<size_t>(x.panel)].name}, {"edge", x.edge}};
+    };
+    open.push_back({{"stitch", st}, {"a", side(stitch.a)}, {"b", side(stitch.b)}, {"gap_m", gap[static_cast<size_t>(st)]}});
   }
   const EdgeUse edges = edge_use(sewn.mesh.triangles);
   double area = 0;
@@ -315,6 +323,9 @@ nlohmann::json sewing_summary(const Pattern& pattern, const PlacedGarment& place
           {"largest_seam_gap_placed_m", sewn.largest_gap_placed_m},
           {"largest_seam_gap_m", sewn.largest_gap_m},
           {"largest_seam_gap_per_stitch_m", gap},
+          {"weld_gap_m", sewn.weld_gap_m},
+          {"open_stitches", open},
+          {"sewn", sewn.sewn()},
           {"converged", sewn.converged},
           {"simulated_time_s", sewn.sewing_time_s},
           {"steps", sewn.steps},
@@ -416,6 +427,9 @@ int run_garment(const GarmentArgs& a) {
   // CPU time too: on a busy machine the wall time says more about the other work.
   summary["meshing_cpu_time_s"] = meshing_cpu_s;
   const fs::path dir(a.out);
+  std::string garment_file;  // written when sewing: garment.obj, or garment_unsewn.obj
+  bool sewn_ok = true;
+  std::string unsewn;        // what kept it from being sewn
   std::vector<PendingFile> files{
       text_output(dir / "panels.obj", panels_obj(pattern, mesh, offsets)),
       text_output(dir / "panels.svg", panels_svg(pattern, mesh, offsets, a.edge_length_m))};
@@ -431,17 +445,36 @@ int run_garment(const GarmentArgs& a) {
     sewing.panel_materials = panel_materials;
     sewing.seam_stiffness_N_m = a.seam_stiffness_N_m;
     sewing.max_time_s = a.sewing_time_s;
-    const SewnGarment sewn = sew_garment(placed, body, sewing, [](double t, double gap) {
+    std::fprintf(stderr, "weft garment: sewing %zu stitches (%zu vertex pairs, largest gap as placed %.1f mm), at most %g s simulated\n",
+                 pattern.stitches.size(), placed.seam_pairs.size(),
+                 1e3 * largest_seam_gap(placed.mesh.positions, placed.seam_pairs), a.sewing_time_s);
+    SewnGarment sewn = sew_garment(placed, body, sewing, [](double t, double gap) {
       std::fprintf(stderr, "\rweft garment: sewing: %.2f s simulated, largest seam gap %.2f mm   ", t, 1e3 * gap);
     });
     std::fprintf(stderr, "\n");
+    // The garment as garment.obj holds it (positions to 9 digits), and its intersections counted
+    // on that: a touching pair can come or go with the last bits of a position.
+    for (int v = 0; v < sewn.mesh.num_vertices(); ++v)
+      for (int k = 0; k < 3; ++k) sewn.mesh.positions(v, k) = std::strtod(num(sewn.mesh.positions(v, k), kObjDigits).c_str(), nullptr);
+    std::fprintf(stderr, "weft garment: counting the intersections of the garment as written\n");
+    sewn.intersections = garment_intersections(sewn.mesh, body);
     const double sewing_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - sew_start).count();
     summary["stage"] = "sewn";
     summary["sewing"] = sewing_summary(pattern, placed, sewn, a, sewing_s);
-    files.push_back(text_output(dir / "garment.obj", garment_obj(pattern, sewn)));
+    sewn_ok = sewn.sewn();
+    if (!sewn_ok) unsewn = unsewn_headline(pattern, sewn) + "\n" + unsewn_report(pattern, sewn);
+    // An unsewn garment is kept under a name that says so, unless asked for as it is.
+    garment_file = sewn_ok || a.allow_open_seams ? "garment.obj" : "garment_unsewn.obj";
+    summary["sewing"]["garment_file"] = garment_file;
+    files.push_back(text_output(dir / garment_file, garment_obj(pattern, sewn)));
   }
   files.push_back(text_output(dir / "summary.json", summary.dump(2) + "\n"));
   write_files_atomically(std::move(files));
+  // The other name, from an earlier run in DIR, would say the opposite of this one.
+  if (!garment_file.empty()) {
+    std::error_code ec;
+    fs::remove(dir / (garment_file == "garment.obj" ? "garment_unsewn.obj" : "garment.obj"), ec);
+  }
 
   std::printf(
       "weft garment: %s: %zu panels, %zu stitches, %s triangles, %.3f m^2 at %.3g cm in %.0f ms "
@@ -464,8 +497,20 @@ int run_garment(const GarmentArgs& a) {
                 sw["intersections"]["self"].get<long>(), sw["intersections"]["body"].get<long>());
   }
   std::printf("  wrote %s (%spanels.obj, panels.svg, summary.json)\n", dir.string().c_str(),
-              a.no_sew ? "" : "garment.obj, ");
-  return kExitOk;
+              garment_file.empty() ? "" : (garment_file + ", ").c_str());
+  if (sewn_ok) return kExitOk;
+  std::fflush(stdout);  // the report above first, then what did not sew
+  if (a.allow_open_seams) {
+    std::fprintf(stderr, "weft garment: warning: %sWrote it as it is to %s (--allow-open-seams).\n", unsewn.c_str(),
+                 (dir / garment_file).c_str());
+    return kExitOk;
+  }
+  std::fprintf(stderr,
+               "weft garment: error: %sWrote %s (the garment as far as it sewed: the open stitches not welded), "
+               "panels.obj, panels.svg and summary.json (sewing.sewn false); no garment.obj. --allow-open-seams "
+               "writes it as garment.obj and exits 0.\n",
+               unsewn.c_str(), (dir / garment_file).c_str());
+  return kExitNotSewn;
 }
 
 RegisterCommand reg{
@@ -480,7 +525,12 @@ RegisterCommand reg{
            "coordinates = the flat panels' coordinates in metres, one group per panel; a scene takes it as\n"
            "cloth.mesh.obj), DIR/panels.obj (the panels laid flat at z = 0, one object per panel),\n"
            "DIR/panels.svg (the panels, their meshes and stitches) and DIR/summary.json. --no-sew stops\n"
-           "after meshing. Exit status 2 for a bad pattern or option (nothing written).");
+           "after meshing.\n"
+           "A garment is sewn when every stitch's gap is within the weld's 5 mm when sewing stops and the\n"
+           "welded garment intersects neither itself nor the body. One that is not is written as\n"
+           "DIR/garment_unsewn.obj (its open stitches not welded; no garment.obj), the stitches left open\n"
+           "are named on stderr with their gaps and panels, and the exit status is 6 (--allow-open-seams:\n"
+           "garment.obj and 0). Exit status 2 for a bad pattern or option (nothing written).");
        auto a = std::make_shared<GarmentArgs>();
        sub.add_option("pattern", a->pattern_file, "Pattern file (JSON)")->required();
        sub.add_option("--out,-o", a->out, "Output folder (created)")->required();
@@ -502,6 +552,9 @@ RegisterCommand reg{
            ->capture_default_str();
        sub.add_option("--sewing-time", a->sewing_time_s, "Most simulated seconds of sewing")
            ->capture_default_str();
+       sub.add_flag("--allow-open-seams", a->allow_open_seams,
+                    "Write a garment that did not sew (a stitch left open, an intersection left) as garment.obj "
+                    "and exit 0, still saying on stderr what is open (default: garment_unsewn.obj, exit 6)");
        return std::function<int()>([a] { return run_garment(*a); });
      },
      60}};

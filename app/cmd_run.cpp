@@ -639,7 +639,9 @@ weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write fram
         "uninterrupted run.\n"
         "Exit status: 0 ok (also when solves hit the iteration cap: a warning, summary status solver_capped),\n"
         "2 bad input (nothing written), 3 unstable (frames so far kept), 4 an output could not be written\n"
-        "(the message says what was kept), 130 interrupted (checkpoint written).");
+        "(the message says what was kept), 6 the scene's garment pattern does not sew (stitches left open or\n"
+        "intersections: named; nothing written; cloth.mesh.pattern.allow_open_seams runs it), 130 interrupted\n"
+        "(checkpoint written).");
     CLI::App* app = &sub;
     return std::function<int()>([a, app] {
       return run(*a, [app](const char* name) { return app->count(name) > 0; });

@@ -3,8 +3,9 @@
 // A command's run function returns the process exit status:
 //   0 success, 1 internal error (a bug), 2 bad input (nothing written), 3 the simulation
 //   became unstable, 4 an output could not be written (the message names it and says what
-//   was kept), 5 `weft check` found intersecting triangles, 130 interrupted by Ctrl-C or
-//   SIGTERM (outputs so far and a checkpoint kept).
+//   was kept), 5 `weft check` found intersecting triangles, 6 a garment did not sew (a stitch
+//   left open or an intersection left: `weft garment` keeps it as garment_unsewn.obj, `weft run`
+//   refuses the scene), 130 interrupted by Ctrl-C or SIGTERM (outputs so far and a checkpoint kept).
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <string>
@@ -17,6 +18,7 @@ constexpr int kExitBadInput = 2;
 constexpr int kExitUnstable = 3;
 constexpr int kExitOutputFailed = 4;
 constexpr int kExitIntersections = 5;
+constexpr int kExitNotSewn = 6;
 constexpr int kExitInterrupted = 130;  ///< 128 + SIGINT, as shells report a Ctrl-C
 
 struct CommandSpec {

@@ -22,7 +22,9 @@ int main(int argc, char** argv) {
       "progressive BDF-2) with adaptive damping.\n"
       "Exit status: 0 success, 1 internal error, 2 bad input (nothing written), 3 simulation became\n"
       "unstable, 4 an output could not be written (the message says what was kept), 5 `weft check`\n"
-      "found intersections, 130 interrupted (Ctrl-C; `weft run` keeps a checkpoint to resume from)."};
+      "found intersections, 6 a garment did not sew (a stitch left open or an intersection left; `weft garment`\n"
+      "keeps it as garment_unsewn.obj, `weft run` refuses the scene), 130 interrupted (Ctrl-C; `weft run` keeps a\n"
+      "checkpoint to resume from)."};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("weft ") + WEFT_VERSION);
   int threads = 0;
@@ -63,6 +65,9 @@ int main(int argc, char** argv) {
   try {
     weft::set_thread_count(threads);
     return action ? action() : kExitOk;
+  } catch (const weft::SewingError& e) {
+    std::cerr << "weft: error: " << e.what() << "\n";
+    return kExitNotSewn;
   } catch (const weft::InputError& e) {
     std::cerr << "weft: error: " << e.what() << "\n";
     return kExitBadInput;

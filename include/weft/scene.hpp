@@ -64,6 +64,9 @@ struct GarmentSpec {
   std::map<std::string, double> panel_grain_deg;
   double seam_stiffness_N_m = 1e4;
   double sewing_time_s = 0.5;
+  /// Run the garment even when it does not sew (a stitch left open, an intersection left):
+  /// a warning then, in place of the refusal (SewingError).
+  bool allow_open_seams = false;
 };
 
 struct ClothSpec {

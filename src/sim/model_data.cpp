@@ -45,11 +45,24 @@ TriMesh sew_scene_garment(const Scene& scene, const SetupProgress& on_setup, Tri
   }
   sewing.seam_stiffness_N_m = g.seam_stiffness_N_m;
   sewing.max_time_s = g.sewing_time_s;
-  if (on_setup) on_setup("garment: sewing", 0.0);
-  SewnGarment sewn = sew_garment(placed, body, sewing);
-  if (sewn.intersections.count() > 0)
-    std::fprintf(stderr, "weft: warning: %s: the sewn garment starts with %zu intersecting triangle pairs\n",
-                 where.c_str(), sewn.intersections.count());
+  if (on_setup) on_setup("garment: sewing " + std::to_string(pattern.stitches.size()) + " stitches", 0.0);
+  // Progress every 0.1 s of simulated sewing (five intervals of 20 ms).
+  int intervals = 0;
+  SewnGarment sewn = sew_garment(placed, body, sewing, [&](double t, double gap) {
+    if (!on_setup || ++intervals % 5 != 0) return;
+    char note[128];
+    std::snprintf(note, sizeof note, "garment: sewing: %.2f s simulated, largest seam gap %.2f mm", t, 1e3 * gap);
+    on_setup(note, 0.0);
+  });
+  if (!sewn.sewn()) {
+    const std::string message = where + ": " + unsewn_headline(pattern, sewn) + "\n" + unsewn_report(pattern, sewn);
+    if (!g.allow_open_seams)
+      throw SewingError(message + "The scene was not run. `weft garment " + g.pattern_file +
+                        " --out DIR` writes the garment as far as it sews (DIR/garment_unsewn.obj) to look at; "
+                        "cloth.mesh.pattern.allow_open_seams runs it as it is.");
+    std::fprintf(stderr, "weft: warning: %s(cloth.mesh.pattern.allow_open_seams: the scene runs the garment as it is)\n",
+                 message.c_str());
+  }
   materials = {std::move(sewing.panel_materials), std::move(sewn.panel_of_triangle)};
   return std::move(sewn.mesh);
 }

@@ -1,5 +1,6 @@
 // `weft garment` end to end: every shipped pattern gives the three files, consistent with
 // each other; bad input exits 2 with the place named and writes nothing.
+#include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
@@ -189,6 +190,10 @@ TEST_F(GarmentCommand, ASewnShirtIsOneCleanMeshThatReadsBackAsACloth) {
   EXPECT_GT(sewing["garment"]["boundary_edges"].get<int>(), 0);  // neck, hem and cuffs stay open
   EXPECT_NEAR(sewing["garment"]["area_m2"].get<double>(), summary["area_m2"].get<double>(),
               1e-9 * summary["area_m2"].get<double>());
+  EXPECT_EQ(sewing["sewn"], true);
+  EXPECT_TRUE(sewing["open_stitches"].empty());
+  EXPECT_EQ(sewing["garment_file"], "garment.obj");
+  EXPECT_FALSE(std::filesystem::exists(out / "garment_unsewn.obj"));
   for (const char* part : {"left_sleeve_f", "left_sleeve_b"}) EXPECT_EQ(sewing["panel_parts"][part], "left_arm");
   EXPECT_EQ(sewing["panel_parts"]["right_ftorso"], "torso");
 
@@ -224,6 +229,92 @@ TEST_F(GarmentCommand, SewingOptionsOutOfRangeExitTwoNamingThem) {
     EXPECT_NE(r.error_output.find(message), std::string::npos) << r.error_output;
     EXPECT_FALSE(std::filesystem::exists(out));
   }
+}
+
+}  // namespace
+
+namespace {
+
+// A garment that does not sew (docs/garments.md, "When a garment does not sew"): two small
+// panels, one on each arm, joined by one stitch across the body, sewn for only 20 ms (one
+// interval): the seam is still centimetres open when sewing stops, far beyond the weld's 5 mm.
+class UnsewnGarment : public GarmentCommand {
+ protected:
+  std::filesystem::path pattern() {
+    return write("apart.json", R"({"properties": {"units_in_meter": 100},
+      "pattern": {"panels": {
+        "left_sleeve": {"vertices": [[0, 0], [20, 0], [20, 20], [0, 20]],
+                        "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}],
+                        "translation": [40, 130, 0], "rotation": [0, 0, 0]},
+        "right_sleeve": {"vertices": [[0, 0], [20, 0], [20, 20], [0, 20]],
+                         "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}],
+                         "translation": [-60, 130, 0], "rotation": [0, 0, 0]}},
+      "stitches": [[{"panel": "left_sleeve", "edge": 1}, {"panel": "right_sleeve", "edge": 3}]]}})");
+  }
+  static constexpr const char* kStitch = "stitch 0 (panel 'left_sleeve' edge 1 to panel 'right_sleeve' edge 3): gap ";
+};
+
+TEST_F(UnsewnGarment, ExitsSixKeepsItAsGarmentUnsewnAndNamesTheOpenStitch) {
+  const auto out = folder_ / "out";
+  const std::string args = "garment " + quoted(pattern()) + " --out " + quoted(out) + " --edge-length 0.05 --sewing-time 0.02";
+  // With --allow-open-seams: garment.obj on purpose, exit 0, and still said what is open.
+  const auto allowed = weft(args + " --allow-open-seams");
+  ASSERT_EQ(allowed.exit_code, 0) << allowed.error_output;
+  EXPECT_TRUE(std::filesystem::exists(out / "garment.obj"));
+  EXPECT_FALSE(std::filesystem::exists(out / "garment_unsewn.obj"));
+  EXPECT_NE(allowed.error_output.find(kStitch), std::string::npos) << allowed.error_output;
+  EXPECT_NE(allowed.error_output.find("--allow-open-seams"), std::string::npos) << allowed.error_output;
+
+  // Without: exit 6, the garment as garment_unsewn.obj and the garment.obj of the run before
+  // gone; the message names the stitch, its gap as in the summary, and what was written.
+  const auto r = weft(args);
+  ASSERT_EQ(r.exit_code, 6) << r.error_output;
+  EXPECT_FALSE(std::filesystem::exists(out / "garment.obj"));
+  ASSERT_TRUE(std::filesystem::exists(out / "garment_unsewn.obj"));
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  const auto& sewing = summary["sewing"];
+  EXPECT_EQ(sewing["sewn"], false);
+  EXPECT_EQ(sewing["garment_file"], "garment_unsewn.obj");
+  ASSERT_EQ(sewing["open_stitches"].size(), 1u);
+  const auto& open = sewing["open_stitches"][0];
+  EXPECT_EQ(open["stitch"], 0);
+  EXPECT_EQ(open["a"]["panel"], "left_sleeve");
+  EXPECT_EQ(open["b"]["panel"], "right_sleeve");
+  const double gap = open["gap_m"].get<double>();
+  EXPECT_GT(gap, 0.01);  // centimetres open, not a near miss of the weld's 5 mm
+  EXPECT_EQ(gap, sewing["largest_seam_gap_per_stitch_m"][0].get<double>());
+  char gap_text[64];
+  std::snprintf(gap_text, sizeof gap_text, "%.2f mm", 1e3 * gap);
+  EXPECT_NE(r.error_output.find(std::string(kStitch) + gap_text), std::string::npos) << r.error_output;
+  EXPECT_NE(r.error_output.find("apart did not sew: 1 of 1 stitches left open"), std::string::npos) << r.error_output;
+  EXPECT_NE(r.error_output.find((out / "garment_unsewn.obj").string()), std::string::npos) << r.error_output;
+  EXPECT_NE(r.error_output.find("no garment.obj"), std::string::npos) << r.error_output;
+  // The open stitch is not welded: every panel vertex is still there.
+  const weft::TriMesh unsewn = weft::load_obj((out / "garment_unsewn.obj").string());
+  EXPECT_EQ(unsewn.num_vertices(), summary["vertices"].get<int>());
+  EXPECT_EQ(sewing["garment"]["vertices"], summary["vertices"]);
+}
+
+TEST_F(UnsewnGarment, ASceneWhosePatternDoesNotSewIsRefused) {
+  const auto scene = [&](const std::string& extra) {
+    return write("scene.json", R"({"weft_scene": 1, "duration": 0.01, "frame_interval": 0.01,
+      "integrator": {"method": "backward-euler", "dt": 0.005},
+      "colliders": [{"type": "body", "bind_pose_hold": 0.5}],
+      "cloth": {"material": "cotton", "mesh": {"pattern": {"file": ")" + pattern().string() +
+                                                  R"(", "edge_length": 0.05, "sewing_time": 0.02)" + extra + "}}}}");
+  };
+  const auto out = folder_ / "run";
+  const auto r = weft("run " + quoted(scene("")) + " --out " + quoted(out) + " -q");
+  EXPECT_EQ(r.exit_code, 6) << r.error_output;
+  EXPECT_NE(r.error_output.find("scene.json: cloth.mesh.pattern: apart did not sew"), std::string::npos) << r.error_output;
+  EXPECT_NE(r.error_output.find(kStitch), std::string::npos) << r.error_output;
+  EXPECT_NE(r.error_output.find("The scene was not run"), std::string::npos) << r.error_output;
+  EXPECT_FALSE(std::filesystem::exists(out));
+  // allow_open_seams runs it, saying what is open.
+  const auto allowed = weft("run " + quoted(scene(R"(, "allow_open_seams": true)")) + " --out " + quoted(out) + " -q");
+  EXPECT_EQ(allowed.exit_code, 0) << allowed.error_output;
+  EXPECT_NE(allowed.error_output.find(kStitch), std::string::npos) << allowed.error_output;
+  EXPECT_TRUE(std::filesystem::exists(out / "frames" / "frame_00001.obj"));
 }
 
 }  // namespace
