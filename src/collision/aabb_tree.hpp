@@ -52,6 +52,8 @@ class AabbTree {
   /// its second is node_right(i); a node holds the triangles of slots [node_begin, node_end)
   /// of slot_triangles(), its descendants' together.
   int node_count() const { return static_cast<int>(nodes_.size()); }
+  /// The most triangles a leaf holds.
+  static constexpr int kMaxLeafTriangles = 4;
   bool node_leaf(int i) const { return nodes_[i].leaf(); }
   int node_right(int i) const { return nodes_[i].right; }
   int node_begin(int i) const { return nodes_[i].begin; }
@@ -90,7 +92,7 @@ class AabbTree {
   void for_each_pair(const AabbTree& other, F&& f) const;
 
  private:
-  static constexpr int kLeafSize = 4;
+  static constexpr int kLeafSize = kMaxLeafTriangles;
   struct Node {
     Box box;
     int right = -1;  ///< the second child; the first is the next node (depth-first order); -1 for a leaf

@@ -14,7 +14,7 @@ namespace {
 /// The conditions are met with this much to spare (rounding of the cones and distances).
 constexpr double kSafety = 1.001;
 constexpr double kCosineSlack = 1e-9;
-constexpr size_t kTriangleChunk = 1024;
+constexpr size_t kLeafChunk = 256;
 
 Vec3 at(const VecX& x, int i) { return Vec3(x[3 * i], x[3 * i + 1], x[3 * i + 2]); }
 
@@ -88,6 +88,7 @@ SelfCulling::SelfCulling(const std::vector<std::array<int, 3>>& triangles, const
     cancel_opposites(c);
   }
   for (int i = 0; i < nodes; ++i) {
+    if (tree.node_leaf(i)) leaves_.push_back(i);
     contour_begin_[i] = static_cast<int>(contour_.size());
     contour_.insert(contour_.end(), contour[i].begin(), contour[i].end());
   }
@@ -101,41 +102,62 @@ void SelfCulling::find(const std::vector<std::array<int, 3>>& triangles, const A
   ++stats_.calls;
   if (nodes == 0 || !(r > 0) || static_cast<int>(never_.size()) != nodes) return;
   const bool moving = &xa != &xb && xa != xb;
-  const size_t faces = triangles.size();
-  control_.resize(faces);
-  altitude_.resize(faces);
-  // Per triangle (in tree order, as the leaves read them): the unit control vectors of its
-  // normal over the step (n(t) = e1(t) x e2(t), a quadratic in t whose Bernstein coefficients
-  // are n(0), n(0) + (e1 x d2 + d1 x e2) / 2 and n(1); at rest n alone), all zero where one is
-  // zero, and its altitude bound.
+  // Cones bottom up. A leaf's from its triangles (on the threads allowed, each leaf apart):
+  // each triangle's unit control vectors of its normal over the step (n(t) = e1(t) x e2(t), a
+  // quadratic in t whose Bernstein coefficients are n(0), n(0) + (e1 x d2 + d1 x e2) / 2 and
+  // n(1); at rest n alone), the cone about their mean, and the smallest altitude bound. A
+  // node's the best of three about its children's axes and their bisector that holds both
+  // children's cones (cosines and sines only: cos(a + b) = cos a cos b - sin a sin b).
+  cone_.resize(nodes);
   const std::vector<int>& slot = tree.slot_triangles();
   const int controls = moving ? 3 : 1;
-  parallel_chunks((faces + kTriangleChunk - 1) / kTriangleChunk, [&](size_t chunk) {
-    for (size_t k = chunk * kTriangleChunk, end = std::min(faces, k + kTriangleChunk); k < end; ++k) {
-      const auto& t = triangles[slot[k]];
-      const Vec3 a0 = at(xa, t[0]), b0 = at(xa, t[1]), c0 = at(xa, t[2]);
-      const Vec3 e1 = b0 - a0, e2 = c0 - a0;
-      std::array<Vec3, 3>& control = control_[k];
-      control[0] = e1.cross(e2);
-      double longest2 = std::max({e1.squaredNorm(), e2.squaredNorm(), (c0 - b0).squaredNorm()});
-      if (moving) {
-        const Vec3 a1 = at(xb, t[0]), b1 = at(xb, t[1]), c1 = at(xb, t[2]);
-        const Vec3 f1 = b1 - a1, f2 = c1 - a1;
-        control[2] = f1.cross(f2);
-        control[1] = control[0] + 0.5 * (e1.cross(f2 - e2) + (f1 - e1).cross(e2));
-        longest2 = std::max({longest2, f1.squaredNorm(), f2.squaredNorm(), (c1 - b1).squaredNorm()});
+  const size_t leaves = leaves_.size();
+  parallel_chunks((leaves + kLeafChunk - 1) / kLeafChunk, [&](size_t chunk) {
+    std::array<Vec3, 3 * AabbTree::kMaxLeafTriangles> unit;
+    for (size_t l = chunk * kLeafChunk, end = std::min(leaves, l + kLeafChunk); l < end; ++l) {
+      const int i = leaves_[l];
+      Cone& c = cone_[i];
+      c.cosine = 0;
+      c.altitude = std::numeric_limits<double>::infinity();
+      Vec3 sum = Vec3::Zero();
+      bool degenerate = false;
+      int count = 0;
+      for (int k = tree.node_begin(i); k < tree.node_end(i); ++k) {
+        const auto& t = triangles[slot[k]];
+        const Vec3 a0 = at(xa, t[0]), b0 = at(xa, t[1]), c0 = at(xa, t[2]);
+        const Vec3 e1 = b0 - a0, e2 = c0 - a0;
+        Vec3* control = &unit[count];
+        control[0] = e1.cross(e2);
+        double longest2 = std::max({e1.squaredNorm(), e2.squaredNorm(), (c0 - b0).squaredNorm()});
+        if (moving) {
+          const Vec3 a1 = at(xb, t[0]), b1 = at(xb, t[1]), c1 = at(xb, t[2]);
+          const Vec3 f1 = b1 - a1, f2 = c1 - a1;
+          control[2] = f1.cross(f2);
+          control[1] = control[0] + 0.5 * (e1.cross(f2 - e2) + (f1 - e1).cross(e2));
+          longest2 = std::max({longest2, f1.squaredNorm(), f2.squaredNorm(), (c1 - b1).squaredNorm()});
+        }
+        double shortest2 = std::numeric_limits<double>::infinity();
+        for (int j = 0; j < controls; ++j) shortest2 = std::min(shortest2, control[j].squaredNorm());
+        if (!(shortest2 > 0) || !(longest2 > 0)) {
+          degenerate = true;
+          break;
+        }
+        c.altitude = std::min(c.altitude, std::sqrt(shortest2 / longest2));
+        for (int j = 0; j < controls; ++j) {
+          control[j].normalize();
+          sum += control[j];
+        }
+        count += controls;
       }
-      double shortest2 = std::numeric_limits<double>::infinity();
-      for (int j = 0; j < controls; ++j) shortest2 = std::min(shortest2, control[j].squaredNorm());
-      const bool degenerate = !(shortest2 > 0) || !(longest2 > 0);
-      altitude_[k] = degenerate ? 0.0 : std::sqrt(shortest2 / longest2);
-      for (int j = 0; j < controls; ++j) control[j] = degenerate ? Vec3::Zero() : Vec3(control[j].normalized());
+      const double len = sum.norm();
+      if (degenerate || !(len > 0)) continue;
+      c.axis = sum / len;
+      double lowest = 1;
+      for (int j = 0; j < count; ++j) lowest = std::min(lowest, c.axis.dot(unit[j]));
+      c.cosine = lowest - kCosineSlack;  // rounding
+      c.sine = c.cosine > 0 ? std::sqrt(1 - c.cosine * c.cosine) : 1.0;
     }
   });
-  // Cones bottom up: a leaf's about the mean of its unit control vectors; a node's the best of
-  // three about its children's axes and their bisector that holds both children's cones
-  // (cosines and sines only: cos(a + b) = cos a cos b - sin a sin b).
-  cone_.resize(nodes);
   auto holding = [](const Vec3& axis, const Cone& p, const Cone& q, Cone& c) {
     double lowest = 1;
     for (const Cone* k : {&p, &q}) {
@@ -148,35 +170,17 @@ void SelfCulling::find(const std::vector<std::array<int, 3>>& triangles, const A
     }
   };
   for (int i = nodes - 1; i >= 0; --i) {
+    if (tree.node_leaf(i)) continue;
     Cone& c = cone_[i];
     c.cosine = 0;
-    if (tree.node_leaf(i)) {
-      Vec3 sum = Vec3::Zero();
-      bool degenerate = false;
-      double altitude = std::numeric_limits<double>::infinity();
-      for (int k = tree.node_begin(i); k < tree.node_end(i); ++k) {
-        altitude = std::min(altitude, altitude_[k]);
-        if (!(altitude_[k] > 0)) degenerate = true;
-        for (int j = 0; j < controls; ++j) sum += control_[k][j];
-      }
-      c.altitude = altitude;
-      const double len = sum.norm();
-      if (degenerate || !(len > 0)) continue;
-      c.axis = sum / len;
-      double lowest = 1;
-      for (int k = tree.node_begin(i); k < tree.node_end(i); ++k)
-        for (int j = 0; j < controls; ++j) lowest = std::min(lowest, c.axis.dot(control_[k][j]));
-      c.cosine = lowest;
-    } else {
-      const Cone& p = cone_[i + 1];
-      const Cone& q = cone_[tree.node_right(i)];
-      c.altitude = std::min(p.altitude, q.altitude);
-      if (p.cosine <= 0 || q.cosine <= 0) continue;
-      holding(p.axis, p, q, c);
-      holding(q.axis, p, q, c);
-      const Vec3 bisector = p.axis + q.axis;
-      if (bisector.norm() > 0) holding(bisector.normalized(), p, q, c);
-    }
+    const Cone& p = cone_[i + 1];
+    const Cone& q = cone_[tree.node_right(i)];
+    c.altitude = std::min(p.altitude, q.altitude);
+    if (p.cosine <= 0 || q.cosine <= 0) continue;
+    holding(p.axis, p, q, c);
+    holding(q.axis, p, q, c);
+    const Vec3 bisector = p.axis + q.axis;
+    if (bisector.norm() > 0) holding(bisector.normalized(), p, q, c);
     c.cosine -= kCosineSlack;  // rounding
     c.sine = c.cosine > 0 ? std::sqrt(1 - c.cosine * c.cosine) : 1.0;
   }

@@ -69,6 +69,7 @@ class SelfCulling {
   std::vector<std::array<int, 2>> contour_;  ///< directed edges, per node from contour_begin_
   std::vector<int> contour_begin_;           ///< node count + 1 offsets
   std::vector<char> never_;                  ///< per node: its contour holds an edge twice
+  std::vector<int> leaves_;                  ///< the tree's leaves
 
   // Scratch of one call.
   struct Cone {
@@ -76,12 +77,6 @@ class SelfCulling {
     double cosine = 0, sine = 1;  ///< of its half-angle; cosine <= 0: no cone (90 degrees or more)
     double altitude = 0;          ///< the smallest altitude bound of its triangles (m)
   };
-  /// Per slot of the tree (slot_triangles): its triangle's unit control vectors (the first only
-  /// at rest; zero for a degenerate triangle).
-  std::vector<std::array<Vec3, 3>> control_;
-  /// Per slot: its triangle's smallest altitude (m); moving, the shortest control vector over
-  /// the longest edge, which times cos(theta) bounds it at every time (0: degenerate).
-  std::vector<double> altitude_;
   std::vector<Cone> cone_;                    ///< per node
   struct Segment {
     std::array<double, 2> lo, hi;  ///< 2-D box, grown by r / 2
