@@ -429,6 +429,7 @@ int run_garment(const GarmentArgs& a) {
   const fs::path dir(a.out);
   std::string garment_file;  // written when sewing: garment.obj, or garment_unsewn.obj
   bool sewn_ok = true;
+  bool stitches_open = false;  // some stitch left open (not only intersections)
   std::string unsewn;        // what kept it from being sewn
   std::vector<PendingFile> files{
       text_output(dir / "panels.obj", panels_obj(pattern, mesh, offsets)),
@@ -445,8 +446,8 @@ int run_garment(const GarmentArgs& a) {
     sewing.panel_materials = panel_materials;
     sewing.seam_stiffness_N_m = a.seam_stiffness_N_m;
     sewing.max_time_s = a.sewing_time_s;
-    std::fprintf(stderr, "weft garment: sewing %zu stitches (%zu vertex pairs, largest gap as placed %.1f mm), at most %g s simulated\n",
-                 pattern.stitches.size(), placed.seam_pairs.size(),
+    std::fprintf(stderr, "weft garment: sewing %zu stitch%s (%zu vertex pairs, largest gap as placed %.1f mm), at most %g s simulated\n",
+                 pattern.stitches.size(), pattern.stitches.size() == 1 ? "" : "es", placed.seam_pairs.size(),
                  1e3 * largest_seam_gap(placed.mesh.positions, placed.seam_pairs), a.sewing_time_s);
     SewnGarment sewn = sew_garment(placed, body, sewing, [](double t, double gap) {
       std::fprintf(stderr, "\rweft garment: sewing: %.2f s simulated, largest seam gap %.2f mm   ", t, 1e3 * gap);
@@ -462,6 +463,7 @@ int run_garment(const GarmentArgs& a) {
     summary["stage"] = "sewn";
     summary["sewing"] = sewing_summary(pattern, placed, sewn, a, sewing_s);
     sewn_ok = sewn.sewn();
+    stitches_open = !sewn.open_stitches.empty();
     if (!sewn_ok) unsewn = unsewn_headline(pattern, sewn) + "\n" + unsewn_report(pattern, sewn);
     // An unsewn garment is kept under a name that says so, unless asked for as it is.
     garment_file = sewn_ok || a.allow_open_seams ? "garment.obj" : "garment_unsewn.obj";
@@ -506,10 +508,11 @@ int run_garment(const GarmentArgs& a) {
     return kExitOk;
   }
   std::fprintf(stderr,
-               "weft garment: error: %sWrote %s (the garment as far as it sewed: the open stitches not welded), "
+               "weft garment: error: %sWrote %s (the garment as far as it sewed%s), "
                "panels.obj, panels.svg and summary.json (sewing.sewn false); no garment.obj. --allow-open-seams "
                "writes it as garment.obj and exits 0.\n",
-               unsewn.c_str(), (dir / garment_file).c_str());
+               unsewn.c_str(), (dir / garment_file).c_str(),
+               stitches_open ? ": the open stitches not welded" : "");
   return kExitNotSewn;
 }
 
