@@ -241,3 +241,29 @@ TEST_F(SceneKeys, ClothKeysChooseTheGridPatternAndTheBendingElement) {
   for (const auto& s : plates) widest = std::max(widest, s.vertices.size());
   EXPECT_GT(widest, 4u);
 }
+
+TEST_F(SceneKeys, BooleanKeysOfTheNewtonRuleAndOpenSeamsTakeTrueOrFalseOnly) {
+  // integrator.automatic_newton: true (the default) and false reach the integrator; anything
+  // else is refused naming the key.
+  nlohmann::json j = base_scene();
+  j["integrator"] = {{"method", "backward-euler"}, {"dt", 0.01}};
+  EXPECT_TRUE(Simulation(parse(j)).core().integrator().settings().backward_euler_newton);
+  j["integrator"]["automatic_newton"] = false;
+  EXPECT_FALSE(Simulation(parse(j)).core().integrator().settings().backward_euler_newton);
+  j["integrator"]["automatic_newton"] = true;
+  EXPECT_TRUE(Simulation(parse(j)).core().integrator().settings().backward_euler_newton);
+  j["integrator"]["automatic_newton"] = "yes";
+  EXPECT_NE(parse_error(j).find("automatic_newton"), std::string::npos) << parse_error(j);
+  // cloth.mesh.pattern.allow_open_seams likewise (read, not sewn: parsing does not sew).
+  nlohmann::json g = base_scene();
+  const std::string patterns = std::string(WEFT_SOURCE_DIR) + "/data/patterns/garmentcode";
+  g["cloth"]["mesh"] = {{"pattern", {{"file", patterns + "/shirt_mean_specification.json"}}}};
+  g["colliders"] = nlohmann::json::array({{{"type", "body"}, {"bind_pose_hold", 0.1}}});
+  const Scene closed = parse(g);
+  ASSERT_TRUE(closed.cloth.garment.has_value());
+  EXPECT_FALSE(closed.cloth.garment->allow_open_seams);
+  g["cloth"]["mesh"]["pattern"]["allow_open_seams"] = true;
+  EXPECT_TRUE(parse(g).cloth.garment->allow_open_seams);
+  g["cloth"]["mesh"]["pattern"]["allow_open_seams"] = 1;
+  EXPECT_NE(parse_error(g).find("allow_open_seams"), std::string::npos) << parse_error(g);
+}
