@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <limits>
@@ -319,6 +320,27 @@ py::object to_python(const nlohmann::json& j) {
   return py::module_::import("json").attr("loads")(j.dump());
 }
 
+// weft.sweep(): the sweep driver, weft_sweep (python/weft_sweep, docs/sweeps.md), imported from the
+// source tree this module was built from unless it is importable already; its runs use this
+// build's `weft` command unless weft= or $WEFT_EXE says otherwise.
+py::object sweep(const py::args& args, py::kwargs kwargs) {
+  py::module_ driver;
+  try {
+    driver = py::module_::import("weft_sweep");
+  } catch (py::error_already_set& e) {
+    if (!e.matches(PyExc_ModuleNotFoundError)) throw;
+#ifdef WEFT_PYTHON_SOURCE_DIR
+    py::module_::import("sys").attr("path").attr("append")(WEFT_PYTHON_SOURCE_DIR);
+#endif
+    driver = py::module_::import("weft_sweep");
+  }
+#ifdef WEFT_COMMAND
+  const char* env = std::getenv("WEFT_EXE");
+  if (!kwargs.contains("weft") && !(env && *env) && std::filesystem::exists(WEFT_COMMAND)) kwargs["weft"] = WEFT_COMMAND;
+#endif
+  return driver.attr("sweep")(*args, **kwargs);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(weft, m) {
@@ -334,6 +356,12 @@ PYBIND11_MODULE(weft, m) {
         "Threads for the parallel parts of a step: n >= 1, or 0 for every core (the default). Results are the "
         "same bits at every count.");
   m.def("thread_count", &weft::thread_count, "The threads a parallel part of a step may use now");
+  m.def("sweep", &sweep,
+        "sweep(spec, out, client=None, *, scheduler=None, workers=None, weft=None, base_dir=None, quiet=True): runs a "
+        "sweep file's runs (a path, or a dict in its layout) on Dask into the folder `out` and returns results.csv's "
+        "rows as a pandas DataFrame; client: a dask.distributed.Client (default: a local cluster of `workers`). The "
+        "driver is weft_sweep (python/weft_sweep, docs/sweeps.md); the runs use the weft command of this build unless "
+        "weft= or $WEFT_EXE names another.");
 
   py::class_<PySimulation>(m, "Simulation",
                            "A scene ready to step: Simulation(path) reads a scene file, Simulation(dict, base_dir=...) "

@@ -1,0 +1,398 @@
+"""The sweep's driver: checks every run's scene, hands the runs to Dask, writes what comes back
+(docs/sweeps.md).
+
+Each run's outputs are written to OUT/runs/<id>/ under a temporary name and renamed into place,
+run.json last, so a folder runs/<id>/ with a run.json is a finished run; a later sweep into the
+same OUT skips those whose scene is unchanged (its hash in run.json).
+"""
+import csv
+import io
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+from . import spec as spec_module
+from .spec import SweepError
+
+OK_STATUSES = ("ok", "solver_capped")
+ENERGIES = ("kinetic", "elastic", "gravity", "viscous_dissipated", "numerical_dissipated")
+EXIT_SOME_FAILED = 7
+EXIT_OUTPUT_FAILED = 4
+EXIT_INTERRUPTED = 130
+
+
+class OutputError(Exception):
+    """An output of the sweep could not be written; the message names it."""
+
+
+class DaskMissing(Exception):
+    pass
+
+
+def import_dask():
+    try:
+        import distributed  # noqa: F401
+    except ImportError as e:
+        raise DaskMissing(f"weft sweep needs Dask's distributed scheduler for {sys.executable} ({e}); on Debian: "
+                          "apt-get install python3-distributed python3-pandas")
+    return distributed
+
+
+def find_weft(weft=None):
+    """The `weft` command the runs use: `weft`, else $WEFT_EXE, else `weft` on the PATH."""
+    weft = weft or os.environ.get("WEFT_EXE") or shutil.which("weft")
+    if not weft or not os.path.isfile(weft):
+        raise SweepError(f"no weft command at {weft!r} (give weft=PATH or set WEFT_EXE)" if weft else
+                         "no weft command found (give weft=PATH, set WEFT_EXE or put weft on the PATH)")
+    return os.path.abspath(weft)
+
+
+def check_scenes(sw, weft):
+    """Every run's scene through the library's own checks (`weft sweep --check-scenes`):
+    raises SweepError naming the sweep's key and value behind the first refused one."""
+    items = [{"scene": r.scene, "name": sw.scene_file, "base_dir": sw.scene_dir} for r in sw.runs]
+    with tempfile.NamedTemporaryFile("w", suffix=".json", prefix="weft-sweep-check-") as f:
+        json.dump(items, f)
+        f.flush()
+        proc = subprocess.run([weft, "sweep", "--check-scenes", f.name], capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise SweepError(f"{sw.name}: checking the runs' scenes failed: {proc.stderr.strip()}")
+    refused = json.loads(proc.stdout)
+    if refused:
+        first = sw.runs[refused[0]["index"]]
+        more = f" ({len(refused)} of {len(sw.runs)} runs refused)" if len(refused) > 1 else ""
+        raise SweepError(f"{sw.name}: {sw.culprit(first)}: the scene is refused: {refused[0]['error']}{more}")
+
+
+def shipped_files(sw):
+    """The files the runs' scenes name (absolute paths of existing files) go to the workers
+    with the task: {path: name under the run's files/ folder}."""
+    names = {}
+
+    def walk(value):
+        if isinstance(value, dict):
+            for v in value.values():
+                walk(v)
+        elif isinstance(value, list):
+            for v in value:
+                walk(v)
+        elif isinstance(value, str) and os.path.isabs(value) and os.path.isfile(value) and value not in names:
+            names[value] = f"{len(names)}/{os.path.basename(value)}"
+
+    for r in sw.runs:
+        walk(r.scene)
+    return names
+
+
+def relocated(value, names):
+    if isinstance(value, dict):
+        return {k: relocated(v, names) for k, v in value.items()}
+    if isinstance(value, list):
+        return [relocated(v, names) for v in value]
+    if isinstance(value, str) and value in names:
+        return "files/" + names[value]
+    return value
+
+
+def run_arguments(keep):
+    """`weft run`'s options for what a sweep keeps: OBJ frames only when frames are kept."""
+    formats = [k for k in ("glb", "pc2", "usda") if k in keep]
+    frames = "frames" in keep or "last_frame" in keep
+    if frames:
+        formats.insert(0, "obj")
+    args = ["--format", ",".join(formats)] if formats else []
+    return args + ([] if frames else ["--no-frames"])
+
+
+def status_of(result, summary):
+    """(status, error) of a run from its task's result."""
+    stderr = result.get("stderr", "")
+    lines = [l for l in stderr.splitlines() if l.strip()]
+    said = next((l for l in reversed(lines) if l.startswith("weft: error:") or l.startswith("weft: simulation")),
+                lines[-1] if lines else "")
+    if result.get("error"):
+        return "error", result["error"]
+    if result.get("timed_out"):
+        return "timeout", f"stopped after the sweep's timeout of {result.get('timeout')} s"
+    code = result["exit_code"]
+    if summary is not None and code in (0, 3, 4, 130):
+        status = summary.get("status", "?")
+        return status, ("" if status in OK_STATUSES else said)
+    if code is not None and code < 0:
+        return "failed", f"killed by signal {-code}" + (f": {said}" if said else "")
+    return "failed", said or f"exit status {code}"
+
+
+def row_of(run, result, summary, status, error):
+    row = {"id": run.id, **{k: json.dumps(v) if isinstance(v, (list, dict)) else v for k, v in run.params.items()},
+           "status": status, "exit_code": result.get("exit_code"), "error": error}
+    s = summary or {}
+    inter = s.get("intersections")
+    row.update({
+        "steps": s.get("steps"), "wall_seconds": s.get("wall_seconds"), "run_seconds": round(result["seconds"], 3),
+        "cg_iterations": s.get("solver_iterations_total"),
+        "intersections": inter.get("total") if isinstance(inter, dict) else inter,
+        "vertices": s.get("vertices"),
+    })
+    energy = s.get("energy_final") or {}
+    for e in ENERGIES:
+        row[f"energy_{e}"] = energy.get(e)
+    row["host"] = result.get("host")
+    return row
+
+
+class RunFolders:
+    """OUT/runs/<id>/: written whole under a temporary name, then renamed into place."""
+
+    def __init__(self, out):
+        self.root = os.path.join(out, "runs")
+        try:
+            os.makedirs(self.root, exist_ok=True)
+        except OSError as e:
+            raise OutputError(f"cannot create {self.root}: {e.strerror}")
+        for name in os.listdir(self.root):  # leftovers of a driver stopped while writing
+            if name.startswith(".") and (name.endswith(".tmp") or name.endswith(".old")):
+                shutil.rmtree(os.path.join(self.root, name), ignore_errors=True)
+
+    def finished(self, run):
+        """run.json's row when runs/<id>/ holds this run (same scene hash), else None."""
+        try:
+            with open(os.path.join(self.root, run.id, "run.json")) as f:
+                record = json.load(f)
+        except (OSError, ValueError):
+            return None
+        return record["row"] if record.get("hash") == run.hash else None
+
+    def write(self, run, result, row):
+        final = os.path.join(self.root, run.id)
+        tmp = os.path.join(self.root, f".{run.id}.{os.getpid()}.tmp")
+        old = os.path.join(self.root, f".{run.id}.{os.getpid()}.old")
+        try:
+            shutil.rmtree(tmp, ignore_errors=True)
+            os.makedirs(tmp)
+            files = dict(result["outputs"])
+            files["scene.json"] = (json.dumps(run.scene, indent=1) + "\n").encode()
+            if result.get("stderr"):
+                files["stderr.txt"] = result["stderr"].encode()
+            for name, data in files.items():
+                path = os.path.join(tmp, name)
+                os.makedirs(os.path.dirname(path), exist_ok=True)
+                with open(path, "wb") as f:
+                    f.write(data)
+            record = {"id": run.id, "hash": run.hash, "params": run.params, "row": row, "finished": time.time()}
+            with open(os.path.join(tmp, "run.json"), "w") as f:
+                json.dump(record, f, indent=1)
+                f.write("\n")
+            if os.path.exists(final):
+                os.rename(final, old)
+            os.rename(tmp, final)
+            shutil.rmtree(old, ignore_errors=True)
+        except OSError as e:
+            raise OutputError(f"could not write {e.filename or tmp}: {e.strerror}; the runs finished before are kept "
+                              f"in {self.root}")
+
+
+def write_csv(path, rows, columns=None):
+    columns = columns or list(dict.fromkeys(k for r in rows for k in r))
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=columns, extrasaction="ignore", lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: "" if r.get(k) is None else r.get(k) for k in columns})
+    tmp = f"{path}.{os.getpid()}.tmp"
+    try:
+        with open(tmp, "w") as f:
+            f.write(buf.getvalue())
+        os.replace(tmp, path)
+    except OSError as e:
+        raise OutputError(f"could not write {path}: {e.strerror}")
+
+
+def write_tables(sw, out, rows):
+    rows = sorted(rows, key=lambda r: r["id"])
+    write_csv(os.path.join(out, "results.csv"), rows)
+    if sw.index:
+        columns = sw.index.get("columns") or {}
+        index_rows = [{name: r.get(what) for name, what in columns.items()} | {"id": r["id"]} for r in rows]
+        write_csv(os.path.join(out, sw.index["file"]), index_rows, ["id", *columns])
+    return rows
+
+
+class Progress:
+    """Runs done, running and failed, and the time left, on standard error: one line redrawn on a
+    terminal, a line every 10 s otherwise."""
+
+    def __init__(self, total, skipped, quiet, stream=None):
+        self.stream = stream or sys.stderr
+        self.total, self.skipped, self.quiet = total, skipped, quiet
+        self.done = skipped
+        self.failed = 0
+        self.running = 0
+        self.start = time.monotonic()
+        self.last = 0.0
+        self.tty = self.stream.isatty()
+
+    def line(self):
+        fresh = self.done - self.skipped
+        left = self.total - self.done
+        elapsed = time.monotonic() - self.start
+        eta = f", about {left * elapsed / fresh:.0f} s left" if fresh and left else ""
+        return f"weft sweep: {self.done}/{self.total} done, {self.running} running, {self.failed} failed{eta}"
+
+    def show(self, force=False):
+        if self.quiet:
+            return
+        now = time.monotonic()
+        if self.tty:
+            if force or now - self.last >= 0.2:
+                self.stream.write("\r\033[K" + self.line())
+                self.stream.flush()
+                self.last = now
+        elif force or now - self.last >= 10:
+            self.stream.write(self.line() + "\n")
+            self.stream.flush()
+            self.last = now
+
+    def say(self, text):
+        if self.tty and not self.quiet:
+            self.stream.write("\r\033[K")
+        self.stream.write(text + "\n")
+        self.stream.flush()
+        self.last = 0.0
+
+    def finish(self):
+        if self.tty and not self.quiet:
+            self.stream.write("\r\033[K")
+        self.stream.flush()
+
+
+def dashboard(client):
+    try:
+        if "dashboard" in client.scheduler_info().get("services", {}):
+            return client.dashboard_link
+    except Exception:  # noqa: BLE001 - the address is a courtesy
+        pass
+    return None
+
+
+def start_client(scheduler, workers):
+    """A client of the scheduler at `scheduler`, else of a new local cluster of `workers`
+    single-threaded worker processes; returns (client, cluster or None)."""
+    distributed = import_dask()
+    import logging
+    if scheduler:
+        return distributed.Client(scheduler, timeout="30s"), None
+    cluster = distributed.LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                                       processes=True, dashboard_address=":0", silence_logs=logging.ERROR)
+    return distributed.Client(cluster), cluster
+
+
+def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet=False, stream=None):
+    """Runs the sweep `sw` into `out`; returns (rows sorted by id, runs started)."""
+    weft = find_weft(weft)
+    check_scenes(sw, weft)
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as e:
+        raise OutputError(f"cannot create {out}: {e.strerror}")
+    folders = RunFolders(out)
+    done_rows, todo = [], []
+    for r in sw.runs:
+        row = folders.finished(r)
+        (done_rows.append(row) if row is not None else todo.append(r))
+    progress = Progress(len(sw.runs), len(done_rows), quiet, stream)
+    progress.failed = sum(1 for r in done_rows if r["status"] not in OK_STATUSES)
+    rows = list(done_rows)
+    if not todo:
+        progress.say(f"weft sweep: all {len(sw.runs)} runs are already in {out}")
+        return write_tables(sw, out, rows), 0
+    distributed = import_dask()
+    import cloudpickle
+    from . import worker
+    cloudpickle.register_pickle_by_value(worker)
+    own = client is None
+    cluster = None
+    if own:
+        client, cluster = start_client(scheduler, workers)
+    try:
+        n_workers = len(client.scheduler_info().get("workers", {}))
+        where = f"the scheduler at {scheduler}" if scheduler else (
+            "a local cluster" if own else f"the client's cluster ({client.scheduler.address})")
+        link = dashboard(client)
+        progress.say(f"weft sweep: {len(sw.runs)} runs, {len(todo)} to run ({len(done_rows)} already in {out}), "
+                     f"on {where} of {n_workers} workers; dashboard: "
+                     f"{link or 'not served (the scheduler has no bokeh)'}")
+        names = shipped_files(sw)
+        files = {}
+        for path, name in names.items():
+            with open(path, "rb") as f:
+                files[name] = f.read()
+        files_future = client.scatter(files, broadcast=False, hash=False) if files else {}
+        args = run_arguments(sw.keep)
+        futures = {}
+        for r in todo:
+            task = {"id": r.id, "hash": r.hash, "weft": weft, "threads": sw.threads, "timeout": sw.timeout,
+                    "keep": sw.keep, "args": args, "scene_text": json.dumps(relocated(r.scene, names))}
+            f = client.submit(worker.run_one, task, files_future, key=f"weft-run-{r.id}-{r.hash}", priority=-r.index,
+                              pure=False)
+            futures[f] = r
+        keys = {f.key for f in futures}
+        pending = set(futures)
+        try:
+            while pending:
+                try:
+                    done, pending = distributed.wait(pending, timeout=0.5, return_when="FIRST_COMPLETED")
+                except distributed.TimeoutError:
+                    done = set()
+                for f in done:
+                    rows.append(_finish(folders, futures[f], f, sw, progress))
+                try:
+                    progress.running = sum(1 for ks in client.processing().values() for k in ks if k in keys)
+                except Exception:  # noqa: BLE001 - progress only
+                    pass
+                progress.show(force=bool(done) and not progress.tty and progress.done == progress.total)
+        except KeyboardInterrupt:
+            for f in pending:
+                f.cancel()
+            progress.finish()
+            write_tables(sw, out, rows)
+            progress.say(f"weft sweep: interrupted: {len(rows)} of {len(sw.runs)} runs are in {out}; the same "
+                         "command runs the rest")
+            raise
+    finally:
+        if own:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    progress.finish()
+    failed = progress.failed
+    progress.say(f"weft sweep: {len(sw.runs)} runs in {out}/results.csv ({len(todo)} run now, "
+                 f"{failed} not ok)")
+    return write_tables(sw, out, rows), len(todo)
+
+
+def _finish(folders, run, future, sw, progress):
+    try:
+        result = future.result()
+    except Exception as e:  # noqa: BLE001 - the task itself failed (e.g. its workers kept dying)
+        result = {"exit_code": None, "error": f"the task failed on the cluster: {type(e).__name__}: {e}",
+                  "outputs": {}, "seconds": 0.0, "host": None}
+    result["timeout"] = sw.timeout
+    summary = None
+    if "summary.json" in result["outputs"]:
+        try:
+            summary = json.loads(result["outputs"]["summary.json"])
+        except ValueError:
+            summary = None
+    status, error = status_of(result, summary)
+    row = row_of(run, result, summary, status, error)
+    folders.write(run, result, row)
+    progress.done += 1
+    if status not in OK_STATUSES:
+        progress.failed += 1
+        progress.say(f"weft sweep: run {run.id} ({sw.culprit(run)}): {status}" + (f": {error}" if error else ""))
+    return row

@@ -1,0 +1,88 @@
+"""What a Dask worker does for one run: `weft run` in a fresh temporary folder, in its own
+process, and the run's outputs returned as bytes (no shared file system needed).
+
+This module is sent to the workers by value (cloudpickle), so a worker needs only Python with
+Dask and the `weft` command, not weft's Python files. It imports nothing from weft_sweep.
+"""
+import ctypes
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import tempfile
+import time
+
+STDERR_KEPT = 4000  # the last characters of a run's standard error kept in its task result
+
+
+def _die_with_parent():
+    # The run's process ends when the worker that started it does (a worker killed mid-run
+    # leaves no orphan simulating on), through prctl(PR_SET_PDEATHSIG, SIGKILL).
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
+
+
+def _outputs(folder, keep):
+    """The files of a finished run that go back to the driver: summary.json, energy.csv and
+    what `keep` asks for."""
+    names = ["summary.json", "energy.csv"]
+    for k, files in (("glb", ["animation.glb"]), ("pc2", ["animation.pc2", "animation_rest.obj"]),
+                     ("usda", ["animation.usda"])):
+        if k in keep:
+            names += files
+    frames_dir = os.path.join(folder, "frames")
+    frames = sorted(os.listdir(frames_dir)) if os.path.isdir(frames_dir) else []
+    if "frames" in keep:
+        names += [os.path.join("frames", f) for f in frames]
+    elif "last_frame" in keep:
+        cloth = [f for f in frames if f.startswith("frame_")]
+        if cloth:
+            number = cloth[-1][len("frame_"):]
+            names += [os.path.join("frames", f) for f in frames if f.endswith("_" + number)]
+    out = {}
+    for name in names:
+        path = os.path.join(folder, name)
+        if os.path.isfile(path):
+            with open(path, "rb") as f:
+                out[name] = f.read()
+    return out
+
+
+def run_one(task, files):
+    """Runs task["scene_text"] (with `files`, {name: bytes}, in its files/ folder) with `weft run`; returns a dict: id, hash, exit_code, stderr,
+    seconds, host, outputs {relative path: bytes}, error (when weft could not be started)."""
+    result = {"id": task["id"], "hash": task["hash"], "host": socket.gethostname(), "pid": os.getpid(),
+              "exit_code": None, "stderr": "", "error": "", "outputs": {}, "timed_out": False}
+    weft = os.environ.get("WEFT_EXE") or task["weft"]
+    start = time.monotonic()
+    folder = tempfile.mkdtemp(prefix=f"weft-sweep-{task['id']}-")
+    try:
+        for name, data in files.items():
+            path = os.path.join(folder, "files", name)
+            os.makedirs(os.path.dirname(path), exist_ok=True)
+            with open(path, "wb") as f:
+                f.write(data)
+        scene = os.path.join(folder, "scene.json")
+        with open(scene, "w") as f:
+            f.write(task["scene_text"])
+        out = os.path.join(folder, "run")
+        command = [weft, "--threads", str(task["threads"]), "run", "-q", scene, "--out", out] + task["args"]
+        try:
+            proc = subprocess.run(command, cwd=folder, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                  timeout=task["timeout"], preexec_fn=_die_with_parent)
+            result["exit_code"] = proc.returncode
+            result["stderr"] = proc.stderr.decode(errors="replace")[-STDERR_KEPT:]
+        except subprocess.TimeoutExpired as e:
+            result["timed_out"] = True
+            result["stderr"] = (e.stderr or b"").decode(errors="replace")[-STDERR_KEPT:]
+        except OSError as e:
+            result["error"] = f"could not start {weft} on {result['host']}: {e.strerror}"
+        if os.path.isdir(out):
+            result["outputs"] = _outputs(out, task["keep"])
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    result["seconds"] = time.monotonic() - start
+    return result
