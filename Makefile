@@ -4,7 +4,8 @@ JOBS ?= $(shell nproc)
 PACKAGES := cmake ninja-build g++ libeigen3-dev nlohmann-json3-dev libcli11-dev \
             libgtest-dev libbenchmark-dev libpng-dev libtbb-dev gnuplot-nox ffmpeg \
             clang libclang-rt-14-dev libcpp-httplib-dev pkg-config chromium \
-            python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest
+            python3-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest \
+            python3-distributed python3-pandas
 
 .PHONY: all deps build demo test sanitize fuzz bench results clean
 

@@ -183,7 +183,8 @@ class RunFolders:
                 os.makedirs(os.path.dirname(path), exist_ok=True)
                 with open(path, "wb") as f:
                     f.write(data)
-            record = {"id": run.id, "hash": run.hash, "params": run.params, "row": row, "finished": time.time()}
+            record = {"id": run.id, "hash": run.hash, "params": run.params, "row": row, "finished": time.time(),
+                      "worker_pid": result.get("pid")}
             with open(os.path.join(tmp, "run.json"), "w") as f:
                 json.dump(record, f, indent=1)
                 f.write("\n")

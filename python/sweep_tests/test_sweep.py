@@ -1,0 +1,306 @@
+# `weft sweep` and weft.sweep() (docs/sweeps.md) on small runs of scenes/swing.json: sweep files
+# refused before anything runs, product and zip sweeps whose runs are `weft run`'s to the byte, a
+# failed run as a row, an interrupted sweep resumed, and a worker killed by SIGKILL mid-run on a
+# scheduler and workers started as separate processes (as on a cluster).
+import csv
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+
+WEFT_EXE = os.environ.get("WEFT_EXE", "")
+SOURCE = os.environ.get("WEFT_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
+SWING = os.path.join(SOURCE, "scenes", "swing.json")
+
+if not WEFT_EXE:
+    pytest.skip("WEFT_EXE is not set (ctest sets it)", allow_module_level=True)
+distributed = pytest.importorskip("distributed")
+pd = pytest.importorskip("pandas")
+
+
+def weft_sweep(tmp_path, spec, out, *args, timeout=120):
+    """Writes `spec` as SWEEP.json and runs `weft sweep` on it; returns (exit status, stderr)."""
+    path = tmp_path / "sweep.json"
+    path.write_text(json.dumps(spec))
+    r = subprocess.run([WEFT_EXE, "sweep", path, "--out", out, *map(str, args)], capture_output=True, text=True,
+                       timeout=timeout)
+    return r.returncode, r.stderr
+
+
+def results(out):
+    with open(os.path.join(out, "results.csv")) as f:
+        return list(csv.DictReader(f))
+
+
+def frames(spec):
+    """Rows of a run's energy.csv: one per output frame, the first at time 0."""
+    return round(spec["set"]["duration"] / 0.02) + 1
+
+
+def swing_sweep(**vary):
+    return {"weft_sweep": 1, "scene": SWING, "set": {"duration": 0.1}, "vary": vary}
+
+
+def big_swing(duration):
+    """The swing at 41 x 41 vertices: a run of about a second per simulated second on one core."""
+    return {"weft_sweep": 1, "scene": SWING,
+            "set": {"duration": duration, "cloth.mesh.grid.vertices": [41, 41]}}
+
+
+# --- sweep files refused before anything runs ---------------------------------------------
+
+BAD = [
+    ({"vary": {"integrator.dtt": [0.01]}},
+     "vary.integrator.dtt = 0.01: the scene is refused: {scene}: key integrator.dtt: unknown key"),
+    ({"vary": {"integrator.dt": []}}, "vary.integrator.dt: an empty list: an axis needs one value at least"),
+    ({"vary": {"integrator.dt": [0.01, -1]}},
+     "vary.integrator.dt = -1: the scene is refused: {scene}: key integrator.dt: value -1.0 is out of range"),
+    ({"vary": {"integrator.method": ["rk4", "nope"]}},
+     "vary.integrator.method = \"nope\": the scene is refused: {scene}: key integrator.method: unknown method 'nope'"),
+    ({"vary": {"integrator.dt": [0.01, 0.02], "duration": [0.1]}, "combine": "zip"},
+     "vary: zipped axes must have as many values each, got integrator.dt: 2, duration: 1"),
+    ({"combine": "mixed"}, "combine: must be \"product\" or \"zip\", got \"mixed\""),
+    ({"vary": {"colliders[2].friction": [0.1]}}, "vary.colliders[2].friction: value 0.1: the scene has no list there"),
+    ({"vary": {"cloth..material": ["cotton"]}}, "vary.cloth..material: not a key path"),
+    ({"sets": {}}, "sets: unknown key"),
+    ({"keep": ["movie"]}, "keep: must be a list of last_frame, frames, glb, pc2, usda, got [\"movie\"]"),
+]
+
+
+@pytest.mark.parametrize("change,message", BAD, ids=[m.split(":")[0] for _, m in BAD])
+def test_a_bad_sweep_file_exits_2_naming_the_key_and_value_before_anything_runs(tmp_path, change, message):
+    spec = {"weft_sweep": 1, "scene": SWING, "set": {"duration": 0.1}} | change
+    if "colliders" in json.dumps(change):
+        spec["set"]["colliders"] = {}  # not a list
+    status, err = weft_sweep(tmp_path, spec, tmp_path / "out")
+    assert status == 2, err
+    assert err.startswith(f"weft: error: {tmp_path / 'sweep.json'}: " + message.format(scene=SWING)), err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_missing_scene_and_a_wrong_version_are_refused(tmp_path):
+    status, err = weft_sweep(tmp_path, {"weft_sweep": 1, "scene": "missing.json"}, tmp_path / "out")
+    assert status == 2 and f"scene: cannot read \"missing.json\" ({tmp_path / 'missing.json'})" in err, err
+    status, err = weft_sweep(tmp_path, {"weft_sweep": 2, "scene": SWING}, tmp_path / "out")
+    assert status == 2 and "weft_sweep: must be 1 (the sweep format's version), got 2" in err, err
+
+
+# --- runs -----------------------------------------------------------------------------------
+
+def test_a_product_sweep_gives_one_row_per_combination_each_the_bytes_of_weft_run(tmp_path):
+    methods, steps = ["implicit-midpoint", "backward-euler"], [0.01, 0.02]
+    spec = swing_sweep(**{"integrator.method": methods, "integrator.dt": steps})
+    out = tmp_path / "out"
+    status, err = weft_sweep(tmp_path, spec, out, "--workers", 2)
+    assert status == 0, err
+    assert "dashboard: " in err and "4 runs, 4 to run (0 already in" in err
+    rows = results(out)
+    assert [r["id"] for r in rows] == ["0000", "0001", "0002", "0003"]
+    assert [(r["integrator.method"], float(r["integrator.dt"])) for r in rows] == \
+        [(m, dt) for m in methods for dt in steps]
+    for r in rows:
+        dt = float(r["integrator.dt"])
+        assert r["status"] == "ok" and r["exit_code"] == "0" and r["error"] == ""
+        assert int(r["steps"]) == round(0.1 / dt)
+        run = out / "runs" / r["id"]
+        summary = json.loads((run / "summary.json").read_text())
+        assert summary["method"] == r["integrator.method"] and summary["dt"] == dt
+        # The same run by `weft run` alone: the same energies to the byte, the same figures.
+        alone = tmp_path / f"alone-{r['id']}"
+        subprocess.run([WEFT_EXE, "--threads", "1", "run", SWING, "--out", alone, "--duration", "0.1", "--method",
+                        r["integrator.method"], "--dt", str(dt), "-q", "--no-frames"], check=True)
+        assert (run / "energy.csv").read_bytes() == (alone / "energy.csv").read_bytes()
+        expected = json.loads((alone / "summary.json").read_text())
+        for key in ["steps", "solver_iterations_total", "energy_final", "status", "vertices"]:
+            assert summary[key] == expected[key], key
+        assert int(r["cg_iterations"]) == expected["solver_iterations_total"]
+        assert len((run / "energy.csv").read_text().splitlines()) == frames(spec) + 1
+        assert not (run / "frames").exists()  # nothing kept but summary.json and energy.csv
+        record = json.loads((run / "run.json").read_text())
+        assert record["params"] == {"integrator.method": r["integrator.method"], "integrator.dt": dt}
+    assert not [n for n in os.listdir(out / "runs") if n.startswith(".")]  # no temporaries left
+
+
+@pytest.fixture(scope="module")
+def client():
+    from distributed import Client, LocalCluster
+    import logging
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
+                           silence_logs=logging.ERROR)
+    c = Client(cluster)
+    yield c
+    c.close()
+    cluster.close()
+
+
+def test_weft_sweep_from_python_zips_axes_into_a_dataframe_with_a_failed_run_as_a_row(tmp_path, client):
+    import weft
+    # forward Euler at 20 ms blows up on the swing (weft run: exit status 3, unstable).
+    spec = swing_sweep(**{"integrator.method": ["implicit-midpoint", "forward-euler", "backward-euler"],
+                          "integrator.dt": [0.01, 0.02, 0.02]})
+    spec["combine"] = "zip"
+    spec["keep"] = ["last_frame"]
+    df = weft.sweep(spec, out=tmp_path / "out", client=client)
+    assert isinstance(df, pd.DataFrame)
+    assert list(df["id"]) == ["0000", "0001", "0002"]
+    assert list(zip(df["integrator.method"], df["integrator.dt"])) == \
+        list(zip(spec["vary"]["integrator.method"], spec["vary"]["integrator.dt"]))
+    assert df.attrs["runs_started"] == 3
+    failed = df[df["integrator.method"] == "forward-euler"].iloc[0]
+    assert failed["status"] == "unstable" and failed["exit_code"] == 3
+    assert "became unstable" in failed["error"]
+    for _, r in df[df["integrator.method"] != "forward-euler"].iterrows():
+        assert r["status"] == "ok" and r["exit_code"] == 0 and r["error"] == ""
+        kept = sorted(os.listdir(tmp_path / "out" / "runs" / r["id"] / "frames"))
+        assert kept == [f"frame_{frames(spec) - 1:05d}.obj"]  # the last frame only
+    assert (tmp_path / "out" / "runs" / "0001" / "stderr.txt").read_text().count("unstable") >= 1
+    # The client is the caller's: still usable; the same sweep again starts nothing.
+    again = weft.sweep(spec, out=tmp_path / "out", client=client)
+    assert again.attrs["runs_started"] == 0
+    assert again.drop(columns=["run_seconds"]).equals(df.drop(columns=["run_seconds"]))
+    assert client.status == "running"
+
+
+def test_a_failed_run_makes_the_exit_status_7_with_every_row_written(tmp_path):
+    spec = swing_sweep(**{"integrator.method": ["forward-euler", "implicit-midpoint"]})
+    status, err = weft_sweep(tmp_path, spec, tmp_path / "out", "--workers", 2)
+    assert status == 7, err
+    assert "run 0000 (vary.integrator.method = \"forward-euler\"): unstable: weft: simulation became unstable" in err
+    assert [r["status"] for r in results(tmp_path / "out")] == ["unstable", "ok"]
+
+
+def finished_runs(out):
+    runs = out / "runs"
+    return {n: (runs / n / "run.json").stat().st_mtime_ns for n in os.listdir(runs) if (runs / n / "run.json").exists()}
+
+
+def test_an_interrupted_sweep_resumed_runs_only_the_missing_runs(tmp_path):
+    spec = big_swing(0.6) | {"vary": {"cloth.material.viscosity": [0.0, 1e-4, 2e-4, 3e-4, 4e-4, 5e-4, 6e-4, 7e-4]}}
+    path = tmp_path / "sweep.json"
+    path.write_text(json.dumps(spec))
+    out = tmp_path / "out"
+    command = [WEFT_EXE, "sweep", str(path), "--out", str(out), "--workers", "2"]
+    driver = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and len(finished_runs(out) if (out / "runs").exists() else {}) < 2:
+        time.sleep(0.05)
+    driver.send_signal(signal.SIGINT)  # Ctrl-C
+    err = driver.communicate(timeout=60)[1]
+    assert driver.returncode == 130, err
+    assert "interrupted" in err
+    before = finished_runs(out)
+    assert 2 <= len(before) < 8, err
+    assert len(results(out)) == len(before)
+    r = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert f"8 runs, {8 - len(before)} to run ({len(before)} already in" in r.stderr
+    after = finished_runs(out)
+    assert len(after) == 8
+    assert {n: after[n] for n in before} == before  # the finished runs were not run again
+    rows = results(out)
+    assert [r["id"] for r in rows] == [f"{k:04d}" for k in range(8)] and {r["status"] for r in rows} == {"ok"}
+    # Changing one axis value runs that run alone again.
+    spec["vary"]["cloth.material.viscosity"][3] = 3.5e-4
+    path.write_text(json.dumps(spec))
+    r = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "8 runs, 1 to run (7 already in" in r.stderr, r.stderr
+    assert float(results(out)[3]["cloth.material.viscosity"]) == 3.5e-4
+
+
+# --- a worker killed mid-run, on a scheduler and workers started apart -------------------------
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def weft_runs():
+    """{pid: (parent pid, run id)} of the `weft run` processes of sweeps on this machine."""
+    found = {}
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                args = f.read().split(b"\0")
+            with open(f"/proc/{pid}/stat") as f:
+                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+        except OSError:
+            continue
+        folder = next((a.decode() for a in args if b"weft-sweep-" in a), None)
+        if b"run" in args and folder:
+            found[int(pid)] = (ppid, folder.split("weft-sweep-")[1].split("-")[0])
+    return found
+
+
+def alive(pid):
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.fixture
+def cluster(tmp_path):
+    """A scheduler and two single-threaded workers (each under its nanny) on the loopback
+    address, as separate processes."""
+    address = f"tcp://127.0.0.1:{free_port()}"
+    python = sys.executable
+    procs = [subprocess.Popen([python, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port",
+                               address.rsplit(":", 1)[1], "--no-dashboard"], stderr=subprocess.DEVNULL)]
+    for _ in range(2):
+        procs.append(subprocess.Popen([python, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
+                                       "--host", "127.0.0.1", "--no-dashboard"], stderr=subprocess.DEVNULL))
+    with distributed.Client(address, timeout="30s") as c:
+        c.wait_for_workers(2, timeout=60)
+    yield address
+    for p in reversed(procs):
+        p.terminate()
+    for p in procs:
+        try:
+            p.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            p.kill()
+
+
+def test_a_worker_killed_mid_run_has_its_run_retried_and_every_row_present(tmp_path, cluster):
+    spec = big_swing(1.0) | {"vary": {"integrator.method": ["implicit-midpoint", "backward-euler", "bdf2"],
+                                      "integrator.dt": [0.01, 0.02]}}
+    path = tmp_path / "sweep.json"
+    path.write_text(json.dumps(spec))
+    out = tmp_path / "out"
+    driver = subprocess.Popen([WEFT_EXE, "sweep", str(path), "--out", str(out), "--scheduler", cluster],
+                              stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    victim = None
+    while victim is None and time.monotonic() < deadline and driver.poll() is None:
+        runs = weft_runs()
+        victim = next(((pid, ppid, run_id) for pid, (ppid, run_id) in runs.items()), None)
+        time.sleep(0.02)
+    assert victim is not None, "no run was seen running"
+    run_pid, worker_pid, run_id = victim
+    os.kill(worker_pid, signal.SIGKILL)
+    err = driver.communicate(timeout=120)[1]
+    assert driver.returncode == 0, err
+    rows = results(out)
+    assert sorted(r["id"] for r in rows) == [f"{k:04d}" for k in range(6)]  # every row, none twice
+    assert {r["status"] for r in rows} == {"ok"}
+    # The killed run's process did not outlive its worker, and the run was done again elsewhere,
+    # in full: its energies are those of `weft run` of its scene.
+    deadline = time.monotonic() + 10
+    while alive(run_pid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not alive(run_pid)
+    run = out / "runs" / run_id
+    record = json.loads((run / "run.json").read_text())
+    assert record["worker_pid"] != worker_pid
+    alone = tmp_path / "alone"
+    subprocess.run([WEFT_EXE, "--threads", "1", "run", run / "scene.json", "--out", alone, "-q", "--no-frames"],
+                   check=True)
+    assert (run / "energy.csv").read_bytes() == (alone / "energy.csv").read_bytes()
+    assert len((run / "energy.csv").read_text().splitlines()) == frames(spec) + 1
