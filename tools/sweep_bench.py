@@ -1,0 +1,85 @@
+#!/usr/bin/python3
+"""Measures `weft sweep` (docs/sweeps.md, "Throughput"): the perturbation sweep
+(examples/perturb.json, shortened to --duration simulated seconds) on local clusters of one and
+two workers, and the driver's cost per run from sweeps of 1 and --tiny runs of 0.02 s of the
+swing, less the time those runs take on their workers. Prints a Markdown table.
+
+    tools/sweep_bench.py --weft build/weft --out out/sweep-bench
+"""
+import argparse
+import csv
+import json
+import os
+import shutil
+import subprocess
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+
+def sweep(weft, spec, out, workers):
+    """Runs a fresh sweep; returns (wall seconds, rows)."""
+    shutil.rmtree(out, ignore_errors=True)
+    os.makedirs(out)
+    path = os.path.join(out + ".json")
+    with open(path, "w") as f:
+        json.dump(spec, f)
+    start = time.monotonic()
+    subprocess.run([weft, "sweep", path, "--out", out, "--workers", str(workers), "--quiet"], check=True,
+                   stderr=subprocess.DEVNULL)
+    wall = time.monotonic() - start
+    with open(os.path.join(out, "results.csv")) as f:
+        return wall, list(csv.DictReader(f))
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--weft", default=os.path.join(ROOT, "build", "weft"))
+    p.add_argument("--out", default=os.path.join(ROOT, "out", "sweep-bench"))
+    p.add_argument("--duration", type=float, default=0.4, help="simulated seconds of each perturbation run")
+    p.add_argument("--tiny", type=int, default=100, help="runs of the overhead sweep")
+    a = p.parse_args()
+    weft = os.path.abspath(a.weft)
+    os.makedirs(a.out, exist_ok=True)
+    with open(os.path.join(ROOT, "examples", "perturb.json")) as f:
+        perturb = json.load(f)
+    perturb["scene"] = os.path.join(ROOT, "scenes", "body-drape.json")
+    perturb["set"] = {"duration": a.duration}
+    lines = ["| measure | value |", "|---|---|"]
+    walls = {}
+    for workers in (1, 2):
+        wall, rows = sweep(weft, perturb, os.path.join(a.out, f"perturb-{workers}"), workers)
+        assert all(r["status"] == "ok" for r in rows), rows
+        walls[workers] = wall
+        runs = sum(float(r["run_seconds"]) for r in rows)
+        lines.append(f"| perturbation sweep ({len(rows)} runs of {a.duration:g} s), {workers} worker(s) | {wall:.1f} s "
+                     f"wall, {len(rows) / wall * 3600:.0f} runs/hour; runs on the workers {runs:.1f} s in all |")
+    lines.append(f"| speed-up, 2 workers over 1 | {walls[1] / walls[2]:.2f} |")
+    # The same runs one after another without Dask, as `weft --threads 1 run` of each run's scene.
+    runs_dir = os.path.join(a.out, "perturb-1", "runs")
+    start = time.monotonic()
+    for run_id in sorted(os.listdir(runs_dir)):
+        subprocess.run([weft, "--threads", "1", "run", "-q", "--no-frames", os.path.join(runs_dir, run_id, "scene.json"),
+                        "--out", os.path.join(a.out, "sequential", run_id)], check=True)
+    sequential = time.monotonic() - start
+    lines.append(f"| the same runs one after another, no Dask | {sequential:.1f} s; 2 workers "
+                 f"{sequential / walls[2]:.2f} times as fast |")
+    swing = os.path.join(ROOT, "scenes", "swing.json")
+    timing = {}
+    for n in (1, a.tiny):
+        spec = {"weft_sweep": 1, "scene": swing, "set": {"duration": 0.02},
+                "vary": {"cloth.material.viscosity": [k * 1e-6 for k in range(n)]}}
+        wall, rows = sweep(weft, spec, os.path.join(a.out, f"tiny-{n}"), 1)
+        timing[n] = (wall, sum(float(r["run_seconds"]) for r in rows))
+    (w1, r1), (wn, rn) = timing[1], timing[a.tiny]
+    per_run = ((wn - w1) - (rn - r1)) / (a.tiny - 1)
+    lines.append(f"| sweep of 1 tiny run (cluster start and stop included) | {w1:.2f} s |")
+    lines.append(f"| sweep of {a.tiny} tiny runs, 1 worker | {wn:.2f} s; on the worker {rn / a.tiny * 1e3:.1f} ms a run "
+                 f"(weft run's process, its folder, its outputs read) |")
+    lines.append(f"| the driver's and Dask's cost per run beyond the worker's | {per_run * 1e3:.1f} ms |")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
