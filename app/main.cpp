@@ -23,8 +23,9 @@ int main(int argc, char** argv) {
       "Exit status: 0 success, 1 internal error, 2 bad input (nothing written), 3 simulation became\n"
       "unstable, 4 an output could not be written (the message says what was kept), 5 `weft check`\n"
       "found intersections, 6 a garment did not sew (a stitch left open or an intersection left; `weft garment`\n"
-      "keeps it as garment_unsewn.obj, `weft run` refuses the scene), 130 interrupted (Ctrl-C; `weft run` keeps a\n"
-      "checkpoint to resume from)."};
+      "keeps it as garment_unsewn.obj, `weft run` refuses the scene), 7 `weft sweep`: some runs did not end ok\n"
+      "(each has its row), 130 interrupted (Ctrl-C; `weft run` keeps a checkpoint to resume from, `weft sweep` its\n"
+      "finished runs)."};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("weft ") + WEFT_VERSION);
   int threads = 0;

@@ -4,10 +4,8 @@ process, and the run's outputs returned as bytes (no shared file system needed).
 This module is sent to the workers by value (cloudpickle), so a worker needs only Python with
 Dask and the `weft` command, not weft's Python files. It imports nothing from weft_sweep.
 """
-import ctypes
 import os
 import shutil
-import signal
 import socket
 import subprocess
 import tempfile
@@ -17,12 +15,12 @@ STDERR_KEPT = 4000  # the last characters of a run's standard error kept in its 
 
 
 def _die_with_parent():
-    # The run's process ends when the worker that started it does (a worker killed mid-run
-    # leaves no orphan simulating on), through prctl(PR_SET_PDEATHSIG, SIGKILL).
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL, 0, 0, 0)
-    except (OSError, AttributeError):
-        pass
+    """The command's prefix that makes the run's process end when the worker that started it
+    does (a worker killed mid-run leaves no orphan simulating on): util-linux's setpriv, which
+    sets prctl(PR_SET_PDEATHSIG, SIGKILL) and execs the run. (Not a preexec_fn, which is unsafe
+    in a worker's threads and makes every start a full fork.)"""
+    setpriv = shutil.which("setpriv")
+    return [setpriv, "--pdeathsig", "KILL"] if setpriv else []
 
 
 def _outputs(folder, keep):
@@ -69,10 +67,10 @@ def run_one(task, files):
         with open(scene, "w") as f:
             f.write(task["scene_text"])
         out = os.path.join(folder, "run")
-        command = [weft, "--threads", str(task["threads"]), "run", "-q", scene, "--out", out] + task["args"]
+        command = _die_with_parent() + [weft, "--threads", str(task["threads"]), "run", "-q", scene, "--out", out] + task["args"]
         try:
             proc = subprocess.run(command, cwd=folder, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                  timeout=task["timeout"], preexec_fn=_die_with_parent)
+                                  timeout=task["timeout"])
             result["exit_code"] = proc.returncode
             result["stderr"] = proc.stderr.decode(errors="replace")[-STDERR_KEPT:]
         except subprocess.TimeoutExpired as e:
