@@ -286,7 +286,10 @@ def start_client(scheduler, workers):
     distributed = import_dask()
     import logging
     if scheduler:
-        return distributed.Client(scheduler, timeout="30s"), None
+        try:
+            return distributed.Client(scheduler, timeout="30s"), None
+        except (OSError, ValueError) as e:
+            raise SweepError(f"command line: --scheduler {scheduler}: no scheduler answered there ({e})")
     cluster = distributed.LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
                                        processes=True, dashboard_address=":0", silence_logs=logging.ERROR)
     return distributed.Client(cluster), cluster
@@ -332,7 +335,9 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
         for path, name in names.items():
             with open(path, "rb") as f:
                 files[name] = f.read()
-        files_future = client.scatter(files, broadcast=False, hash=False) if files else {}
+        # One object for the cluster, its key the hash of its contents (a dict given to scatter
+        # would make its names the keys, shared with other sweeps on the same scheduler).
+        files_future = client.scatter([files], hash=True)[0] if files else {}
         args = run_arguments(sw.keep)
         futures = {}
         for r in todo:
