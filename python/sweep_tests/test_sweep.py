@@ -144,7 +144,8 @@ def test_weft_sweep_from_python_zips_axes_into_a_dataframe_with_a_failed_run_as_
     spec = swing_sweep(**{"integrator.method": ["implicit-midpoint", "forward-euler", "backward-euler"],
                           "integrator.dt": [0.01, 0.02, 0.02]})
     spec["combine"] = "zip"
-    spec["keep"] = ["last_frame"]
+    spec["keep"] = ["last_frame", "glb"]
+    spec["index"] = {"file": "index.csv", "columns": {"method": "integrator.method", "status": "status"}}
     df = weft.sweep(spec, out=tmp_path / "out", client=client)
     assert isinstance(df, pd.DataFrame)
     assert list(df["id"]) == ["0000", "0001", "0002"]
@@ -158,6 +159,10 @@ def test_weft_sweep_from_python_zips_axes_into_a_dataframe_with_a_failed_run_as_
         assert r["status"] == "ok" and r["exit_code"] == 0 and r["error"] == ""
         kept = sorted(os.listdir(tmp_path / "out" / "runs" / r["id"] / "frames"))
         assert kept == [f"frame_{frames(spec) - 1:05d}.obj"]  # the last frame only
+        assert (tmp_path / "out" / "runs" / r["id"] / "animation.glb").read_bytes()[:4] == b"glTF"
+    with open(tmp_path / "out" / "index.csv") as f:
+        assert list(csv.reader(f)) == [["id", "method", "status"]] + [[i, m, s] for i, m, s in
+                                                                    zip(df["id"], df["integrator.method"], df["status"])]
     assert (tmp_path / "out" / "runs" / "0001" / "stderr.txt").read_text().count("unstable") >= 1
     # The client is the caller's: still usable; the same sweep again starts nothing.
     again = weft.sweep(spec, out=tmp_path / "out", client=client)
