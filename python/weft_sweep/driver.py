@@ -272,12 +272,14 @@ class Progress:
 
 
 def dashboard(client):
+    """The dashboard's address, and whether the scheduler serves its pages (they need bokeh,
+    which Debian 12 does not package; the address then answers only /health and /metrics)."""
     try:
-        if "dashboard" in client.scheduler_info().get("services", {}):
-            return client.dashboard_link
+        link = client.dashboard_link
+        has_bokeh = client.run_on_scheduler(lambda: __import__("importlib.util").util.find_spec("bokeh") is not None)
     except Exception:  # noqa: BLE001 - the address is a courtesy
-        pass
-    return None
+        return "unknown"
+    return link if has_bokeh else f"{link} (its pages need bokeh on the scheduler, which it lacks)"
 
 
 def start_client(scheduler, workers):
@@ -299,6 +301,7 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
     """Runs the sweep `sw` into `out`; returns (rows sorted by id, runs started)."""
     weft = find_weft(weft)
     check_scenes(sw, weft)
+    distributed = import_dask()  # before DIR is made
     try:
         os.makedirs(out, exist_ok=True)
     except OSError as e:
@@ -314,7 +317,6 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
     if not todo:
         progress.say(f"weft sweep: all {len(sw.runs)} runs are already in {out}")
         return write_tables(sw, out, rows), 0
-    distributed = import_dask()
     import cloudpickle
     from . import worker
     cloudpickle.register_pickle_by_value(worker)
@@ -328,8 +330,7 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
             "a local cluster" if own else f"the client's cluster ({client.scheduler.address})")
         link = dashboard(client)
         progress.say(f"weft sweep: {len(sw.runs)} runs, {len(todo)} to run ({len(done_rows)} already in {out}), "
-                     f"on {where} of {n_workers} workers; dashboard: "
-                     f"{link or 'not served (the scheduler has no bokeh)'}")
+                     f"on {where} of {n_workers} workers; dashboard: {link}")
         names = shipped_files(sw)
         files = {}
         for path, name in names.items():
