@@ -355,8 +355,9 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
                     done, pending = distributed.wait(pending, timeout=0.5, return_when="FIRST_COMPLETED")
                 except distributed.TimeoutError:
                     done = set()
-                for f in done:
-                    rows.append(_finish(folders, futures[f], f, sw, progress))
+                for f in done:  # written, then let go: the cluster holds no run's outputs longer
+                    rows.append(_finish(folders, futures.pop(f), f, sw, progress))
+                    f.release()
                 try:
                     progress.running = sum(1 for ks in client.processing().values() for k in ks if k in keys)
                 except Exception:  # noqa: BLE001 - progress only
