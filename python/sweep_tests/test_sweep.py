@@ -309,3 +309,21 @@ def test_a_worker_killed_mid_run_has_its_run_retried_and_every_row_present(tmp_p
                    check=True)
     assert (run / "energy.csv").read_bytes() == (alone / "energy.csv").read_bytes()
     assert len((run / "energy.csv").read_text().splitlines()) == frames(spec) + 1
+
+
+def test_a_random_axis_moves_by_at_most_its_size_the_same_for_a_seed_every_time():
+    sys.path.insert(0, os.path.join(SOURCE, "python"))
+    from weft_sweep import load
+    spec = swing_sweep(**{"cloth.placement.translation": {"random": {"seeds": 3, "size": 0.001}},
+                          "integrator.dt": [0.01, 0.02]})
+    runs = load(spec).runs
+    base = json.load(open(SWING))["cloth"]["placement"]["translation"]
+    moved = {}
+    for r in runs:
+        seed = r.params["cloth.placement.translation"]
+        t = r.scene["cloth"]["placement"]["translation"]
+        assert all(abs(a - b) <= 0.001 for a, b in zip(t, base)) and t != base
+        assert moved.setdefault(seed, t) == t  # one seed, one placement, whatever the other axes
+    assert sorted(moved) == [0, 1, 2] and len({json.dumps(t) for t in moved.values()}) == 3
+    assert [r.scene["cloth"]["placement"]["translation"] for r in load(spec).runs] == \
+        [r.scene["cloth"]["placement"]["translation"] for r in runs]

@@ -9,6 +9,7 @@ import itertools
 import json
 import math
 import os
+import random
 import re
 
 TOP_KEYS = {"weft_sweep", "description", "scene", "set", "vary", "combine", "keep", "threads", "timeout",
@@ -96,6 +97,16 @@ def added(base, delta, where):
                      "(numbers, or lists of numbers of the same length)")
 
 
+def random_offset(base, seed, size):
+    """Offsets uniform in [-size, size], one per number of `base` (a number or nested lists of
+    numbers), drawn from Python's Mersenne Twister seeded with `seed`: the same on every machine."""
+    rng = random.Random(seed)
+
+    def draw(b):
+        return [draw(x) for x in b] if isinstance(b, list) else rng.uniform(-size, size)
+    return draw(base)
+
+
 class Run:
     """One run of a sweep: its id, the values of the axes and its scene (file paths absolute)."""
 
@@ -146,9 +157,13 @@ class Sweep:
         self.set = self._object(spec, "set")
         self.vary = self._object(spec, "vary")
         for key, value in self.vary.items():
+            if isinstance(value, dict) and set(value) == {"random"}:
+                self._check_random(f"vary.{key}.random", value["random"])
+                continue
             values = value.get("add") if isinstance(value, dict) and set(value) == {"add"} else value
             if not isinstance(values, list):
-                raise self.err(f"vary.{key}", f"must be a list of values (or {{\"add\": [...]}}), got {show(value)[:80]}")
+                raise self.err(f"vary.{key}", "must be a list of values (or {\"add\": [...]} or {\"random\": {...}}), "
+                                              f"got {show(value)[:80]}")
             if not values:
                 raise self.err(f"vary.{key}", "an empty list: an axis needs one value at least")
         self.combine = spec.get("combine", "product")
@@ -187,6 +202,17 @@ class Sweep:
                 raise self.err(f"index.columns.{name}", f"must name an axis of \"vary\" or one of {', '.join(INDEX_COLUMNS)}"
                                f", got {show(what)}")
 
+    def _check_random(self, key, r):
+        if not isinstance(r, dict) or set(r) != {"seeds", "size"}:
+            raise self.err(key, f"must be {{\"seeds\": N or [seed, ...], \"size\": S}}, got {show(r)[:80]}")
+        seeds, size = r["seeds"], r["size"]
+        count = isinstance(seeds, int) and not isinstance(seeds, bool) and seeds >= 1
+        listed = isinstance(seeds, list) and seeds and all(isinstance(x, int) and not isinstance(x, bool) for x in seeds)
+        if not (count or listed):
+            raise self.err(f"{key}.seeds", f"must be a count >= 1 or a non-empty list of integers, got {show(seeds)[:80]}")
+        if not isinstance(size, (int, float)) or isinstance(size, bool) or not 0 < size < math.inf:
+            raise self.err(f"{key}.size", f"must be a number > 0, got {show(size)}")
+
     def _object(self, spec, key):
         value = spec.get(key, {})
         if not isinstance(value, dict):
@@ -199,6 +225,10 @@ class Sweep:
 
     @staticmethod
     def _values(axis):
+        """An axis's values: its list, its offsets ("add") or its seeds ("random")."""
+        if isinstance(axis, dict) and "random" in axis:
+            seeds = axis["random"]["seeds"]
+            return list(range(seeds)) if isinstance(seeds, int) else seeds
         return axis["add"] if isinstance(axis, dict) else axis
 
     def _expand(self):
@@ -218,13 +248,16 @@ class Sweep:
             for key, value in zip(keys, combo):
                 parts = parse_key_path(key)
                 where = f"{self.name}: vary.{key}: value {show(value)}"
+                params[key] = value
                 if isinstance(self.vary[key], dict):
                     old = get_path(base, parts)
                     if old is None:
-                        raise SweepError(f"{where}: \"add\" needs the scene to have a value there")
+                        raise SweepError(f"{where}: \"{next(iter(self.vary[key]))}\" needs the scene to have a value there")
+                    if "random" in self.vary[key]:
+                        value = random_offset(old, value, self.vary[key]["random"]["size"])
                     value = added(old, value, where)
+                    params[key] = params[key] if "random" in self.vary[key] else value
                 set_path(scene, parts, absolutize(value, self.base_dir), where)
-                params[key] = value
             runs.append(Run(index, f"{index:0{width}d}", params, scene))
         return runs
 
