@@ -148,7 +148,7 @@ const RegisterCommand register_drape{CommandSpec{
     "under gravity; reports the drape coefficient, the number of nodes (folds) and pictures",
     [](CLI::App& sub) {
       auto a = std::make_shared<DrapeArgs>();
-      sub.add_option("--material,-m", a->material, "Preset name or material file (default: cotton)");
+      sub.add_option("--material,-m", a->material, "Preset name or material file (default: cotton). Presets - " + material_preset_listing());
       sub.add_option("--out,-o", a->out, "Output folder (created)")->required();
       sub.add_option("--edge-length", a->options.edge_length_m, "Mesh edge length (m; default 0.01)");
       sub.add_option("--grain-deg", a->options.grain_deg,

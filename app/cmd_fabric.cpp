@@ -306,7 +306,7 @@ const RegisterCommand register_tensile{CommandSpec{
     "the material's curves (CSV + gnuplot PNG/SVG).",
     [](CLI::App& sub) {
       auto a = std::make_shared<TensileArgs>();
-      sub.add_option("--material", a->material, "Preset name or material file (default cotton)");
+      sub.add_option("--material", a->material, "Preset name or material file (default cotton). Presets - " + material_preset_listing());
       sub.add_option("--out", a->out, "Output folder")->required();
       sub.add_option("--directions", a->directions, "Comma-separated: weft, warp, bias (default all)");
       sub.add_option("--length", a->options.length_m, "Strip length (m, default 0.2)");
@@ -326,7 +326,7 @@ const RegisterCommand register_cantilever{CommandSpec{
     "bending length against (B / (w g))^(1/3) (CSV + gnuplot PNG/SVG).",
     [](CLI::App& sub) {
       auto a = std::make_shared<CantileverArgs>();
-      sub.add_option("--material", a->material, "Preset name or material file (default cotton)");
+      sub.add_option("--material", a->material, "Preset name or material file (default cotton). Presets - " + material_preset_listing());
       sub.add_option("--out", a->out, "Output folder")->required();
       sub.add_option("--directions", a->directions, "Comma-separated strip axes: weft, warp (default both)");
       sub.add_option("--width", a->options.width_m, "Strip width (m, default 0.025)");

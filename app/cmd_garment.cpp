@@ -542,7 +542,7 @@ RegisterCommand reg{
        sub.add_flag("--no-sew", a->no_sew, "Mesh the panels only (no placement, no sewing, no garment.obj)");
        sub.add_option("--clearance", a->clearance_m, "Gap between the body and the placed panels (m)")
            ->capture_default_str();
-       sub.add_option("--material", a->material, "Fabric preset during sewing (data/materials)")
+       sub.add_option("--material", a->material, "Fabric preset during sewing (data/materials). Presets - " + material_preset_listing())
            ->capture_default_str();
        sub.add_option("--panel-material", a->panel_materials,
                       "NAME=PRESET: panel NAME's fabric during sewing, in place of --material (repeatable)")

@@ -108,6 +108,13 @@ Material parse_material_text(std::string_view text, const std::string& file);
 Material material_preset(const std::string& name);
 /// Names of the shipped presets.
 std::vector<std::string> material_preset_names();
+/// "measured" when the preset's `source` starts with "Measured" (numbers from a published
+/// table of measurements, as the source says), otherwise "estimated". Throws InputError for an
+/// unknown name or an unreadable file.
+std::string material_preset_kind(const std::string& name);
+/// The shipped presets grouped by kind, for --help: "estimated: cotton, denim, ...; measured:
+/// luible-denim, ...". Never throws: a preset whose file cannot be read is listed as "unreadable".
+std::string material_preset_listing();
 /// Folder holding shipped data (env WEFT_DATA_DIR overrides the build-time default).
 std::string data_dir();
 

@@ -434,4 +434,35 @@ std::vector<std::string> material_preset_names() {
   return preset_names_in(data_dir() + "/materials");
 }
 
+namespace {
+/// "measured" when the material file's `source` starts with "Measured", else "estimated".
+std::string kind_of_file(const std::string& path) {
+  const json j = json_util::parse_json(read_input_file(path, "material file"), path);
+  const Ctx c{path, ".", 0};
+  const std::string source = j.is_object() && j.contains("source") ? text(c, "source", j["source"]) : "";
+  return source.rfind("Measured", 0) == 0 ? "measured" : "estimated";
+}
+}  // namespace
+
+std::string material_preset_kind(const std::string& name) { return kind_of_file(preset_path(name, "")); }
+
+std::string material_preset_listing() {
+  std::map<std::string, std::string> groups;  // kind -> "a, b, ..."
+  for (const std::string& name : material_preset_names()) {
+    std::string kind;
+    try {
+      kind = kind_of_file(data_dir() + "/materials/" + name + ".json");
+    } catch (const std::exception&) {
+      kind = "unreadable";
+    }
+    std::string& names = groups[kind];
+    names += (names.empty() ? "" : ", ") + name;
+  }
+  std::string out;
+  for (const char* kind : {"estimated", "measured", "unreadable"}) {
+    if (groups.count(kind)) out += (out.empty() ? "" : "; ") + std::string(kind) + ": " + groups[kind];
+  }
+  return out;
+}
+
 }  // namespace weft
