@@ -124,3 +124,28 @@ TEST(NewtonStep, LinearSystemTakesNoIterationAndTheSameBits) {
     EXPECT_EQ(sa.viscous_dissipated, sb.viscous_dissipated);
   }
 }
+
+TEST(NewtonStep, AStiffStepHalvesWhereTheFullNewtonStepWouldRaiseTheResidualAndConverges) {
+  // The spinning spring at kappa = k dt^2 / m = 100, turning 2 rad in the step: from the
+  // linearised iterate the full Newton step overshoots the turn and raises the residual of the
+  // step's equations; the line search halves it (StepStatistics::newton_halvings, summary.json's
+  // newton.line_search_halvings) until the residual falls, and the iterations converge.
+  const double k = 1e4, dt = 0.1;
+  for (double alpha : {0.5, 1.0}) {
+    SCOPED_TRACE(alpha);
+    SpringSystem linear_sys(VecX::Constant(1, 1.0), {Spring{0, -1, k, 1.0, 0.0}});
+    SpringSystem newton_sys(VecX::Constant(1, 1.0), {Spring{0, -1, k, 1.0, 0.0}});
+    const State start = spinning_spring_state(k, 20.0);
+    State linear = start, newton = start;
+    Integrator plain(linear_sys, settings(alpha, dt, 0, 1e-10)), iterated(newton_sys, settings(alpha, dt, 40, 1e-10));
+    StepStatistics sp, sn;
+    plain.step(linear, dt, sp);
+    iterated.step(newton, dt, sn);
+    EXPECT_GT(sn.newton_halvings, 0) << "the line search halved";
+    EXPECT_EQ(sn.newton_unconverged, 0);
+    const double r_linear = relative_residual(linear_sys, start, linear, alpha, dt);
+    const double r_newton = relative_residual(newton_sys, start, newton, alpha, dt);
+    EXPECT_GT(r_linear, 1e-2);
+    EXPECT_LT(r_newton, 1e-9);
+  }
+}

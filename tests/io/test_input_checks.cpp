@@ -60,6 +60,19 @@ TEST(ObjReader, FaceIndicesOutOfRangeAreRefusedWithTheLine) {
   EXPECT_EQ(obj_error(std::string(kTriangle) + "f 1//2 2 3\n"), "m.obj:4: face refers to normal 2, out of range (the file has 0 normals)");
 }
 
+TEST(ObjReader, TheLastIndexOfEachKindIsReadAndTheOnePastItIsRefusedNamingFileAndLine) {
+  // Three vertices, two texture coordinates and one normal; the face on line 7.
+  const std::string head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvn 0 0 1\n";
+  EXPECT_EQ(obj_error(head + "f 1/1/1 2/2/1 3/2/1\n"), "(no error)");
+  EXPECT_EQ(obj_error(head + "f -3/-2/-1 -2/-1/-1 -1/-1/-1\n"), "(no error)");  // relative: the last is -1
+  EXPECT_EQ(obj_error(head + "f 1 2 4\n"), "m.obj:7: face refers to vertex 4, out of range (the file has 3 vertices)");
+  EXPECT_EQ(obj_error(head + "f 1/1 2/2 3/3\n"),
+            "m.obj:7: face refers to texture coordinate 3, out of range (the file has 2 texture coordinates)");
+  EXPECT_EQ(obj_error(head + "f 1//1 2//2 3//1\n"), "m.obj:7: face refers to normal 2, out of range (the file has 1 normals)");
+  EXPECT_EQ(obj_error(head + "f 1 2 -4\n"), "m.obj:7: vertex index -4 is out of range (3 read so far)");
+  EXPECT_EQ(obj_error(head + "f 1/1 2/1 3/-3\n"), "m.obj:7: texture coordinate index -3 is out of range (2 read so far)");
+}
+
 TEST(ObjReader, CoordinatesMustBeFiniteNumbersWithNothingAfterThem) {
   EXPECT_EQ(obj_error("v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"), "m.obj:1: expected a finite number, got 'nan'");
   EXPECT_EQ(obj_error("v 0 0 0\nv 0.1x 0 0\nv 0 1 0\nf 1 2 3\n"), "m.obj:2: expected a number, got '0.1x'");
@@ -102,6 +115,16 @@ TEST(ObjReader, ReadsPolygonsGroupsAndCornerForms) {
   EXPECT_EQ(obj.groups[0].end_triangle, 2u);
   EXPECT_EQ(obj.groups[1].name, "other");
   EXPECT_EQ(obj.triangle_line[2], 12);
+}
+
+TEST(SceneRanges, ClothFrictionIsTakenFromZeroToTenAndRefusedOutside) {
+  const auto with_friction = [](const std::string& value) {
+    return scene(R"("mesh": {"grid": {"size": [1, 1], "vertices": [3, 3]}}, "friction": )" + value);
+  };
+  EXPECT_EQ(parse_scene_text(with_friction("0"), "s.json", ".").cloth.friction, 0.0);
+  EXPECT_EQ(parse_scene_text(with_friction("10"), "s.json", ".").cloth.friction, 10.0);
+  EXPECT_EQ(scene_error(with_friction("-1")), "s.json: key cloth.friction: value -1.0 is out of range [0.0, 10.0]");
+  EXPECT_EQ(scene_error(with_friction("10.5")), "s.json: key cloth.friction: value 10.5 is out of range [0.0, 10.0]");
 }
 
 TEST(JsonReader, DuplicateKeysAreRefusedNamingTheKey) {
