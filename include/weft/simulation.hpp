@@ -154,7 +154,8 @@ class Simulation {
   /// Mechanical energy (kinetic + elastic + gravity) of the reference state (J).
   double initial_total_energy() const;
   /// A hash of what a step's result depends on in the model and settings: the mesh's
-  /// positions, masses, pins and pattern, the integrator settings and the damping.
+  /// positions, masses, pins and pattern, its elements, materials (curves and coupling
+  /// included), the integrator settings, the damping, the clamps, colliders and bodies.
   std::uint64_t fingerprint() const;
 
   /// The parts behind this simulation, for weft's own code: SimulationCore is defined in the

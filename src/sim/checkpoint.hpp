@@ -20,7 +20,7 @@
 
 namespace weft {
 
-constexpr std::uint32_t kCheckpointFormatVersion = 10;
+constexpr std::uint32_t kCheckpointFormatVersion = 11;
 
 
 /// Appends values in binary to a byte string.

@@ -436,6 +436,79 @@ LogStatistics get_statistics(BinaryReader& in) {
   }
 }
 
+void put_vec3(BinaryWriter& out, const Vec3& v) { out.raw(v.data(), 3 * sizeof(double)); }
+
+void put(BinaryWriter& out, const Points& p) { out.doubles(p.data(), static_cast<size_t>(p.size())); }
+
+void put(BinaryWriter& out, const RigidMotion& m) {
+  out.i64(static_cast<int>(m.kind));
+  for (const Vec3* v : {&m.linear_velocity, &m.angular_velocity, &m.centre}) put_vec3(out, *v);
+  out.u64(m.keys.size());
+  for (const RigidMotion::Key& k : m.keys) {
+    out.f64(k.time);
+    put_vec3(out, k.translation);
+    put_vec3(out, k.rotation_deg);
+  }
+}
+
+void put(BinaryWriter& out, const StressCurve& c) {
+  out.f64(c.modulus());
+  out.doubles(c.strain_points().data(), c.strain_points().size());
+  out.doubles(c.stress_points().data(), c.stress_points().size());
+}
+
+// The rest of what the motion depends on (checkpoint format 11): the elements' rest shapes and
+// stencils (the pattern, uv_scale, the bending model, the seams), the materials' curves and
+// coupling, the integrator's switches, every collider's settings and surface, and the bodies.
+void put_motion_settings(BinaryWriter& w, const SimulationModel& M) {
+  const ClothModel& cloth = *M.cloth;
+  for (const auto& t : cloth.mesh.triangles) w.raw(t.data(), sizeof t);
+  for (const MembraneGeometry& g : cloth.membranes) {
+    put_vec3(w, g.ru);
+    put_vec3(w, g.rv);
+    w.f64(g.area);
+  }
+  for (const LinearBendingStencil& b : cloth.bending) {
+    w.raw(b.vertices.data(), b.vertices.size() * sizeof(int));
+    w.mat(b.measures);
+    w.vec(b.weights);
+  }
+  for (const Material& m : cloth.materials) {
+    w.f64(m.poisson_ratio);
+    for (const StressCurve* c : {&m.weft, &m.warp, &m.shear}) put(w, *c);
+  }
+  const IntegratorSettings& is = M.integrator.settings;
+  w.i64(is.halve_overshooting_solves);
+  w.i64(is.guard_last_resort_newton);
+  w.f64(is.newton_tolerance);  // the guard's and backward Euler's own iterations stop there too
+  for (size_t k = 0; k < M.scene.colliders.size(); ++k) {
+    const ColliderSpec& c = M.scene.colliders[k];
+    w.i64(static_cast<int>(c.shape));
+    for (double d : {c.thickness, c.friction, c.radius, c.edge_radius, c.scale}) w.f64(d);
+    for (const Vec3* v : {&c.point, &c.normal, &c.centre, &c.end_a, &c.end_b, &c.half_extents, &c.rotation_deg,
+                          &c.translation})
+      put_vec3(w, *v);
+    w.i64(c.closed);
+    w.i64(c.body);
+    put(w, c.motion);
+    if (k < M.collider_vertices.size()) put(w, M.collider_vertices[k]);
+    if (k < M.collider_triangles.size())
+      w.raw(M.collider_triangles[k].data(), static_cast<size_t>(M.collider_triangles[k].size()) * sizeof(int));
+  }
+  for (size_t k = 0; k < M.scene.bodies.size(); ++k) {
+    const BodyColliderSpec& b = M.scene.bodies[k];
+    w.text(b.motion_file);
+    w.text(b.skinning);
+    for (double d : {b.speed, b.start_time, b.bind_pose_hold, b.blend, b.arm_spread_deg}) w.f64(d);
+    // The motion file's content, as the body's surface at the start and the end.
+    Points p;
+    for (double t : {0.0, M.scene.duration}) {
+      M.bodies[k]->positions(t, p);
+      put(w, p);
+    }
+  }
+}
+
 // Vectors of the State are empty or 3n long.
 VecX get_state_vector(BinaryReader& in, Eigen::Index size, const char* name, bool may_be_empty) {
   VecX v = in.vec();
@@ -486,6 +559,7 @@ std::uint64_t fingerprint(const SimulationModel& M) {
     for (const ClampSpec& c : M.scene.cloth.clamps)
       for (double t : {0.0, M.scene.duration}) w.raw(c.motion.at(t).matrix().data(), 16 * sizeof(double));
   }
+  put_motion_settings(w, M);
   return fnv1a(w.bytes().data(), w.bytes().size());
 }
 
@@ -554,8 +628,8 @@ void save_data(const SimulationModel& M, const SimulationData& D, BinaryWriter& 
 
 void restore_data(const SimulationModel& M, SimulationData& D, BinaryReader& in) {
   if (in.u64() != fingerprint(M))
-    in.fail("checkpoint belongs to another cloth or other settings (the mesh, pins, material, integrator or "
-            "timing differ from the scene's)");
+    in.fail("checkpoint belongs to another cloth or other settings (the mesh, pins, materials, integrator, "
+            "colliders or timing differ from the scene's)");
   const Eigen::Index size = 3 * M.cloth->num_vertices();
   State s;
   s.x = get_state_vector(in, size, "positions", false);
