@@ -367,6 +367,9 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
             for f in pending:
                 f.cancel()
             progress.finish()
+            # From the folders: a run whose folder was renamed into place just as Ctrl-C came
+            # is in, though its row never reached `rows`.
+            rows = [row for row in map(folders.finished, sw.runs) if row is not None]
             write_tables(sw, out, rows)
             progress.say(f"weft sweep: interrupted: {len(rows)} of {len(sw.runs)} runs are in {out}; the same "
                          "command runs the rest")
