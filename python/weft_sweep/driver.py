@@ -15,7 +15,6 @@ import sys
 import tempfile
 import time
 
-from . import spec as spec_module
 from .spec import SweepError
 
 OK_STATUSES = ("ok", "solver_capped")

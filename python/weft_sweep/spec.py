@@ -15,7 +15,7 @@ import re
 TOP_KEYS = {"weft_sweep", "description", "scene", "set", "vary", "combine", "keep", "threads", "timeout",
             "index"}
 KEEP = ("last_frame", "frames", "glb", "pc2", "usda")
-INDEX_COLUMNS = ("parameters", "status", "exit_code", "vertices", "intersections", "steps", "wall_seconds")
+INDEX_COLUMNS = ("status", "exit_code", "vertices", "intersections", "steps", "wall_seconds")
 
 
 class SweepError(Exception):
