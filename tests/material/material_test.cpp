@@ -453,6 +453,36 @@ TEST(MeasuredPreset, SourceCitesTheTableAndSampleAndSaysWhatIsChosen) {
   }
 }
 
+// The material files of the drape comparison (docs/notes/drape-matsudaira.md): bending
+// rigidity and weight are the Matsudaira et al. (2015) table's, the rest is chosen and said so.
+TEST(MeasuredPreset, MatsudairaDrapeFilesHoldTheTablesBendingAndWeight) {
+  const json table = fabric_table();
+  const std::pair<std::string, std::string> files[] = {{"A", "matsudaira-cotton-broadcloth"},
+                                                       {"B", "matsudaira-wool-tropical"},
+                                                       {"C", "matsudaira-polyester-tropical"},
+                                                       {"F", "matsudaira-polyester-faille"}};
+  for (const auto& [letter, name] : files) {
+    SCOPED_TRACE(name);
+    const json* entry = nullptr;
+    for (const json& f : table) {
+      if (ends_with(f.at("name").get<std::string>(), "[Matsudaira 2015 fabric " + letter + "]")) entry = &f;
+    }
+    ASSERT_NE(entry, nullptr);
+    const Material m =
+        load_material_file(std::string(WEFT_SOURCE_DIR) + "/data/fabrics/matsudaira/" + name + ".json");
+    const double B = table_value(entry->at("bending").at("B"), "gf\u00b7cm\u00b2/cm") * 9.80665e-5;
+    EXPECT_NEAR(m.bending_rigidity_weft_Nm, B, 1e-12 * B);
+    EXPECT_NEAR(m.bending_rigidity_warp_Nm, B, 1e-12 * B);
+    EXPECT_NEAR(m.surface_density_kg_m2, table_value(entry->at("weight_as_published"), "mg/cm\u00b2") * 1e-2, 1e-15);
+    EXPECT_TRUE(m.weft.is_linear() && m.warp.is_linear() && m.shear.is_linear());
+    for (const std::string& part : std::vector<std::string>{"Matsudaira", "Table 1", "fabric " + letter,
+                                                            "not yet checked against the paper",
+                                                            "Chosen, not measured: tensile"}) {
+      EXPECT_NE(m.source.find(part), std::string::npos) << part << " in: " << m.source;
+    }
+  }
+}
+
 TEST(MaterialPreset, ListingGroupsEveryPresetAsMeasuredOrEstimated) {
   // "estimated: a, b; measured: c, d"
   const std::string listing = material_preset_listing();
