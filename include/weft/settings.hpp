@@ -24,6 +24,13 @@ enum class Method { ForwardEuler, AlphaFamily, Bdf2, Rk4, Rk45 };
 /// barely does (docs/performance.md).
 constexpr int kMultigridMinFreeNodes = 30000;
 
+/// How a semi-implicit step's contacts enter its linear solve (docs/collisions.md, "Contacts
+/// as bounds"). kActiveSet: each detected contact prescribes its node's displacement along its
+/// normal (a filter), and the step is solved again when a contact pulls or a free node would
+/// end inside a collider. kBounds: each contact is a bound (the node ends at least at the
+/// thickness) in one bounded solve, which lets go of the contacts that would pull by itself.
+enum class ContactSolve { kActiveSet, kBounds };
+
 struct IntegratorSettings {
   Method method = Method::AlphaFamily;
   double alpha = 0.5;               ///< implicitness (alpha family and BDF-2)
@@ -72,6 +79,8 @@ struct IntegratorSettings {
   /// (|M^-1/2 r|), is below this fraction of the step's (|M^1/2 dv|, or of its right-hand
   /// side's |M^-1/2 b| where larger).
   double newton_tolerance = 1e-3;
+  /// How contacts enter the solve (scene key `integrator.contact_solve`).
+  ContactSolve contact_solve = ContactSolve::kActiveSet;
 };
 
 /// "auto", "block-jacobi", "ssor" or "multigrid"; nullopt for an unknown name.

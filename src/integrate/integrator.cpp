@@ -623,24 +623,31 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   // (a few times at most; the handler's fail-safe catches what remains).
   if (!d_.contacts.empty() || (!d_.handlers.empty() && alpha > 0.0)) d_.rhs_unconstrained = d_.rhs;
   PcgResult r;
+  const bool bounded = c_.settings.contact_solve == ContactSolve::kBounds;
+  bool bounded_last = false;
   for (int pass = 0;; ++pass) {
-    if (!d_.contacts.empty()) {
-      const auto tr = Clock::now();
-      constrain(s, dt, alpha, beta, dt_b);
-      stats.response_seconds += seconds_since(tr);
-    }
-    r = solve_pcg(d_.step.matrix, d_.rhs, system_.fixed(), ps, d_.dv, d_.pcg);
-    stats.cg_iterations += r.iterations;
-    ++stats.cg_solves;
-    if (!r.converged) ++stats.cg_failures;
-    if (d_.contacts.empty() && pass == 0) {
-      if (r.converged) d_.history.record(d_.rhs, system_.fixed(), d_.dv);
-    }
-    if (!d_.contacts.empty()) {
-      const auto tr = Clock::now();
-      unconstrain(dt, dt_b);
-      d_.rhs = d_.rhs_unconstrained;
-      stats.response_seconds += seconds_since(tr);
+    bounded_last = bounded && !d_.contacts.empty();
+    if (bounded_last) {
+      r = bounded_pass(s, dt, alpha, beta, dt_b, stats);
+    } else {
+      if (!d_.contacts.empty()) {
+        const auto tr = Clock::now();
+        constrain(s, dt, alpha, beta, dt_b);
+        stats.response_seconds += seconds_since(tr);
+      }
+      r = solve_pcg(d_.step.matrix, d_.rhs, system_.fixed(), ps, d_.dv, d_.pcg);
+      stats.cg_iterations += r.iterations;
+      ++stats.cg_solves;
+      if (!r.converged) ++stats.cg_failures;
+      if (d_.contacts.empty() && pass == 0) {
+        if (r.converged) d_.history.record(d_.rhs, system_.fixed(), d_.dv);
+      }
+      if (!d_.contacts.empty()) {
+        const auto tr = Clock::now();
+        unconstrain(dt, dt_b);
+        d_.rhs = d_.rhs_unconstrained;
+        stats.response_seconds += seconds_since(tr);
+      }
     }
     if (d_.handlers.empty() || alpha == 0.0 || pass + 1 >= kMaxContactPasses) break;
     // Contacts that pull are let go (a node stays held when it was let go before in this step
@@ -657,19 +664,29 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
       NodeContact& c = d_.contacts[k];
       const Vec3& J = d_.contact_impulse[k];
       const double normal_impulse = c.normal.dot(J);
-      // A stuck contact whose impulse left the friction cone slides.
-      if (d_.contact_stuck[k] && !c.kinematic &&
+      // A stuck contact whose impulse left the friction cone slides: solved again with the
+      // active set; with bounds, it slides from here on without a second solve (its node
+      // moved with the surface over this step, and leaves it at the sliding velocity
+      // Coulomb's limit gives: contact_velocities).
+      if (d_.contact_stuck[k] == 1 && !c.kinematic &&
           (J - c.normal * normal_impulse - c.normal2 * c.normal2.dot(J)).norm() >
               c.friction * std::max(normal_impulse, 0.0)) {
-        d_.contact_stuck[k] = 0;
-        changed = true;
+        d_.contact_stuck[k] = bounded ? kSlipped : 0;
+        if (!bounded) changed = true;
       }
       // A second direction that pulls is let go alone.
       if (c.has_normal2() && c.normal2.dot(J) < -kReleaseSpeed * mass[c.node] && !d_.keep_held[c.node]) {
         c.normal2 = Vec3::Zero();
         changed = true;
       }
-      if (normal_impulse < -kReleaseSpeed * mass[c.node] && !c.penetrating && !c.kinematic && !d_.keep_held[c.node]) {
+      if (bounded && d_.contact_stuck[k] == 1 && normal_impulse < -kReleaseSpeed * mass[c.node] && !c.penetrating &&
+          !c.kinematic) {
+        // Held stuck and pulling, with bounds: let go after this step (contact_velocities takes
+        // the pull back), not solved again.
+        d_.contact_stuck[k] = kSlipped;
+      }
+      if (normal_impulse < -kReleaseSpeed * mass[c.node] && !c.penetrating && !c.kinematic && !d_.keep_held[c.node] &&
+          d_.contact_stuck[k] != kSlipped) {
         d_.released_now[c.node] = 1;
         ++stats.released_contacts;
         changed = true;
@@ -689,6 +706,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     if (!changed) break;
     ++stats.contact_passes;
   }
+  if (bounded_last) release_inactive_bounds(stats);
   if (!d_.contacts.empty()) {
     stats.contacts += static_cast<long>(d_.contacts.size());
     ++stats.contact_solves;
@@ -994,11 +1012,20 @@ void Integrator::unconstrain(double dt, double dt_b) {
   d_.saved_blocks.clear();
   d_.step.matrix.constants_changed();
   const size_t count = d_.contacts.size();
-  d_.contact_impulse.resize(count);
   for (size_t k = 0; k < count; ++k) {
     const int i = d_.contacts[k].node;
     node(d_.dv, i) = contact_filter(k) * node(d_.dv, i) + d_.contact_dv[k];
   }
+  contact_impulses(dt, dt_b);
+}
+
+void Integrator::contact_impulses(double dt, double dt_b) {
+  const BlockPattern& P = system_.pattern();
+  const auto& row_start = P.row_start();
+  const auto& column = P.column();
+  const std::vector<Mat3>& blocks = d_.step.matrix.block;
+  const size_t count = d_.contacts.size();
+  d_.contact_impulse.resize(count);
   // The constraint's impulse: what A dv - b leaves at the node, dt_b times the contact force.
   for (size_t k = 0; k < count; ++k) {
     const int i = d_.contacts[k].node;
@@ -1006,6 +1033,95 @@ void Integrator::unconstrain(double dt, double dt_b) {
     for (int e = row_start[i]; e < row_start[i + 1]; ++e) a_dv += blocks[e] * node(d_.dv, column[e]);
     d_.contact_impulse[k] = (dt / dt_b) * (a_dv - d_.contact_rhs[k]);
   }
+}
+
+// Contacts as bounds (docs/collisions.md, "Contacts as bounds"): a sliding contact's node may
+// not end nearer the surface than its prescribed displacement puts it, n . dv_i >= n . z_i with
+// z_i prescribed_dv's part along the normal (and likewise along a second normal); a stuck or
+// kinematic contact's node is held at its whole prescribed dv. The bounded solve
+// (linalg/mprgp.hpp) finds which bounds hold at the step's answer: those that would pull are
+// free, so no contact needs a second solve to be let go.
+PcgResult Integrator::bounded_pass(const State& s, double dt, double alpha, double beta, double dt_b,
+                                   StepStatistics& stats) {
+  const auto tr = Clock::now();
+  const size_t count = d_.contacts.size();
+  d_.bound_held = system_.fixed();
+  for (size_t i = 0; i < d_.bound_held.size(); ++i)
+    if (d_.bound_held[i]) node(d_.dv, static_cast<int>(i)).setZero();
+  d_.bounds.clear();
+  d_.bound_contact.clear();
+  d_.contact_rhs.resize(count);
+  for (size_t k = 0; k < count; ++k) {
+    const NodeContact& c = d_.contacts[k];
+    if (d_.contact_stuck[k] == kSlipped) d_.contact_stuck[k] = 0;  // solved again: it slides
+    const Vec3 z = prescribed_dv(s, k, dt, alpha, beta, dt_b);
+    d_.contact_rhs[k] = node(d_.rhs, c.node);
+    if (c.kinematic || d_.contact_stuck[k] == 1) {
+      d_.bound_held[c.node] = 1;
+      node(d_.dv, c.node) = z;
+      continue;
+    }
+    d_.bounds.push_back({c.node, c.normal, c.normal.dot(z)});
+    d_.bound_contact.push_back(static_cast<int>(k));
+    if (c.has_normal2()) {
+      d_.bounds.push_back({c.node, c.normal2, c.normal2.dot(z)});
+      d_.bound_contact.push_back(static_cast<int>(k));
+    }
+  }
+  stats.response_seconds += seconds_since(tr);
+  BoundedSolveSettings settings;
+  settings.relative_tolerance = c_.settings.cg_tolerance;
+  settings.max_iterations = c_.settings.cg_max_iterations;
+  const BoundedSolveResult b = solve_bounded(d_.step.matrix, d_.rhs, d_.bound_held, d_.bounds, settings, d_.dv,
+                                             d_.bounded, d_.bound_active);
+  stats.cg_iterations += b.iterations;
+  ++stats.cg_solves;
+  if (!b.converged) ++stats.cg_failures;
+  const auto tr2 = Clock::now();
+  contact_impulses(dt, dt_b);
+  stats.response_seconds += seconds_since(tr2);
+  PcgResult r;
+  r.iterations = b.iterations;
+  r.relative_residual = b.relative_residual;
+  r.converged = b.converged;
+  return r;
+}
+
+void Integrator::release_inactive_bounds(StepStatistics& stats) {
+  // Each contact's bounds were pushed in order: its normal's, then its second normal's.
+  const size_t count = d_.contacts.size();
+  d_.bound_free.assign(count, 0);  // per contact: bit 1 the normal's bound free, bit 2 the second's
+  for (size_t j = 0; j < d_.bounds.size(); ++j) {
+    const int k = d_.bound_contact[j];
+    const bool second = j > 0 && d_.bound_contact[j - 1] == k;
+    if (!d_.bound_active[j]) d_.bound_free[k] |= second ? 2 : 1;
+  }
+  size_t kept = 0;
+  for (size_t k = 0; k < count; ++k) {
+    NodeContact& c = d_.contacts[k];
+    const char free = d_.bound_free[k];
+    const bool first_free = free & 1, second_free = (free & 2) || !c.has_normal2();
+    if (first_free && second_free) {
+      ++stats.released_contacts;
+      continue;
+    }
+    if (first_free) {
+      c.normal = c.normal2;
+      c.normal_displacement = c.normal_displacement2;
+    }
+    if (first_free || second_free) {
+      c.normal2 = Vec3::Zero();
+      c.normal_displacement2 = 0;
+    }
+    d_.contact_stuck[kept] = d_.contact_stuck[k];
+    d_.contact_impulse[kept] = d_.contact_impulse[k];
+    d_.contact_rhs[kept] = d_.contact_rhs[k];
+    d_.contacts[kept++] = c;
+  }
+  d_.contacts.resize(kept);
+  d_.contact_stuck.resize(kept);
+  d_.contact_impulse.resize(kept);
+  d_.contact_rhs.resize(kept);
 }
 
 void Integrator::contact_velocities(State& s, double dt, double dt_b) {
@@ -1022,6 +1138,17 @@ void Integrator::contact_velocities(State& s, double dt, double dt_b) {
     Vec3 v_new;
     if (c.kinematic) {
       v_new = c.surface_velocity;
+    } else if (d_.contact_stuck[k] == kSlipped) {
+      // Held stuck by the solve, its impulse outside the friction cone (contacts as bounds):
+      // the tangential impulse beyond Coulomb's limit is taken back, and the node slides from
+      // the next step on.
+      // What of the impulse lies outside the friction cone (a pull along the normal, the
+      // tangential part beyond friction times the push) is taken back.
+      const Vec3 Jt = J - c.normal * normal_impulse - c.normal2 * c.normal2.dot(J);
+      const double push = std::max(normal_impulse, 0.0), limit = c.friction * push, jt = Jt.norm();
+      const Vec3 kept = c.normal * push + c.normal2 * c.normal2.dot(J) + (jt > limit ? limit / jt : 1.0) * Jt;
+      v_new = c.surface_velocity - ((dt_b / dt) / m[i]) * (J - kept);
+      d_.stuck[i] = 0;
     } else if (d_.contact_stuck[k]) {
       // Stuck: the node leaves the step moving with the surface, and stays stuck.
       v_new = c.surface_velocity;

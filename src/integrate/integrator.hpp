@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "integrate/contact.hpp"
+#include "linalg/mprgp.hpp"
 #include "linalg/pcg.hpp"
 #include "linalg/solution_history.hpp"
 #include "system/system.hpp"
@@ -94,6 +95,9 @@ constexpr int kFailSafeRounds = 3;
 /// more than this (m/s): below, the node stays held (at most 0.2 m/s^2 of adhesion at 5 ms
 /// steps), which keeps resting contacts from being let go and taken back step after step.
 constexpr double kReleaseSpeed = 1e-3;
+/// Data::contact_stuck's mark of a contact held stuck by a bounded solve whose impulse left the
+/// friction cone: it slides from the next step on (ContactSolve::kBounds).
+constexpr char kSlipped = 2;
 /// The preconditioner `settings` selects for a system with `free_nodes` unpinned nodes.
 Preconditioner choose_preconditioner(const IntegratorSettings& settings, int free_nodes);
 
@@ -148,6 +152,11 @@ class Integrator {
     /// The solver's workspace; its SSOR residual ratio and single-precision fallbacks and its
     /// multigrid hierarchy outlive a step.
     PcgWorkspace pcg;
+    BoundedSolveWorkspace bounded;       ///< ContactSolve::kBounds
+    std::vector<NodeBound> bounds;       ///< the contacts' bounds of the bounded solve
+    std::vector<int> bound_contact;      ///< per bound: its contact
+    std::vector<char> bound_active, bound_held;
+    std::vector<char> bound_free;        ///< per contact: 1 its normal's bound free, 2 its second's
     /// The matrix the multigrid hierarchy was built from (checkpointed: its aggregates follow
     /// that matrix's strong couplings, so a hierarchy built from a later matrix would solve
     /// differently); empty until one is built.
@@ -181,7 +190,7 @@ class Integrator {
     std::vector<NodeContact> contacts;   ///< this step's, held by the solve
     std::vector<Vec3> contact_dv;        ///< the prescribed part of dv per contact
     std::vector<Vec3> contact_impulse;   ///< the constraint's impulse per contact (N s)
-    std::vector<char> contact_stuck;     ///< per contact: sticking (all of dv prescribed)
+    std::vector<char> contact_stuck;     ///< per contact: sticking (all of dv prescribed), or kSlipped
     std::vector<Vec3> contact_rhs;       ///< the unconstrained right-hand side at each contact
     /// Blocks the constraints changed (slot, original value), and per slot whether saved.
     std::vector<std::pair<int, Mat3>> saved_blocks;
@@ -300,6 +309,15 @@ class Integrator {
   /// Turns the step's system A dv = rhs into the one for the contacts' free directions
   /// (docs/collisions.md); sets dv's prescribed normal components in Data::contact_dv.
   void constrain(const State& s, double dt, double alpha, double beta, double dt_b);
+  /// ContactSolve::kBounds: the step's solve with its contacts as bounds (stuck and kinematic
+  /// ones held), the contacts whose bounds the answer leaves let go; the impulses into
+  /// Data::contact_impulse.
+  PcgResult bounded_pass(const State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
+  /// Data::contact_impulse from dv: what A dv - b leaves at each contact's node.
+  void contact_impulses(double dt, double dt_b);
+  /// After the last bounded pass: contacts whose bounds the answer left are let go (a second
+  /// direction alone, or the whole contact).
+  void release_inactive_bounds(StepStatistics& stats);
   /// The contacts' filters applied to a step matrix (S A S, with c (I - S) on the held
   /// directions); save(slot) is called before a block is changed.
   template <class Save>

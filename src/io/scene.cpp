@@ -415,7 +415,7 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
 
   const Reader in = r.object("integrator");
   in.allow_only({"method", "alpha", "dt", "tolerance", "max_iterations", "preconditioner", "ssor_relaxation",
-                 "ssor_precision", "newton_iterations", "newton_tolerance", "automatic_newton"});
+                 "ssor_precision", "newton_iterations", "newton_tolerance", "automatic_newton", "contact_solve"});
   std::optional<double> alpha;
   if (in.has("alpha")) alpha = in.number("alpha");
   set_method(s, in.string("method"), alpha, in.where("method"));
@@ -449,6 +449,12 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
   }
   if (in.has("newton_tolerance")) s.integrator.newton_tolerance = in.number_in("newton_tolerance", 0, 1, true);
   if (in.has("automatic_newton")) s.integrator.backward_euler_newton = in.boolean("automatic_newton");
+  if (in.has("contact_solve")) {
+    const std::string name = in.string("contact_solve");
+    if (name != "active-set" && name != "bounds")
+      in.fail("contact_solve", "unknown contact solve '" + name + "' (expected active-set or bounds)");
+    s.integrator.contact_solve = name == "bounds" ? ContactSolve::kBounds : ContactSolve::kActiveSet;
+  }
   if (r.has("damping")) {
     const Reader d = r.object("damping");
     d.allow_only({"ratio"});

@@ -541,6 +541,7 @@ std::uint64_t fingerprint(const SimulationModel& M) {
     w.f64(is.newton_tolerance);
   }
   if (!is.backward_euler_newton) w.i64(-1);  // (likewise absent in the default)
+  if (is.contact_solve != ContactSolve::kActiveSet) w.i64(-2 - static_cast<int>(is.contact_solve));  // (likewise)
   w.f64(M.system.damping.damping_ratio);
   w.f64(M.system.damping.reference_dt);
   for (const Material& m : M.cloth->materials)

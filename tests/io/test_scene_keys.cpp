@@ -267,3 +267,21 @@ TEST_F(SceneKeys, BooleanKeysOfTheNewtonRuleAndOpenSeamsTakeTrueOrFalseOnly) {
   g["cloth"]["mesh"]["pattern"]["allow_open_seams"] = 1;
   EXPECT_NE(parse_error(g).find("allow_open_seams"), std::string::npos) << parse_error(g);
 }
+
+TEST_F(SceneKeys, ContactSolveIsActiveSetOrBoundsAndReachesTheIntegratorAndTheFingerprint) {
+  nlohmann::json j = base_scene();
+  j["integrator"] = {{"method", "implicit-midpoint"}, {"dt", 0.01}};
+  const Simulation active(parse(j));
+  EXPECT_EQ(active.core().integrator().settings().contact_solve, ContactSolve::kActiveSet);
+  j["integrator"]["contact_solve"] = "bounds";
+  const Simulation bounds(parse(j));
+  EXPECT_EQ(bounds.core().integrator().settings().contact_solve, ContactSolve::kBounds);
+  // A checkpoint of one does not resume the other: the motion differs.
+  EXPECT_NE(active.fingerprint(), bounds.fingerprint());
+  j["integrator"]["contact_solve"] = "active-set";
+  EXPECT_EQ(Simulation(parse(j)).fingerprint(), active.fingerprint());
+  j["integrator"]["contact_solve"] = "mprgp";
+  EXPECT_NE(parse_error(j).find("key integrator.contact_solve: unknown contact solve 'mprgp' (expected active-set or bounds)"),
+            std::string::npos)
+      << parse_error(j);
+}
