@@ -131,6 +131,8 @@ TEST(CheckpointFingerprint, EverySceneMaterialAndColliderKeyThatChangesTheMotion
       {"/integrator/newton_iterations", 2},
       {"/integrator/newton_tolerance", 1e-4},
       {"/integrator/preconditioner", "block-jacobi"},
+      {"/integrator/contact_solve", "bounds"},
+      {"/integrator/automatic_newton", false},
       {"/damping/ratio", 0.1},
       {"/cloth/mesh/grid/size", {0.2, 0.25}},
       {"/cloth/mesh/grid/vertices", {4, 5}},
