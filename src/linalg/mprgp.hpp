@@ -7,7 +7,7 @@
 // the first bound met followed by a projected gradient step (expansion) where a step would
 // leave the feasible set, and a step that frees bounds (proportioning) where the part of the
 // gradient that would leave them outweighs the free part. Its answer satisfies the
-// conditions of the problem's minimum (docs/method.md, "Contacts as bounds"): the residual
+// conditions of the problem's minimum (docs/collisions.md, "Contacts as bounds"): the residual
 // b - A x vanishes along every free direction and points into every active bound (a force
 // pushing the node off its surface, never pulling).
 #include <vector>
