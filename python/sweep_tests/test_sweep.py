@@ -90,17 +90,33 @@ def test_a_missing_scene_and_a_wrong_version_are_refused(tmp_path):
     assert status == 2 and "weft_sweep: must be 1 (the sweep format's version), got 2" in err, err
 
 
+def test_a_python_without_dask_is_exit_1_naming_the_packages_and_makes_no_folder(tmp_path):
+    # The interpreter without its site packages (-S) stands for one where Dask is not installed.
+    python = tmp_path / "python-without-dask"
+    python.write_text(f"#!/bin/sh\nexec {sys.executable} -S \"$@\"\n")
+    python.chmod(0o755)
+    path = tmp_path / "sweep.json"
+    path.write_text(json.dumps(swing_sweep(**{"integrator.dt": [0.01]})))
+    r = subprocess.run([WEFT_EXE, "sweep", path, "--out", tmp_path / "out"], capture_output=True, text=True,
+                       timeout=60, env=os.environ | {"WEFT_PYTHON": str(python)})
+    assert r.returncode == 1, r.stderr
+    assert "weft sweep needs Dask's distributed scheduler" in r.stderr, r.stderr
+    assert "apt-get install python3-distributed python3-pandas" in r.stderr, r.stderr
+    assert not (tmp_path / "out").exists()
+
+
 # --- runs -----------------------------------------------------------------------------------
 
 def test_a_product_sweep_gives_one_row_per_combination_each_the_bytes_of_weft_run(tmp_path):
-    methods, steps = ["implicit-midpoint", "backward-euler"], [0.01, 0.02]
+    methods = ["implicit-midpoint", "backward-euler", "bdf2", "implicit-midpoint-plain"]
+    steps = [0.01, 0.02]
     spec = swing_sweep(**{"integrator.method": methods, "integrator.dt": steps})
     out = tmp_path / "out"
     status, err = weft_sweep(tmp_path, spec, out, "--workers", 2)
     assert status == 0, err
-    assert "dashboard: " in err and "4 runs, 4 to run (0 already in" in err
+    assert "dashboard: " in err and "8 runs, 8 to run (0 already in" in err
     rows = results(out)
-    assert [r["id"] for r in rows] == ["0000", "0001", "0002", "0003"]
+    assert [r["id"] for r in rows] == [f"{k:04d}" for k in range(8)]
     assert [(r["integrator.method"], float(r["integrator.dt"])) for r in rows] == \
         [(m, dt) for m in methods for dt in steps]
     for r in rows:
