@@ -384,6 +384,17 @@ Material parse_text(std::string_view text, const std::string& path, int depth) {
     c.fail("weft_material", "missing (a material file starts with \"weft_material\": " +
                                 std::to_string(kFormatVersion) + ")");
   }
+  // A file says where its numbers come from (docs/materials.md): a measured preset cites its
+  // table, an estimate says so, a variant of another file says what it changed.
+  if (!j.contains("source")) {
+    c.fail("source", "missing (a material file says where its numbers come from: the publication, "
+                     "table and sample of measured values, or that they are estimated)");
+  }
+  const std::string source = weft::text(c, "source", j["source"]);
+  if (source.find_first_not_of(" \t\r\n") == std::string::npos) {
+    c.fail("source", "empty (a material file says where its numbers come from: the publication, "
+                     "table and sample of measured values, or that they are estimated)");
+  }
   Material m;
   parse_into(m, j, c);
   return m;

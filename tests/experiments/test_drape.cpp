@@ -159,6 +159,18 @@ TEST(DrapeCommand, WritesResultsAndPicturesAndRejectsBadOptionsWritingNothing) {
   EXPECT_NE(err.find("--edge-length 0.05"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(dir));
 
+  // A material file without a source is refused, naming the file.
+  const fs::path no_source = fs::temp_directory_path() / ("weft_drape_nosource_" + std::to_string(::getpid()) + ".json");
+  std::ofstream(no_source) << R"({"weft_material": 1, "surface_density": 0.2})";
+  std::tie(code, err) = run("--material '" + no_source.string() + "'");
+  EXPECT_EQ(code, 2);
+  EXPECT_NE(err.find("--material '" + no_source.string() + "': " + no_source.string() +
+                     ": field source: missing (a material file says where its numbers come from"),
+            std::string::npos)
+      << err;
+  EXPECT_FALSE(fs::exists(dir));
+  fs::remove(no_source);
+
   std::tie(code, err) = run("--material silk --edge-length 0.025 --max-time 0.5");
   EXPECT_EQ(code, 0) << err;
   std::ifstream in(dir / "results.json");

@@ -63,6 +63,7 @@ json table_material(const std::string& stress_unit, double stress_scale) {
   std::vector<double> stress{0.0, 4.0, 10.0, 40.0, 120.0};
   for (double& s : stress) s *= stress_scale;
   return {{"weft_material", 1},
+          {"source", "Estimated, not measured: a test table"},
           {"weft", {{"strain", strain}, {"stress", stress}, {"unit", stress_unit}}},
           {"shear", {{"strain", {0.0, 0.05, 0.1}}, {"stress", {0.0, stress[1], stress[3]}},
                      {"unit", stress_unit}}},
@@ -231,6 +232,48 @@ TEST(MaterialFile, NeedsVersionAndValidJson) {
             std::string::npos);
 }
 
+TEST(MaterialFile, NeedsASource) {
+  const ScratchDir scratch("source");
+  const fs::path& dir = scratch.dir;
+  const std::string why =
+      " (a material file says where its numbers come from: the publication, table and sample of measured "
+      "values, or that they are estimated)";
+  json j = table_material("N/m", 1.0);
+  j.erase("source");
+  const std::string missing = write(dir / "missing.json", j);
+  EXPECT_EQ(error_of([&] { load_material_file(missing); }), missing + ": field source: missing" + why);
+  for (const char* blank : {"", "  \n"}) {
+    j["source"] = blank;
+    const std::string empty = write(dir / "empty.json", j);
+    EXPECT_EQ(error_of([&] { load_material_file(empty); }), empty + ": field source: empty" + why);
+  }
+  j["source"] = 3;
+  const std::string number = write(dir / "number.json", j);
+  EXPECT_EQ(error_of([&] { load_material_file(number); }), number + ": field source: expected a string, got number");
+  // A file that refers to another needs its own source too; an inline material needs none.
+  j["source"] = "ok";
+  write(dir / "base.json", j);
+  const std::string wrapper = write(dir / "wrapper.json", json{{"weft_material", 1}, {"file", "base.json"}});
+  EXPECT_EQ(error_of([&] { load_material_file(wrapper); }), wrapper + ": field source: missing" + why);
+  EXPECT_EQ(error_of([&] { parse_material(json{{"surface_density", 0.2}}, "scene.json: cloth.material"); }), "");
+}
+
+TEST(MaterialFile, EveryShippedMaterialFileHasASourceAndLoads) {
+  // Every JSON file under data/ that is a material file (it has "weft_material") loads, which
+  // includes having a non-empty source.
+  int files = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(std::string(WEFT_SOURCE_DIR) + "/data")) {
+    if (!entry.is_regular_file() || entry.path().extension() != ".json") continue;
+    std::ifstream in(entry.path());
+    const json j = json::parse(in, nullptr, /*allow_exceptions=*/false);
+    if (!j.is_object() || !j.contains("weft_material")) continue;
+    SCOPED_TRACE(entry.path().string());
+    EXPECT_EQ(error_of([&] { load_material_file(entry.path().string()); }), "");
+    ++files;
+  }
+  EXPECT_GE(files, static_cast<int>(material_preset_names().size()));
+}
+
 TEST(MaterialFile, LoadAndUnloadBranchesAveraged) {
   const json j = {{"weft", {{"strain", {0.0, 0.02, 0.04}}, {"stress", {0.0, 20.0, 80.0}},
                             {"unload", {{"strain", {0.04, 0.03, 0.0}}, {"stress", {80.0, 20.0, 0.0}}}}}}};
@@ -259,12 +302,13 @@ TEST(MaterialReference, PresetFileAndOverrides) {
       parse_material(json{{"file", (dir / "sub" / "mine.json").string()}}, "scene", "/nonexistent");
   EXPECT_EQ(absolute.name, "mine");
   // A file may itself refer to another, relative to its own folder.
-  write(dir / "sub" / "wrapper.json", json{{"weft_material", 1}, {"file", "mine.json"}, {"viscosity", 0.5}});
+  write(dir / "sub" / "wrapper.json",
+        json{{"weft_material", 1}, {"source", "mine.json, viscosity chosen"}, {"file", "mine.json"}, {"viscosity", 0.5}});
   const Material wrapped = parse_material(json{{"file", "sub/wrapper.json"}}, "scene", dir.string());
   EXPECT_EQ(wrapped.name, "mine");
   EXPECT_DOUBLE_EQ(wrapped.viscosity_Ns_m, 0.5);
   // A cycle is stopped.
-  write(dir / "loop.json", json{{"weft_material", 1}, {"file", "loop.json"}});
+  write(dir / "loop.json", json{{"weft_material", 1}, {"source", "itself"}, {"file", "loop.json"}});
   EXPECT_THROW(parse_material(json{{"file", "loop.json"}}, "scene", dir.string()), InputError);
 
   const Material denim = material_preset("denim");
