@@ -310,38 +310,316 @@ struct IntersectionTally {
 
 std::string count_of(size_t n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
 
+// A checkpoint to resume from: the file, its bytes and its header.
+struct Resumption {
+  fs::path file;
+  std::string bytes;
+  nlohmann::json header;
+};
+
+// --resume DIR: reads DIR's checkpoint and puts the settings the run started with into `a`
+// (keeping --quiet and a new --checkpoint-every); refuses the options a resume cannot change
+// and a scene changed since.
+Resumption read_resumption(RunArgs& a, const std::function<bool(const char*)>& given) {
+  using weft::InputError;
+  for (const char* option : {"scene", "--out", "--method", "--alpha", "--dt", "--duration", "--tolerance",
+                             "--preconditioner", "--damping-ratio", "--newton", "--frame-format", "--format", "--no-frames"})
+    if (given(option))
+      throw InputError(std::string("command line: ") + option +
+                       " cannot be combined with --resume: the run goes on with the settings it started with");
+  Resumption r;
+  r.file = fs::path(a.resume) / kCheckpointName;
+  if (!fs::exists(r.file))
+    throw InputError(r.file.string() + ": no checkpoint to resume from (a run writes one when interrupted, and "
+                                       "every --checkpoint-every seconds)");
+  r.bytes = read_bytes(r.file);
+  r.header = weft::checkpoint_header(r.bytes, r.file.string());
+  RunArgs stored;
+  try {
+    stored = options_from_json(r.header.at("options"));
+    stored.scene = r.header.at("scene").get<std::string>();
+    const std::string hash = r.header.at("scene_hash").get<std::string>();
+    if (hash_hex(read_bytes(stored.scene)) != hash)
+      throw InputError(stored.scene + ": the scene changed since the checkpoint " + r.file.string() +
+                       " was written (its hash was " + hash + "); resume needs the same scene");
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(r.file.string() + ": checkpoint header is damaged: " + e.what());
+  }
+  stored.out = a.resume;
+  stored.quiet = a.quiet;
+  if (a.checkpoint_every) stored.checkpoint_every = a.checkpoint_every;
+  a = stored;
+  return r;
+}
+
+using Clock = std::chrono::steady_clock;
+
+// What a run writes into its folder while it runs and at its end: the frames, the colliders'
+// surfaces, the recorded animations, the checkpoint, energy.csv and summary.json, and the
+// intersections counted on every frame.
+class RunWriter {
+ public:
+  /// Makes the folder (and frames/) and clears an earlier run's outputs (a resumed run's past
+  /// its checkpoint); throws InputError when it cannot.
+  RunWriter(const RunArgs& a, const weft::Scene& scene, const weft::Simulation& sim, const Resumption* resumed,
+            long first_frame)
+      : a_(a), sim_(sim), out_(a.out), first_frame_(first_frame), frames_complete_(first_frame),
+        frame_checker_(0), cloth_mesh_(sim.mesh()) {
+    using namespace weft;
+    std::error_code ec;
+    fs::create_directories(out_.dir(), ec);
+    if (ec) throw InputError(a.out + ": cannot create output folder: " + ec.message());
+    // Every frame's intersections (docs/collisions.md, "Checking"), counted whether or not it is
+    // written; a resumed run takes over the counts of the frames before its checkpoint.
+    tally_.first_frame = first_frame;
+    if (resumed && resumed->header.contains("intersections")) {
+      try {
+        tally_.restore(resumed->header.at("intersections"));
+      } catch (const nlohmann::json::exception& e) {
+        throw InputError(resumed->file.string() + ": checkpoint header is damaged: " + e.what());
+      }
+    }
+    // A fresh run replaces an earlier run's outputs; a resumed one those past its checkpoint.
+    out_.clear(first_frame, resumed != nullptr);
+    write_glb_ = has_format(a.formats, "glb");
+    write_pc2_ = has_format(a.formats, "pc2");
+    write_usda_ = has_format(a.formats, "usda");
+    animate_ = write_glb_ || write_pc2_ || write_usda_;  // frames recorded for the animations
+    frame_format_ = has_format(a.formats, "ply") ? "ply" : has_format(a.formats, "obj") ? "obj" : "";
+    frame_files_ = !a.no_frames && !frame_format_.empty();
+    if (frame_files_) {
+      fs::create_directories(out_.frames(), ec);
+      if (ec) throw InputError(out_.frames().string() + ": cannot create output folder: " + ec.message());
+    }
+    checkpoint_header_["weft_version"] = WEFT_VERSION;
+    checkpoint_header_["scene"] = fs::absolute(a.scene).string();
+    checkpoint_header_["scene_hash"] = hash_hex(read_bytes(a.scene));
+    checkpoint_header_["options"] = options_json(a);
+    checkpoint_frame_ = resumed ? first_frame - 1 : -1;
+    // The colliders' surfaces in file order: a walking body's skinned mesh, another collider's
+    // surface as Collider::surface draws it.
+    collider_count_ = sim.collider_count();
+    collider_positions_.resize(collider_count_);
+    collider_triangles_.resize(collider_count_);
+    collider_triangle_lists_.resize(collider_count_);
+    // Texture coordinates: the pattern coordinates in the units of the cloth's OBJ texture
+    // coordinates (metres on a grid), so an OBJ cloth's own come back.
+    cloth_texcoords_ = pattern_texcoords(cloth_mesh_.pattern, scene.cloth.uv_scale);
+  }
+
+  /// The animations (glb, pc2, usda) are written at the end from the frames recorded here; a
+  /// resumed run reads those recorded before its checkpoint.
+  void start_recording(bool resume) {
+    using namespace weft;
+    if (animate_) recording_.emplace(sim_, write_glb_ || write_usda_, write_glb_);
+    if (resume && animate_) {
+      const fs::path file = out_.recorded_frames();
+      if (!fs::exists(file))
+        throw InputError(file.string() + ": missing; the animations (glb, pc2, usda) of a resumed run need the frames "
+                                         "recorded before its checkpoint");
+      recording_->read_frames(read_bytes(file), file.string(), static_cast<size_t>(first_frame_));
+    }
+  }
+
+  /// Frame f: counts its intersections, records it for the animations and writes its files.
+  void on_frame(int f, const weft::Simulation& s) {
+    using namespace weft;
+    const auto check_start = Clock::now();
+    std::vector<FrameMesh> body_meshes;
+    for (size_t k = 0; k < collider_count_; ++k) {
+      collider_surface(s, k);
+      body_meshes.push_back({collider_positions_[k].data(), &collider_triangle_lists_[k]});
+    }
+    tally_.add(frame_checker_.check({s.positions().data(), &s.mesh().triangles}, body_meshes));
+    tally_.seconds += std::chrono::duration<double>(Clock::now() - check_start).count();
+    if (!out_.failures.empty()) return;
+    const auto export_start = Clock::now();
+    if (animate_) recording_->add_frame(s, &collider_positions_);
+    if (!frame_files_) {
+      export_seconds_.push_back(std::chrono::duration<double>(Clock::now() - export_start).count());
+      return;
+    }
+    char name[64];
+    std::snprintf(name, sizeof name, "frame_%05d.%s", f, frame_format_.c_str());
+    const fs::path path = out_.frames() / name;
+    bool ok = frame_format_ == "ply"
+                  ? out_.write(path, [&](std::ostream& o) {
+                      const VecX eta = s.added_viscosity_per_vertex();
+                      write_ply_frame(o, s.positions().data(), s.vertex_count(), eta.data(), cloth_mesh_.triangles);
+                    })
+                  : out_.write(path, [&](std::ostream& o) {
+                      write_textured_obj(o, s.positions().data(), s.vertex_count(), cloth_texcoords_,
+                                         vertex_normals(s.positions().data(), s.vertex_count(), cloth_mesh_.triangles),
+                                         cloth_mesh_.triangles);
+                    });
+    // The colliders' surfaces: body<k> for the k-th walking body, collider<k> for the k-th
+    // collider of another kind.
+    for (size_t k = 0; ok && k < collider_count_; ++k) {
+      std::snprintf(name, sizeof name, "%s_%05d.obj", collider_output_name(s.collider(k), k).c_str(), f);
+      const fs::path collider_path = out_.frames() / name;
+      ok = out_.attempt(collider_path,
+                        [&] { write_obj(collider_path.string(), collider_positions_[k], collider_triangles_[k]); });
+    }
+    if (ok) frames_complete_ = f + 1;
+    export_seconds_.push_back(std::chrono::duration<double>(Clock::now() - export_start).count());
+  }
+
+  /// The checkpoint (and, for the animations, the frames recorded so far) as of r's last frame.
+  void write_checkpoint(const weft::RunResult& r) {
+    checkpoint_header_["intersections"] = tally_.state();
+    if (animate_ && !out_.write(out_.recorded_frames(), [&](std::ostream& o) { recording_->write_frames(o); }))
+      return;
+    if (out_.write_bytes(out_.checkpoint(), weft::checkpoint_bytes(checkpoint_header_, sim_, r)))
+      checkpoint_frame_ = static_cast<long>(r.energy.size()) - 1;
+  }
+
+  /// The end of the run: the checkpoint kept or removed, the animations, energy.csv and
+  /// summary.json. Returns the summary.
+  nlohmann::json finish(const weft::RunResult& r) {
+    const bool failed = !out_.failures.empty();
+    const bool interrupted = !failed && r.status == "interrupted";
+    // Interrupted: where to go on from. Finished with --checkpoint-every: the exact final state.
+    // Unstable: none (going on would repeat the blow-up).
+    const bool keep_checkpoint = interrupted || (r.status == "ok" && a_.checkpoint_every);
+    if (!failed && keep_checkpoint) write_checkpoint(r);
+    if (!failed && !keep_checkpoint) {
+      std::error_code ec;
+      fs::remove(out_.checkpoint(), ec);
+      fs::remove(out_.recorded_frames(), ec);
+    }
+    // The animations hold the frames of a finished (or unstable) run; an interrupted one writes
+    // them when resumed to the end.
+    double animation_seconds = 0;
+    if (!failed && !interrupted && recording_ && recording_->frame_count() > 0) {
+      const auto start = Clock::now();
+      if (write_glb_) out_.write(out_.dir() / "animation.glb", [&](std::ostream& o) { recording_->write_glb(o); });
+      if (write_usda_) out_.write(out_.dir() / "animation.usda", [&](std::ostream& o) { recording_->write_usda(o); });
+      if (write_pc2_) {
+        out_.write(out_.dir() / "animation.pc2", [&](std::ostream& o) { recording_->write_pc2(o); });
+        out_.write(out_.dir() / "animation_rest.obj", [&](std::ostream& o) { recording_->write_rest_obj(o); });
+      }
+      animation_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    }
+    energy_written_ = out_.write(out_.dir() / "energy.csv", [&](std::ostream& o) { o << weft::energy_csv(r.energy); });
+    nlohmann::json summary = weft::summary_json(sim_, r);
+    summary["intersections"] = tally_.summary();
+    summary["intersection_seconds"] = tally_.seconds;
+    summary["formats"] = a_.formats;
+    if (!export_seconds_.empty()) {
+      // Frames' exports (files and recording) in this process, and the animations at the end.
+      std::vector<double> sorted = export_seconds_;
+      std::sort(sorted.begin(), sorted.end());
+      summary["export_seconds"] = {{"per_frame_median", sorted[sorted.size() / 2]},
+                                   {"frames_total", std::accumulate(sorted.begin(), sorted.end(), 0.0)},
+                                   {"animations", animation_seconds}};
+    }
+    if (!out_.failures.empty()) {
+      summary["status"] = "output_failed";
+      summary["message"] = "could not write " + out_.failures.front().path + ": " + out_.failures.front().reason;
+    }
+    summary_written_ = out_.write(out_.dir() / "summary.json", [&](std::ostream& o) { o << summary.dump(2) << "\n"; });
+    return summary;
+  }
+
+  /// Says on stderr what the run left and returns its exit status.
+  int report(const weft::RunResult& r, const weft::Scene& scene, const nlohmann::json& summary) const {
+    using namespace weft;
+    const std::string frames_kept =
+        a_.no_frames          ? std::string("no frames (--no-frames)")
+        : !frame_files_         ? std::string("no frame files (formats without obj or ply)")
+        : frames_complete_ == 0 ? std::string("no frames")
+                                : "frames " + (frames_complete_ == 1 ? std::string("0") : "0 to " + std::to_string(frames_complete_ - 1)) +
+                                      " in " + out_.frames().string();
+    const bool interrupted = out_.failures.empty() && r.status == "interrupted";
+    if (!out_.failures.empty()) {
+      std::string kept = frames_kept;
+      if (energy_written_) kept += ", energy.csv (" + count_of(r.energy.size(), "row") + ")";
+      if (summary_written_) kept += ", summary.json (status output_failed)";
+      std::fprintf(stderr, "weft: error: could not write %s: %s.\nStopped at t = %.4f s. Kept: %s.\n",
+                   out_.failures.front().path.c_str(), out_.failures.front().reason.c_str(), sim_.time(), kept.c_str());
+      for (size_t k = 1; k < out_.failures.size(); ++k)
+        std::fprintf(stderr, "weft: could not write %s either: %s\n", out_.failures[k].path.c_str(),
+                     out_.failures[k].reason.c_str());
+      if (checkpoint_frame_ >= 0 && fs::exists(out_.checkpoint()))
+        std::fprintf(stderr, "The checkpoint %s holds frame %ld: once there is room, `weft run --resume %s` continues "
+                             "from there.\n", out_.checkpoint().c_str(), checkpoint_frame_, a_.out.c_str());
+      return app::kExitOutputFailed;
+    }
+    if (interrupted) {
+      std::fprintf(stderr, "weft: interrupted at t = %.4f s. Kept: %s, energy.csv, summary.json (status interrupted) "
+                           "and %s. Continue with `weft run --resume %s`.\n",
+                   sim_.time(), frames_kept.c_str(), out_.checkpoint().c_str(), a_.out.c_str());
+      return app::kExitInterrupted;
+    }
+    if (!a_.quiet) {
+      std::fprintf(stderr, "%s: %ld steps in %.2f s (%.3f ms/step), CG %.1f iterations/step, kappa %.3g..%.3g, damping %.3g\n",
+                   summary["status"].get<std::string>().c_str(), r.steps.steps, r.wall_seconds,
+                   1e3 * r.wall_seconds / std::max(1L, r.steps.steps), summary["solver_iterations_mean"].get<double>(),
+                   r.damping.membrane_kappa.min(), r.damping.membrane_kappa.max(), r.damping_ratio);
+      std::string files = frame_files_ ? "frames/, " : "";
+      if (write_glb_) files += "animation.glb, ";
+      if (write_pc2_) files += "animation.pc2, animation_rest.obj, ";
+      if (write_usda_) files += "animation.usda, ";
+      std::fprintf(stderr, "results in %s (%senergy.csv, summary.json)\n", a_.out.c_str(), files.c_str());
+    }
+    if (r.steps.cg_failures > 0)
+      std::fprintf(stderr,
+                   "weft: warning: %ld of %ld linear solves stopped at the iteration cap of %d (the scene's "
+                   "integrator.max_iterations) before reaching the tolerance %g: the motion is less accurate than asked. "
+                   "summary.json's status is %s.\n",
+                   r.steps.cg_failures, r.steps.cg_solves, scene.integrator.cg_max_iterations,
+                   scene.integrator.cg_tolerance, summary["status"].get<std::string>().c_str());
+    if (r.steps.newton_automatic_steps > 0)
+      std::fprintf(stderr,
+                   "weft: note: %ld of %ld backward Euler steps put energy in (its linearisation's error on a "
+                   "stiffening fabric) and were taken again with %d Newton iterations (summary.json: "
+                   "newton.automatic_steps; --newton N iterates every step).\n",
+                   r.steps.newton_automatic_steps, r.steps.steps,
+                   summary["newton"].value("automatic_max_iterations", 0));
+    if (r.status == "unstable") {
+      std::fprintf(stderr, "weft: simulation became unstable at t = %.4f s: %s.\nKept %zu frames. %s\n", r.unstable_time,
+                   r.message.c_str(), r.energy.size(), stability_advice(scene).c_str());
+      return app::kExitUnstable;
+    }
+    return app::kExitOk;
+  }
+
+  bool failed() const { return !out_.failures.empty(); }
+
+ private:
+  void collider_surface(const weft::Simulation& s, size_t k) {
+    s.collider_surface(k, s.time(), collider_positions_[k], collider_triangles_[k]);
+    if (collider_triangle_lists_[k].empty()) collider_triangle_lists_[k] = weft::triangle_list(collider_triangles_[k]);
+  }
+
+  const RunArgs& a_;
+  const weft::Simulation& sim_;
+  OutputFolder out_;
+  long first_frame_;
+  long frames_complete_;  ///< frames 0 .. frames_complete_ - 1 are on disk
+  IntersectionTally tally_;
+  bool write_glb_ = false, write_pc2_ = false, write_usda_ = false, animate_ = false, frame_files_ = false;
+  std::string frame_format_;
+  nlohmann::json checkpoint_header_;
+  long checkpoint_frame_ = -1;  ///< the last frame a checkpoint on disk holds
+  weft::FrameChecker frame_checker_;  ///< its trees are built on the first frame and refitted after
+  size_t collider_count_ = 0;
+  std::vector<weft::Points> collider_positions_;
+  std::vector<weft::Triangles> collider_triangles_;
+  std::vector<std::vector<std::array<int, 3>>> collider_triangle_lists_;
+  const weft::TriMesh& cloth_mesh_;
+  std::vector<float> cloth_texcoords_;
+  std::optional<weft::FrameRecording> recording_;
+  std::vector<double> export_seconds_;  ///< per frame: writing its files and recording it
+  bool energy_written_ = false, summary_written_ = false;
+};
+
 int run(RunArgs a, const std::function<bool(const char*)>& given) {
   using namespace weft;
   const bool resume = !a.resume.empty();
-  std::string checkpoint_bytes_in;
-  nlohmann::json header;
+  std::optional<Resumption> resumed;
   if (resume) {
-    for (const char* option : {"scene", "--out", "--method", "--alpha", "--dt", "--duration", "--tolerance",
-                               "--preconditioner", "--damping-ratio", "--newton", "--frame-format", "--format", "--no-frames"})
-      if (given(option))
-        throw InputError(std::string("command line: ") + option +
-                         " cannot be combined with --resume: the run goes on with the settings it started with");
-    const fs::path file = fs::path(a.resume) / kCheckpointName;
-    if (!fs::exists(file))
-      throw InputError(file.string() + ": no checkpoint to resume from (a run writes one when interrupted, and "
-                                       "every --checkpoint-every seconds)");
-    checkpoint_bytes_in = read_bytes(file);
-    header = checkpoint_header(checkpoint_bytes_in, file.string());
-    RunArgs stored;
-    try {
-      stored = options_from_json(header.at("options"));
-      stored.scene = header.at("scene").get<std::string>();
-      const std::string hash = header.at("scene_hash").get<std::string>();
-      if (hash_hex(read_bytes(stored.scene)) != hash)
-        throw InputError(stored.scene + ": the scene changed since the checkpoint " + file.string() +
-                         " was written (its hash was " + hash + "); resume needs the same scene");
-    } catch (const nlohmann::json::exception& e) {
-      throw InputError(file.string() + ": checkpoint header is damaged: " + e.what());
-    }
-    stored.out = a.resume;
-    stored.quiet = a.quiet;
-    if (a.checkpoint_every) stored.checkpoint_every = a.checkpoint_every;
-    a = stored;
+    resumed = read_resumption(a, given);
   } else if (a.scene.empty() || a.out.empty()) {
     throw InputError("command line: give a scene and --out DIR, or --resume DIR");
   }
@@ -355,237 +633,30 @@ int run(RunArgs a, const std::function<bool(const char*)>& given) {
     if (stage != "done") setup_progress.update(fraction, stage);
   });
   RunResult so_far;
-  if (resume) so_far = restore_checkpoint(checkpoint_bytes_in, (fs::path(a.resume) / kCheckpointName).string(), sim);
+  if (resume) so_far = restore_checkpoint(resumed->bytes, resumed->file.string(), sim);
   setup_progress.update(1.0, "done");
 
-  OutputFolder out(a.out);
-  std::error_code ec;
-  fs::create_directories(out.dir(), ec);
-  if (ec) throw InputError(a.out + ": cannot create output folder: " + ec.message());
-  const long first_frame = static_cast<long>(so_far.energy.size());
-  // Every frame's intersections (docs/collisions.md, "Checking"), counted whether or not it is
-  // written; a resumed run takes over the counts of the frames before its checkpoint.
-  IntersectionTally tally;
-  tally.first_frame = first_frame;
-  if (resume && header.contains("intersections")) {
-    try {
-      tally.restore(header.at("intersections"));
-    } catch (const nlohmann::json::exception& e) {
-      throw InputError((fs::path(a.resume) / kCheckpointName).string() + ": checkpoint header is damaged: " + e.what());
-    }
-  }
-  // A fresh run replaces an earlier run's outputs; a resumed one those past its checkpoint.
-  out.clear(first_frame, resume);
-  const bool write_glb = has_format(a.formats, "glb"), write_pc2 = has_format(a.formats, "pc2"),
-             write_usda = has_format(a.formats, "usda");
-  const bool animate = write_glb || write_pc2 || write_usda;  // frames recorded for the animations
-  const std::string frame_format = has_format(a.formats, "ply") ? "ply" : has_format(a.formats, "obj") ? "obj" : "";
-  const bool frame_files = !a.no_frames && !frame_format.empty();
-  if (frame_files) {
-    fs::create_directories(out.frames(), ec);
-    if (ec) throw InputError(out.frames().string() + ": cannot create output folder: " + ec.message());
-  }
-  nlohmann::json checkpoint_header_out;
-  checkpoint_header_out["weft_version"] = WEFT_VERSION;
-  checkpoint_header_out["scene"] = fs::absolute(a.scene).string();
-  checkpoint_header_out["scene_hash"] = hash_hex(read_bytes(a.scene));
-  checkpoint_header_out["options"] = options_json(a);
-  long checkpoint_frame = resume ? first_frame - 1 : -1;  // the last frame a checkpoint on disk holds
-
+  RunWriter writer(a, scene, sim, resumed ? &*resumed : nullptr, static_cast<long>(so_far.energy.size()));
   install_signal_handlers();
   app::Progress progress("weft run " + scene.method_name, !a.quiet);
-  using Clock = std::chrono::steady_clock;
   auto last_checkpoint = Clock::now();
-  long frames_complete = first_frame;  // frames 0 .. frames_complete - 1 are on disk
-  // The trees are built on the first frame and refitted after.
-  FrameChecker frame_checker(0);
-  // The colliders' surfaces in file order: a walking body's skinned mesh, another collider's
-  // surface as Collider::surface draws it.
-  const size_t collider_count = sim.collider_count();
-  std::vector<Points> collider_positions(collider_count);
-  std::vector<Triangles> collider_triangles(collider_count);
-  std::vector<std::vector<std::array<int, 3>>> collider_triangle_lists(collider_count);
-  auto collider_surface = [&](const Simulation& s, size_t k) {
-    s.collider_surface(k, s.time(), collider_positions[k], collider_triangles[k]);
-    if (collider_triangle_lists[k].empty()) collider_triangle_lists[k] = triangle_list(collider_triangles[k]);
-  };
-  // Texture coordinates: the pattern coordinates in the units of the cloth's OBJ texture
-  // coordinates (metres on a grid), so an OBJ cloth's own come back.
-  const TriMesh& cloth_mesh = sim.mesh();
-  const std::vector<float> cloth_texcoords = pattern_texcoords(cloth_mesh.pattern, scene.cloth.uv_scale);
-  // The animations (glb, pc2, usda) are written at the end from the frames recorded here.
-  std::optional<FrameRecording> recording;
-  if (animate) recording.emplace(sim, write_glb || write_usda, write_glb);
-  if (resume && animate) {
-    const fs::path file = out.recorded_frames();
-    if (!fs::exists(file))
-      throw InputError(file.string() + ": missing; the animations (glb, pc2, usda) of a resumed run need the frames "
-                                       "recorded before its checkpoint");
-    recording->read_frames(read_bytes(file), file.string(), static_cast<size_t>(first_frame));
-  }
-  std::vector<double> export_seconds;  // per frame: writing its files and recording it
-  auto write_checkpoint = [&](const RunResult& r) {
-    checkpoint_header_out["intersections"] = tally.state();
-    if (animate && !out.write(out.recorded_frames(), [&](std::ostream& o) { recording->write_frames(o); }))
-      return;
-    if (out.write_bytes(out.checkpoint(), checkpoint_bytes(checkpoint_header_out, sim, r)))
-      checkpoint_frame = static_cast<long>(r.energy.size()) - 1;
-  };
+  writer.start_recording(resume);
   RunCallbacks cb;
-  cb.on_frame = [&](int f, const Simulation& s) {
-    const auto check_start = Clock::now();
-    std::vector<FrameMesh> body_meshes;
-    for (size_t k = 0; k < collider_count; ++k) {
-      collider_surface(s, k);
-      body_meshes.push_back({collider_positions[k].data(), &collider_triangle_lists[k]});
-    }
-    tally.add(frame_checker.check({s.positions().data(), &s.mesh().triangles}, body_meshes));
-    tally.seconds += std::chrono::duration<double>(Clock::now() - check_start).count();
-    if (!out.failures.empty()) return;
-    const auto export_start = Clock::now();
-    if (animate) recording->add_frame(s, &collider_positions);
-    if (!frame_files) {
-      export_seconds.push_back(std::chrono::duration<double>(Clock::now() - export_start).count());
-      return;
-    }
-    char name[64];
-    std::snprintf(name, sizeof name, "frame_%05d.%s", f, frame_format.c_str());
-    const fs::path path = out.frames() / name;
-    bool ok = frame_format == "ply"
-                  ? out.write(path, [&](std::ostream& o) {
-                      const VecX eta = s.added_viscosity_per_vertex();
-                      write_ply_frame(o, s.positions().data(), s.vertex_count(), eta.data(), cloth_mesh.triangles);
-                    })
-                  : out.write(path, [&](std::ostream& o) {
-                      write_textured_obj(o, s.positions().data(), s.vertex_count(), cloth_texcoords,
-                                         vertex_normals(s.positions().data(), s.vertex_count(), cloth_mesh.triangles),
-                                         cloth_mesh.triangles);
-                    });
-    // The colliders' surfaces: body<k> for the k-th walking body, collider<k> for the k-th
-    // collider of another kind.
-    for (size_t k = 0; ok && k < collider_count; ++k) {
-      std::snprintf(name, sizeof name, "%s_%05d.obj", collider_output_name(s.collider(k), k).c_str(), f);
-      const fs::path collider_path = out.frames() / name;
-      ok = out.attempt(collider_path,
-                       [&] { write_obj(collider_path.string(), collider_positions[k], collider_triangles[k]); });
-    }
-    if (ok) frames_complete = f + 1;
-    export_seconds.push_back(std::chrono::duration<double>(Clock::now() - export_start).count());
-  };
+  cb.on_frame = [&](int f, const Simulation& s) { writer.on_frame(f, s); };
   cb.on_progress = [&](double fr) { progress.update(fr); };
   cb.after_frame = [&](const RunResult& r) {
-    if (!out.failures.empty() || g_stop_signal) return true;
+    if (writer.failed() || g_stop_signal) return true;
     if (a.checkpoint_every &&
         std::chrono::duration<double>(Clock::now() - last_checkpoint).count() >= *a.checkpoint_every) {
-      write_checkpoint(r);
+      writer.write_checkpoint(r);
       last_checkpoint = Clock::now();
     }
-    return !out.failures.empty();
+    return writer.failed();
   };
-  RunResult r = run_simulation(sim, cb, resume ? &so_far : nullptr);
+  const RunResult r = run_simulation(sim, cb, resume ? &so_far : nullptr);
   progress.finish();
-  const bool failed = !out.failures.empty();
-  const bool interrupted = !failed && r.status == "interrupted";
-  // Interrupted: where to go on from. Finished with --checkpoint-every: the exact final state.
-  // Unstable: none (going on would repeat the blow-up).
-  const bool keep_checkpoint = interrupted || (r.status == "ok" && a.checkpoint_every);
-  if (!failed && keep_checkpoint) write_checkpoint(r);
-  if (!failed && !keep_checkpoint) {
-    fs::remove(out.checkpoint(), ec);
-    fs::remove(out.recorded_frames(), ec);
-  }
-
-  // The animations hold the frames of a finished (or unstable) run; an interrupted one writes
-  // them when resumed to the end.
-  double animation_seconds = 0;
-  if (!failed && !interrupted && recording && recording->frame_count() > 0) {
-    const auto start = Clock::now();
-    if (write_glb) out.write(out.dir() / "animation.glb", [&](std::ostream& o) { recording->write_glb(o); });
-    if (write_usda) out.write(out.dir() / "animation.usda", [&](std::ostream& o) { recording->write_usda(o); });
-    if (write_pc2) {
-      out.write(out.dir() / "animation.pc2", [&](std::ostream& o) { recording->write_pc2(o); });
-      out.write(out.dir() / "animation_rest.obj", [&](std::ostream& o) { recording->write_rest_obj(o); });
-    }
-    animation_seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  }
-  const bool energy_written =
-      out.write(out.dir() / "energy.csv", [&](std::ostream& o) { o << energy_csv(r.energy); });
-  nlohmann::json summary = summary_json(sim, r);
-  summary["intersections"] = tally.summary();
-  summary["intersection_seconds"] = tally.seconds;
-  summary["formats"] = a.formats;
-  if (!export_seconds.empty()) {
-    // Frames' exports (files and recording) in this process, and the animations at the end.
-    std::vector<double> sorted = export_seconds;
-    std::sort(sorted.begin(), sorted.end());
-    summary["export_seconds"] = {{"per_frame_median", sorted[sorted.size() / 2]},
-                                 {"frames_total", std::accumulate(sorted.begin(), sorted.end(), 0.0)},
-                                 {"animations", animation_seconds}};
-  }
-  if (!out.failures.empty()) {
-    summary["status"] = "output_failed";
-    summary["message"] = "could not write " + out.failures.front().path + ": " + out.failures.front().reason;
-  }
-  const bool summary_written =
-      out.write(out.dir() / "summary.json", [&](std::ostream& o) { o << summary.dump(2) << "\n"; });
-  const std::string frames_kept =
-      a.no_frames          ? std::string("no frames (--no-frames)")
-      : !frame_files         ? std::string("no frame files (formats without obj or ply)")
-      : frames_complete == 0 ? std::string("no frames")
-                             : "frames " + (frames_complete == 1 ? std::string("0") : "0 to " + std::to_string(frames_complete - 1)) +
-                                   " in " + out.frames().string();
-
-  if (!out.failures.empty()) {
-    std::string kept = frames_kept;
-    if (energy_written) kept += ", energy.csv (" + count_of(r.energy.size(), "row") + ")";
-    if (summary_written) kept += ", summary.json (status output_failed)";
-    std::fprintf(stderr, "weft: error: could not write %s: %s.\nStopped at t = %.4f s. Kept: %s.\n",
-                 out.failures.front().path.c_str(), out.failures.front().reason.c_str(), sim.time(), kept.c_str());
-    for (size_t k = 1; k < out.failures.size(); ++k)
-      std::fprintf(stderr, "weft: could not write %s either: %s\n", out.failures[k].path.c_str(),
-                   out.failures[k].reason.c_str());
-    if (checkpoint_frame >= 0 && fs::exists(out.checkpoint()))
-      std::fprintf(stderr, "The checkpoint %s holds frame %ld: once there is room, `weft run --resume %s` continues "
-                           "from there.\n", out.checkpoint().c_str(), checkpoint_frame, a.out.c_str());
-    return app::kExitOutputFailed;
-  }
-  if (interrupted) {
-    std::fprintf(stderr, "weft: interrupted at t = %.4f s. Kept: %s, energy.csv, summary.json (status interrupted) "
-                         "and %s. Continue with `weft run --resume %s`.\n",
-                 sim.time(), frames_kept.c_str(), out.checkpoint().c_str(), a.out.c_str());
-    return app::kExitInterrupted;
-  }
-  if (!a.quiet) {
-    std::fprintf(stderr, "%s: %ld steps in %.2f s (%.3f ms/step), CG %.1f iterations/step, kappa %.3g..%.3g, damping %.3g\n",
-                 summary["status"].get<std::string>().c_str(), r.steps.steps, r.wall_seconds,
-                 1e3 * r.wall_seconds / std::max(1L, r.steps.steps), summary["solver_iterations_mean"].get<double>(),
-                 r.damping.membrane_kappa.min(), r.damping.membrane_kappa.max(), r.damping_ratio);
-    std::string files = frame_files ? "frames/, " : "";
-    if (write_glb) files += "animation.glb, ";
-    if (write_pc2) files += "animation.pc2, animation_rest.obj, ";
-    if (write_usda) files += "animation.usda, ";
-    std::fprintf(stderr, "results in %s (%senergy.csv, summary.json)\n", a.out.c_str(), files.c_str());
-  }
-  if (r.steps.cg_failures > 0)
-    std::fprintf(stderr,
-                 "weft: warning: %ld of %ld linear solves stopped at the iteration cap of %d (the scene's "
-                 "integrator.max_iterations) before reaching the tolerance %g: the motion is less accurate than asked. "
-                 "summary.json's status is %s.\n",
-                 r.steps.cg_failures, r.steps.cg_solves, scene.integrator.cg_max_iterations,
-                 scene.integrator.cg_tolerance, summary["status"].get<std::string>().c_str());
-  if (r.steps.newton_automatic_steps > 0)
-    std::fprintf(stderr,
-                 "weft: note: %ld of %ld backward Euler steps put energy in (its linearisation's error on a "
-                 "stiffening fabric) and were taken again with %d Newton iterations (summary.json: "
-                 "newton.automatic_steps; --newton N iterates every step).\n",
-                 r.steps.newton_automatic_steps, r.steps.steps,
-                 summary["newton"].value("automatic_max_iterations", 0));
-  if (r.status == "unstable") {
-    std::fprintf(stderr, "weft: simulation became unstable at t = %.4f s: %s.\nKept %zu frames. %s\n", r.unstable_time,
-                 r.message.c_str(), r.energy.size(), stability_advice(scene).c_str());
-    return app::kExitUnstable;
-  }
-  return app::kExitOk;
+  const nlohmann::json summary = writer.finish(r);
+  return writer.report(r, scene, summary);
 }
 
 weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write frames, energy.csv and summary.json",
