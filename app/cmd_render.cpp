@@ -185,55 +185,60 @@ struct RunSurvey {
   double strain_scale = 0;                           ///< render::strain_scale over them
 };
 
-int run_render(const RenderArgs& a) {
-  const auto started = std::chrono::steady_clock::now();
-  if (a.color != "none" && a.color != "viscosity" && a.color != "strain")
-    throw InputError("--color '" + a.color + "': expected none, viscosity or strain");
-  const auto [width, height] = parse_size(a.size, a.video);
-  std::optional<render::Camera> given_camera;
-  if (!a.camera.empty()) given_camera = parse_camera(a.camera);
-  if (a.samples < 1 || a.samples > 8) throw InputError("--samples " + std::to_string(a.samples) + ": expected 1 to 8");
-  if (a.uv_scale && (!(*a.uv_scale > 0) || !std::isfinite(*a.uv_scale)))
-    throw InputError("--uv-scale " + format_number("%g", *a.uv_scale) + ": expected a number > 0");
-  if (a.fps && !(*a.fps > 0 && *a.fps <= 1000)) throw InputError("--fps: expected a rate in (0, 1000]");
-  const fs::path dir(a.dir);
-  const auto files = weft::find_run_frames(dir, "weft render");
-  const std::vector<long> selected =
-      !a.frames.empty() ? parse_frames(a.frames, files) : a.video ? parse_frames("all", files) : spread_frames(files);
-  // A second run beside the first: the same frames, framed and coloured alike.
-  std::map<long, weft::RunFrameFiles> beside_files;
+// The frames to draw: DIR's, and with --beside a second run's, with the two runs' labels.
+struct RenderFrames {
+  std::map<long, weft::RunFrameFiles> files, beside_files;
+  std::vector<long> selected;
   std::array<std::string, 2> labels;
+  int panels = 1;
+};
+
+RenderFrames choose_frames(const RenderArgs& a) {
+  RenderFrames r;
+  r.files = weft::find_run_frames(fs::path(a.dir), "weft render");
+  r.selected = !a.frames.empty() ? parse_frames(a.frames, r.files)
+               : a.video         ? parse_frames("all", r.files)
+                                 : spread_frames(r.files);
+  // A second run beside the first: the same frames, framed and coloured alike.
   if (!a.beside.empty()) {
-    beside_files = weft::find_run_frames(fs::path(a.beside), "weft render --beside");
-    for (long number : selected)
-      if (!beside_files.count(number))
+    r.beside_files = weft::find_run_frames(fs::path(a.beside), "weft render --beside");
+    for (long number : r.selected)
+      if (!r.beside_files.count(number))
         throw InputError("--beside " + a.beside + ": no frame " + std::to_string(number) + " (it has frames " +
-                         std::to_string(beside_files.begin()->first) + " to " + std::to_string(beside_files.rbegin()->first) +
-                         "; choose frames both runs have with --frames)");
+                         std::to_string(r.beside_files.begin()->first) + " to " +
+                         std::to_string(r.beside_files.rbegin()->first) + "; choose frames both runs have with --frames)");
     auto name = [](const std::string& d) {
       const fs::path p = fs::path(d).lexically_normal();
       return (p.has_filename() ? p.filename() : p.parent_path().filename()).string();
     };
-    labels = {name(a.dir), name(a.beside)};
+    r.labels = {name(a.dir), name(a.beside)};
     if (!a.labels.empty()) {
       const size_t comma = a.labels.find(',');
       if (comma == std::string::npos || a.labels.find(',', comma + 1) != std::string::npos)
         throw InputError("--labels '" + a.labels + "': expected LEFT,RIGHT (two labels, one comma)");
-      labels = {a.labels.substr(0, comma), a.labels.substr(comma + 1)};
+      r.labels = {a.labels.substr(0, comma), a.labels.substr(comma + 1)};
     }
     // The bitmap font has lowercase letters only.
-    for (std::string& text : labels)
+    for (std::string& text : r.labels)
       for (char& ch : text) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
   } else if (!a.labels.empty()) {
     throw InputError("--labels: only with --beside (they name the two runs drawn side by side)");
   }
-  const int panels = a.beside.empty() ? 1 : 2;
+  r.panels = a.beside.empty() ? 1 : 2;
+  return r;
+}
 
-  // The run's frame interval, for the captions' times and the video's rate, and the metres per
-  // unit of its texture coordinates, for the strain.
-  std::optional<double> frame_interval;
-  double uv_scale = a.uv_scale.value_or(1.0);
-  const fs::path summary_path = dir / "summary.json";
+// What the run's summary.json gives: its frame interval, for the captions' times and the
+// video's rate, and the metres per unit of its texture coordinates, for the strain.
+struct RunTiming {
+  std::optional<double> frame_interval, fps;
+  double uv_scale = 1;
+};
+
+RunTiming read_run_timing(const RenderArgs& a) {
+  RunTiming t;
+  t.uv_scale = a.uv_scale.value_or(1.0);
+  const fs::path summary_path = fs::path(a.dir) / "summary.json";
   if (std::ifstream in(summary_path); in) {
     nlohmann::json j;
     try {
@@ -242,27 +247,33 @@ int run_render(const RenderArgs& a) {
       throw InputError(summary_path.string() + ": not JSON (" + e.what() + ")");
     }
     if (j.contains("frame_interval") && j["frame_interval"].is_number() && j["frame_interval"].get<double>() > 0)
-      frame_interval = j["frame_interval"].get<double>();
-    if (!a.uv_scale && a.color == "strain") uv_scale = weft::run_uv_scale(j, summary_path.string());
+      t.frame_interval = j["frame_interval"].get<double>();
+    if (!a.uv_scale && a.color == "strain") t.uv_scale = weft::run_uv_scale(j, summary_path.string());
   }
-  std::optional<double> fps = a.fps;
-  if (!fps && frame_interval) fps = 1 / *frame_interval;
-  if (a.video && !fps)
+  t.fps = a.fps;
+  if (!t.fps && t.frame_interval) t.fps = 1 / *t.frame_interval;
+  if (a.video && !t.fps)
     throw InputError(summary_path.string() + ": missing or without frame_interval; give the video's rate with --fps");
   if (a.video && !ffmpeg_on_path())
     throw InputError("ffmpeg not found on the PATH: weft render --video pipes its frames into ffmpeg (Debian: apt-get "
                      "install ffmpeg, or make deps)");
+  return t;
+}
 
-  // First pass: every frame is read (so that a bad one stops the command before anything is
-  // written) for the framing over the whole run and the colour maps' range.
-  weft::app::Progress progress("render");
-  progress.quiet_for(1.0);
+// The progress over both passes: every frame read once, then every panel drawn.
+struct RenderProgress {
+  weft::app::Progress bar{"render"};
+  size_t done = 0, work = 0;
+  void step() { bar.update(static_cast<double>(++done) / static_cast<double>(work)); }
+};
+
+// First pass: every frame is read (so that a bad one stops the command before anything is
+// written) for the framing over the whole run and the colour maps' range.
+RunSurvey survey_frames(const RenderArgs& a, const RenderFrames& frames, double uv_scale, RenderProgress& progress) {
   RunSurvey survey;
-  size_t done = 0;
-  const size_t work = files.size() + beside_files.size() + panels * selected.size();
   std::vector<std::pair<long, const weft::RunFrameFiles*>> surveyed;
-  for (const auto& [number, f] : files) surveyed.emplace_back(number, &f);
-  for (const auto& [number, f] : beside_files) surveyed.emplace_back(number, &f);
+  for (const auto& [number, f] : frames.files) surveyed.emplace_back(number, &f);
+  for (const auto& [number, f] : frames.beside_files) surveyed.emplace_back(number, &f);
   // The strain's percentile sampler is sized for the frames of both runs.
   const size_t frames_surveyed = surveyed.size();
   for (const auto& [number, fp] : surveyed) {
@@ -298,10 +309,31 @@ int run_render(const RenderArgs& a) {
         survey.framed_per_frame[number].add(bb);
       }
     }
-    progress.update(static_cast<double>(++done) / static_cast<double>(work));
+    progress.step();
   }
+  return survey;
+}
 
+// The pictures' camera, ground and size; with --follow, where the camera moves each frame.
+struct Framing {
   render::PictureOptions options;
+  std::map<long, Vec3> follow_centre;  ///< per frame, with --follow: the centre its camera frames
+  render::Camera base_camera;          ///< the camera at follow_origin
+  Vec3 follow_origin = Vec3::Zero();
+
+  /// Moves the camera to frame `number`'s place (--follow).
+  void follow(long number) {
+    if (!follow_centre.count(number)) return;
+    const Vec3 shift = follow_centre.at(number) - follow_origin;
+    options.camera.eye = base_camera.eye + shift;
+    options.camera.target = base_camera.target + shift;
+  }
+};
+
+Framing frame_pictures(const RenderArgs& a, const RunSurvey& survey, int width, int height,
+                       const std::optional<render::Camera>& given_camera, long first_frame) {
+  Framing fr;
+  render::PictureOptions& options = fr.options;
   options.width = width;
   options.height = height;
   options.samples_per_side = a.samples;
@@ -321,23 +353,28 @@ int run_render(const RenderArgs& a) {
   options.camera = given_camera ? *given_camera : render::frame_camera(framed, width, height);
   // --follow: the camera keeps its view and moves with the objects, framing the largest of the
   // frames' boxes (each reaching towards the ground as above) about its own centre.
-  std::map<long, Vec3> follow_centre;
   if (a.follow) {
     render::Bounds extent;
     for (const auto& [number, box] : survey.framed_per_frame) {
       if (box.empty()) continue;
       const render::Bounds b = towards_ground(box);
-      follow_centre[number] = b.centre();
+      fr.follow_centre[number] = b.centre();
       extent.add(b.lo - b.centre());
       extent.add(b.hi - b.centre());
     }
     if (!given_camera && !extent.empty()) options.camera = render::frame_camera(extent, width, height);
   }
   // A camera given is where it is at the first frame drawn; the framing one is about the origin.
-  const render::Camera base_camera = options.camera;
-  const Vec3 follow_origin =
-      given_camera && follow_centre.count(selected.front()) ? follow_centre.at(selected.front()) : Vec3(Vec3::Zero());
+  fr.base_camera = options.camera;
+  fr.follow_origin =
+      given_camera && fr.follow_centre.count(first_frame) ? fr.follow_centre.at(first_frame) : Vec3(Vec3::Zero());
   options.scene_bounds = survey.framed;
+  return fr;
+}
+
+// The colour map's bar (--color viscosity or strain), its range printed; sets the strain's
+// scale in the survey.
+void add_colour_bar(const RenderArgs& a, RunSurvey& survey, double uv_scale, render::PictureOptions& options) {
   if (a.color == "viscosity") {
     render::ColourBar bar{"added viscosity N s/m", "0", format_number("%.3g", survey.viscosity_peak), {}};
     for (int k = 0; k <= kColourBarSteps; ++k) bar.stops.push_back(render::sequential_colour(static_cast<double>(k) / kColourBarSteps));
@@ -355,124 +392,180 @@ int run_render(const RenderArgs& a) {
     options.colour_bar = bar;
     std::printf("colour scale: strain -%.6g%% to +%.6g%% (texture coordinates times uv_scale %.6g)\n", 100 * m, 100 * m, uv_scale);
   }
+}
 
-  const fs::path out(a.out);
-  std::error_code ec;
-  fs::create_directories(out, ec);
-  if (ec) {
-    std::cerr << "weft: error: cannot create " << out.string() << ": " << ec.message() << "\n";
-    return weft::app::kExitOutputFailed;
+// One run's frame `number` as a picture: the cloth (in the colour map chosen) and the colliders,
+// the ground standing for a horizontal plane collider; the caption set in `options`.
+weft::RgbImage draw_frame(const RenderArgs& a, const weft::RunFrameFiles& f, long number, const RunSurvey& survey,
+                          const RunTiming& timing, render::PictureOptions& options) {
+  const weft::RunFrameMesh cloth = weft::read_frame_mesh(f.cloth);
+  std::vector<weft::RunFrameMesh> colliders;
+  for (const auto& [name, path] : f.colliders) {
+    weft::RunFrameMesh body = weft::read_frame_mesh(path);
+    // The ground stands for a horizontal plane collider.
+    if (!(options.ground_y && is_horizontal_plane(body))) colliders.push_back(std::move(body));
   }
+  std::vector<render::PictureMesh> meshes;
+  render::PictureMesh cloth_mesh{&cloth.xyz, &cloth.triangles, render::Surface::kCloth, {}, {}};
+  if (a.color == "viscosity") {
+    for (double v : cloth.added_viscosity)
+      cloth_mesh.vertex_colours.push_back(render::sequential_colour(survey.viscosity_peak > 0 ? v / survey.viscosity_peak : 0));
+  } else if (a.color == "strain") {
+    const double scale = survey.strain_scale > 0 ? 1 / survey.strain_scale : 0;
+    for (double s : render::vertex_strain(cloth.xyz, cloth.triangles, cloth.corner_texcoords, timing.uv_scale))
+      cloth_mesh.vertex_colours.push_back(render::diverging_colour(s * scale));
+  }
+  meshes.push_back(std::move(cloth_mesh));
+  for (const auto& body : colliders) meshes.push_back({&body.xyz, &body.triangles, render::Surface::kCollider, {}, {}});
+  if (!a.no_caption)
+    options.caption = (timing.frame_interval
+                           ? "t = " + format_number("%.2f", static_cast<double>(number) * *timing.frame_interval) + " s   "
+                           : "") +
+                      "frame " + std::to_string(number);
+  return render::render_picture(meshes, options);
+}
 
-  // The video: frames piped into ffmpeg, which writes a temporary file renamed into place.
-  const fs::path video_path = out / "render.mp4";
-  const fs::path video_temporary = out / (".render.mp4.tmp-" + std::to_string(::getpid()));
-  FILE* pipe = nullptr;
-  if (a.video) {
+// The two runs side by side, each labelled at its top left.
+weft::RgbImage side_by_side(const weft::RgbImage& left, const weft::RgbImage& right, int width, int height,
+                            const std::array<std::string, 2>& labels) {
+  weft::RgbImage both(2 * width, height);
+  for (int y = 0; y < height; ++y) {
+    std::memcpy(both.at(0, y), left.at(0, y), 3 * static_cast<size_t>(width));
+    std::memcpy(both.at(width, y), right.at(0, y), 3 * static_cast<size_t>(width));
+  }
+  const int scale = std::max(2, height / 240);
+  for (int k = 0; k < 2; ++k) render::draw_label(both, k * width + 4 * scale, 4 * scale, labels[k], scale, {40, 40, 40});
+  return both;
+}
+
+// Where the pictures go: PNG files (frame_NNNNN.png), or ffmpeg's input, which writes a
+// temporary file renamed into place. Each step returns an exit status, kExitOk to go on; a
+// failure is said on stderr.
+class PictureOutput {
+ public:
+  explicit PictureOutput(fs::path out) : out_(std::move(out)) {}
+  fs::path video_path() const { return out_ / "render.mp4"; }
+
+  int open(const RenderArgs& a, int width, int height, double fps) {
+    std::error_code ec;
+    fs::create_directories(out_, ec);
+    if (ec) {
+      std::cerr << "weft: error: cannot create " << out_.string() << ": " << ec.message() << "\n";
+      return weft::app::kExitOutputFailed;
+    }
+    if (!a.video) return weft::app::kExitOk;
     const std::string command = "ffmpeg -hide_banner -loglevel error -y -f rawvideo -pix_fmt rgb24 -s " +
-                                std::to_string(panels * width) + "x" + std::to_string(height) + " -framerate " +
-                                format_number("%.6g", *fps) + " -i - -an -c:v libx264 -preset medium -crf 20 " +
-                                "-pix_fmt yuv420p -movflags +faststart -f mp4 " + shell_quote(video_temporary.string());
+                                std::to_string(width) + "x" + std::to_string(height) + " -framerate " +
+                                format_number("%.6g", fps) + " -i - -an -c:v libx264 -preset medium -crf 20 " +
+                                "-pix_fmt yuv420p -movflags +faststart -f mp4 " + shell_quote(video_temporary_.string());
     ::signal(SIGPIPE, SIG_IGN);  // a failed ffmpeg is reported by a failed write, not a signal
-    pipe = ::popen(command.c_str(), "w");
-    if (!pipe) {
+    pipe_ = ::popen(command.c_str(), "w");
+    if (!pipe_) {
       std::cerr << "weft: error: cannot start ffmpeg (" << command << ")\n";
       return weft::app::kExitOutputFailed;
     }
+    return weft::app::kExitOk;
   }
 
-  std::vector<double> seconds_per_frame;
-  std::vector<fs::path> written;
-  for (long number : selected) {
-    const auto frame_start = std::chrono::steady_clock::now();
-    if (a.follow && follow_centre.count(number)) {
-      const Vec3 shift = follow_centre.at(number) - follow_origin;
-      options.camera.eye = base_camera.eye + shift;
-      options.camera.target = base_camera.target + shift;
-    }
-    auto draw = [&](const weft::RunFrameFiles& f) {
-      const weft::RunFrameMesh cloth = weft::read_frame_mesh(f.cloth);
-      std::vector<weft::RunFrameMesh> colliders;
-      for (const auto& [name, path] : f.colliders) {
-        weft::RunFrameMesh body = weft::read_frame_mesh(path);
-        // The ground stands for a horizontal plane collider.
-        if (!(options.ground_y && is_horizontal_plane(body))) colliders.push_back(std::move(body));
-      }
-      std::vector<render::PictureMesh> meshes;
-      render::PictureMesh cloth_mesh{&cloth.xyz, &cloth.triangles, render::Surface::kCloth, {}, {}};
-      if (a.color == "viscosity") {
-        for (double v : cloth.added_viscosity)
-          cloth_mesh.vertex_colours.push_back(render::sequential_colour(survey.viscosity_peak > 0 ? v / survey.viscosity_peak : 0));
-      } else if (a.color == "strain") {
-        const double scale = survey.strain_scale > 0 ? 1 / survey.strain_scale : 0;
-        for (double s : render::vertex_strain(cloth.xyz, cloth.triangles, cloth.corner_texcoords, uv_scale))
-          cloth_mesh.vertex_colours.push_back(render::diverging_colour(s * scale));
-      }
-      meshes.push_back(std::move(cloth_mesh));
-      for (const auto& body : colliders) meshes.push_back({&body.xyz, &body.triangles, render::Surface::kCollider, {}, {}});
-      if (!a.no_caption)
-        options.caption = (frame_interval ? "t = " + format_number("%.2f", static_cast<double>(number) * *frame_interval) + " s   " : "") +
-                          "frame " + std::to_string(number);
-      weft::RgbImage picture = render::render_picture(meshes, options);
-      progress.update(static_cast<double>(++done) / static_cast<double>(work));
-      return picture;
-    };
-    weft::RgbImage image = draw(files.at(number));
-    if (panels == 2) {
-      // The two runs side by side, each labelled at its top left.
-      const weft::RgbImage right = draw(beside_files.at(number));
-      weft::RgbImage both(2 * width, height);
-      for (int y = 0; y < height; ++y) {
-        std::memcpy(both.at(0, y), image.at(0, y), 3 * static_cast<size_t>(width));
-        std::memcpy(both.at(width, y), right.at(0, y), 3 * static_cast<size_t>(width));
-      }
-      const int scale = std::max(2, height / 240);
-      for (int k = 0; k < 2; ++k) render::draw_label(both, k * width + 4 * scale, 4 * scale, labels[k], scale, {40, 40, 40});
-      image = std::move(both);
-    }
-    if (pipe) {
-      if (std::fwrite(image.pixels.data(), 1, image.pixels.size(), pipe) != image.pixels.size()) {
-        ::pclose(pipe);
-        fs::remove(video_temporary, ec);
+  int add(const weft::RgbImage& image, long number) {
+    std::error_code ec;
+    if (pipe_) {
+      if (std::fwrite(image.pixels.data(), 1, image.pixels.size(), pipe_) != image.pixels.size()) {
+        ::pclose(pipe_);
+        pipe_ = nullptr;
+        fs::remove(video_temporary_, ec);
         std::cerr << "weft: error: ffmpeg stopped taking frames at frame " << number << "; no video written\n";
         return weft::app::kExitOutputFailed;
       }
-    } else {
-      char name[32];
-      std::snprintf(name, sizeof name, "frame_%05ld.png", number);
-      const fs::path path = out / name;
-      try {
-        weft::write_files_atomically({{path, [&](const fs::path& temporary) { weft::write_png(image, temporary); }}});
-      } catch (const std::exception& e) {
-        std::cerr << "weft: error: " << e.what() << "; kept " << written.size() << " pictures written before it\n";
-        return weft::app::kExitOutputFailed;
-      }
-      written.push_back(path);
+      return weft::app::kExitOk;
     }
-    seconds_per_frame.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_start).count());
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%05ld.png", number);
+    const fs::path path = out_ / name;
+    try {
+      weft::write_files_atomically({{path, [&](const fs::path& temporary) { weft::write_png(image, temporary); }}});
+    } catch (const std::exception& e) {
+      std::cerr << "weft: error: " << e.what() << "; kept " << written_ << " pictures written before it\n";
+      return weft::app::kExitOutputFailed;
+    }
+    ++written_;
+    return weft::app::kExitOk;
   }
-  progress.finish();
-  if (pipe) {
-    const int status = ::pclose(pipe);
+
+  /// The video finished and renamed into place (nothing to do for PNGs).
+  int close() {
+    if (!pipe_) return weft::app::kExitOk;
+    std::error_code ec;
+    const int status = ::pclose(pipe_);
+    pipe_ = nullptr;
     if (status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-      fs::remove(video_temporary, ec);
+      fs::remove(video_temporary_, ec);
       std::cerr << "weft: error: ffmpeg failed (exit status " << (WIFEXITED(status) ? WEXITSTATUS(status) : -1)
                 << "); no video written\n";
       return weft::app::kExitOutputFailed;
     }
-    fs::rename(video_temporary, video_path, ec);
+    fs::rename(video_temporary_, video_path(), ec);
     if (ec) {
-      fs::remove(video_temporary, ec);
-      std::cerr << "weft: error: cannot write " << video_path.string() << "\n";
+      fs::remove(video_temporary_, ec);
+      std::cerr << "weft: error: cannot write " << video_path().string() << "\n";
       return weft::app::kExitOutputFailed;
     }
+    return weft::app::kExitOk;
   }
+
+ private:
+  fs::path out_;
+  fs::path video_temporary_ = out_ / (".render.mp4.tmp-" + std::to_string(::getpid()));
+  FILE* pipe_ = nullptr;
+  size_t written_ = 0;  ///< PNGs written
+};
+
+int run_render(const RenderArgs& a) {
+  const auto started = std::chrono::steady_clock::now();
+  if (a.color != "none" && a.color != "viscosity" && a.color != "strain")
+    throw InputError("--color '" + a.color + "': expected none, viscosity or strain");
+  const auto [width, height] = parse_size(a.size, a.video);
+  std::optional<render::Camera> given_camera;
+  if (!a.camera.empty()) given_camera = parse_camera(a.camera);
+  if (a.samples < 1 || a.samples > 8) throw InputError("--samples " + std::to_string(a.samples) + ": expected 1 to 8");
+  if (a.uv_scale && (!(*a.uv_scale > 0) || !std::isfinite(*a.uv_scale)))
+    throw InputError("--uv-scale " + format_number("%g", *a.uv_scale) + ": expected a number > 0");
+  if (a.fps && !(*a.fps > 0 && *a.fps <= 1000)) throw InputError("--fps: expected a rate in (0, 1000]");
+  const RenderFrames frames = choose_frames(a);
+  const RunTiming timing = read_run_timing(a);
+
+  RenderProgress progress;
+  progress.bar.quiet_for(1.0);
+  progress.work = frames.files.size() + frames.beside_files.size() + frames.panels * frames.selected.size();
+  RunSurvey survey = survey_frames(a, frames, timing.uv_scale, progress);
+  Framing framing = frame_pictures(a, survey, width, height, given_camera, frames.selected.front());
+  add_colour_bar(a, survey, timing.uv_scale, framing.options);
+
+  PictureOutput output{fs::path(a.out)};
+  if (const int status = output.open(a, frames.panels * width, height, timing.fps.value_or(0)); status != weft::app::kExitOk)
+    return status;
+  std::vector<double> seconds_per_frame;
+  for (long number : frames.selected) {
+    const auto frame_start = std::chrono::steady_clock::now();
+    if (a.follow) framing.follow(number);
+    weft::RgbImage image = draw_frame(a, frames.files.at(number), number, survey, timing, framing.options);
+    progress.step();
+    if (frames.panels == 2) {
+      const weft::RgbImage right = draw_frame(a, frames.beside_files.at(number), number, survey, timing, framing.options);
+      progress.step();
+      image = side_by_side(image, right, width, height, frames.labels);
+    }
+    if (const int status = output.add(image, number); status != weft::app::kExitOk) return status;
+    seconds_per_frame.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_start).count());
+  }
+  progress.bar.finish();
+  if (const int status = output.close(); status != weft::app::kExitOk) return status;
   std::vector<double> sorted = seconds_per_frame;
   std::sort(sorted.begin(), sorted.end());
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   std::printf("%s %zu frame%s (%dx%d) in %.1f s, %.3f s per frame (median): %s\n", a.video ? "video of" : "rendered",
-              selected.size(), selected.size() == 1 ? "" : "s", panels * width, height, total, sorted[sorted.size() / 2],
-              a.video ? video_path.c_str() : (out / "frame_NNNNN.png").c_str());
+              frames.selected.size(), frames.selected.size() == 1 ? "" : "s", frames.panels * width, height, total,
+              sorted[sorted.size() / 2], a.video ? output.video_path().c_str() : (fs::path(a.out) / "frame_NNNNN.png").c_str());
   return weft::app::kExitOk;
 }
 
