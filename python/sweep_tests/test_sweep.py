@@ -1,7 +1,9 @@
 # `weft sweep` and weft.sweep() (docs/sweeps.md) on small runs of scenes/swing.json: sweep files
 # refused before anything runs, product and zip sweeps whose runs are `weft run`'s to the byte, a
 # failed run as a row, an interrupted sweep resumed, and a worker killed by SIGKILL mid-run on a
-# scheduler and workers started as separate processes (as on a cluster).
+# scheduler and workers started as separate processes (as on a cluster); drape experiment sweeps
+# whose figures are `weft experiment drape`'s, named axes, and tools/perturb.py's sweep with the
+# fail-safes' work in results.csv.
 import csv
 import json
 import os
@@ -343,3 +345,126 @@ def test_a_random_axis_moves_by_at_most_its_size_the_same_for_a_seed_every_time(
     assert sorted(moved) == [0, 1, 2] and len({json.dumps(t) for t in moved.values()}) == 3
     assert [r.scene["cloth"]["placement"]["translation"] for r in load(spec).runs] == \
         [r.scene["cloth"]["placement"]["translation"] for r in runs]
+
+
+# --- experiment sweeps: weft experiment drape in place of weft run -----------------------------
+
+def drape_sweep(**change):
+    """Drapes at 3 cm triangles for 0.3 s of simulated time: a tenth of a second a run."""
+    return {"weft_sweep": 1, "experiment": "drape", "set": {"edge_length": 0.03, "max_time": 0.3}} | change
+
+
+def test_a_drape_sweep_gives_each_run_the_figures_of_weft_experiment_drape_alone(tmp_path):
+    fabric = os.path.join(SOURCE, "data", "fabrics", "matsudaira", "matsudaira-polyester-faille.json")
+    spec = drape_sweep(vary={"material": ["silk", fabric], "specimen_diameter": [0.30, 0.36]},
+                       index={"file": "drape.csv", "columns": {"fabric": "material", "dc": "drape_coefficient"}})
+    out = tmp_path / "out"
+    status, err = weft_sweep(tmp_path, spec, out, "--workers", 2)
+    assert status == 0, err
+    rows = results(out)
+    assert [(r["material"], float(r["specimen_diameter"])) for r in rows] == \
+        [(m, d) for m in ["silk", fabric] for d in [0.30, 0.36]]
+    for r in rows:
+        assert r["status"] == "ok" and r["exit_code"] == "0" and r["error"] == ""
+        alone = tmp_path / f"alone-{r['id']}"
+        subprocess.run([WEFT_EXE, "--threads", "1", "experiment", "drape", "--material", r["material"],
+                        "--specimen-diameter", r["specimen_diameter"], "--edge-length", "0.03", "--max-time", "0.3",
+                        "--out", alone, "-q", "--no-pictures"], check=True, capture_output=True)
+        expected = json.loads((alone / "results.json").read_text())
+        run = out / "runs" / r["id"]
+        kept = json.loads((run / "results.json").read_text())
+        assert {k: v for k, v in kept.items() if k != "wall_seconds"} == \
+            {k: v for k, v in expected.items() if k != "wall_seconds"}
+        # results.csv's figures are results.json's, written back to the same number.
+        assert float(r["drape_coefficient"]) == expected["drape_coefficient"]
+        assert int(r["nodes"]) == expected["nodes"] and r["at_rest"] == str(expected["at_rest"])
+        assert int(r["vertices"]) == expected["vertices"] and int(r["steps"]) == expected["steps"]
+        assert (run / "edge.csv").read_bytes() == (alone / "edge.csv").read_bytes()
+        assert not (run / "top.png").exists()  # pictures only when "keep" asks for them
+        assert json.loads((run / "experiment.json").read_text())["options"]["specimen_diameter"] == \
+            float(r["specimen_diameter"])
+    with open(out / "drape.csv") as f:
+        assert list(csv.reader(f)) == [["id", "fabric", "dc"]] + [[r["id"], r["material"], r["drape_coefficient"]]
+                                                                  for r in rows]
+
+
+BAD_EXPERIMENTS = [
+    ({"vary": {"specimen_diameter": [0.30, 0.24]}},
+     "vary.specimen_diameter = 0.24: weft experiment drape refuses it: --edge-length 0.03: expected a positive "
+     "length (m) at most half the overhang (0.015 m)"),
+    ({"vary": {"material": ["cotton", "no-such-fabric"]}},
+     "vary.material = \"no-such-fabric\": weft experiment drape refuses it: --material 'no-such-fabric': unknown "
+     "material preset"),
+    ({"vary": {"dt": [0.005, 0.5]}},
+     "vary.dt = 0.5: weft experiment drape refuses it: --dt 0.5: expected a positive step (s) at most 0.05"),
+    ({"vary": {"max_time": [0.3, -1]}},
+     "vary.max_time = -1: weft experiment drape refuses it: --max-time -1: expected a positive time (s)"),
+    ({"vary": {"spin": [1, 2]}},
+     "vary.spin = 1: weft experiment drape refuses it: The following arguments were not expected: 1 --spin"),
+    ({"vary": {"out": ["a"]}}, "vary.out: --out is the sweep's own to give"),
+    ({"vary": {"grain_deg": {"add": [0, 45]}}}, "vary.grain_deg: an experiment's axis is a list of values"),
+    ({"vary": {"edge-length": [0.03]}}, "vary.edge-length: not an option of weft experiment drape"),
+    ({"set": {"edge_length": [0.03]}}, "set.edge_length: an experiment's option takes a number, a string or "
+                                       "true/false, got [0.03]"),
+    ({"experiment": "tensile"}, "experiment: must be one of drape (the experiments a sweep runs), got \"tensile\""),
+    ({"scene": "scenes/swing.json"}, "scene: an experiment sweep has no scene"),
+    ({"keep": ["glb"]}, "keep: must be a list of pictures, got [\"glb\"]"),
+]
+
+
+@pytest.mark.parametrize("change,message", BAD_EXPERIMENTS, ids=[m.split(":")[0] for _, m in BAD_EXPERIMENTS])
+def test_a_bad_experiment_sweep_exits_2_naming_the_key_and_value_before_anything_runs(tmp_path, change, message):
+    status, err = weft_sweep(tmp_path, drape_sweep(**change), tmp_path / "out")
+    assert status == 2, err
+    assert err.startswith(f"weft: error: {tmp_path / 'sweep.json'}: " + message), err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_named_axis_sets_several_keys_and_its_column_holds_the_name():
+    sys.path.insert(0, os.path.join(SOURCE, "python"))
+    from weft_sweep import load
+    spec = swing_sweep(**{"pace": {"named": {"fine": {"integrator.dt": 0.005, "integrator.method": "bdf2"},
+                                             "coarse": {"integrator.dt": 0.02}}},
+                          "cloth.material": ["cotton", "silk"]})
+    runs = load(spec).runs
+    assert [r.params for r in runs] == [{"pace": p, "cloth.material": m} for p in ["fine", "coarse"]
+                                        for m in ["cotton", "silk"]]
+    base = json.load(open(SWING))["integrator"]
+    for r in runs:
+        fine = r.params["pace"] == "fine"
+        assert r.scene["integrator"]["dt"] == (0.005 if fine else 0.02)
+        assert r.scene["integrator"]["method"] == ("bdf2" if fine else base["method"])
+        assert "pace" not in r.scene  # the name is the column's, not a key of the scene
+
+
+# --- tools/perturb.py: a sweep of a scene and its changed copies --------------------------------
+
+def test_perturb_py_runs_its_variations_as_a_sweep_with_the_fail_safes_work_in_results_csv(tmp_path):
+    scene = os.path.join(SOURCE, "scenes", "spinning-sphere.json")
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, os.path.join(SOURCE, "tools", "perturb.py"), scene, "--out", out,
+                        "--duration", "0.12", "--jobs", "2", "--weft", WEFT_EXE], capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr
+    spec = json.loads((out / "perturb.json").read_text())
+    names = ["as-shipped", "shift+x", "shift-x", "shift+y", "shift+z", "friction"]
+    assert list(spec["vary"]["variation"]["named"]) == names
+    base = json.load(open(scene))
+    rows = results(out)
+    assert [row["variation"] for row in rows] == names
+    table = r.stdout.splitlines()
+    for row in rows:
+        run = out / "runs" / row["id"]
+        summary = json.loads((run / "summary.json").read_text())
+        ran = json.loads((run / "scene.json").read_text())
+        moved = [a - b for a, b in zip(ran["cloth"]["placement"]["translation"], base["cloth"]["placement"]["translation"])]
+        assert sum(abs(m) for m in moved) == pytest.approx(0 if row["variation"] in ("as-shipped", "friction") else 0.001)
+        assert ran["colliders"][0]["friction"] == pytest.approx(base["colliders"][0]["friction"] -
+                                                                 (0.01 if row["variation"] == "friction" else 0))
+        # results.csv's fail-safe figures are the run's summary's; clear is ok with no pair.
+        assert float(row["fail_safe_work_J"]) == summary["contacts"]["fail_safe_work_J"]
+        assert int(row["fail_safe_moves"]) == summary["contacts"]["fail_safe_moves"]
+        assert int(row["halved_steps"]) == summary["contacts"]["halved_steps"]
+        assert row["clear"] == str(summary["status"] == "ok" and summary["intersections"]["total"] == 0)
+        assert sum(1 for line in table if line.startswith("| ") and f"| {row['fail_safe_moves']} | " in line) >= 1
+    assert (out / "results.md").read_text() == r.stdout

@@ -14,8 +14,9 @@ import subprocess
 import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 
-from .spec import SweepError
+from .spec import EXPERIMENTS, SweepError
 
 OK_STATUSES = ("ok", "solver_capped")
 ENERGIES = ("kinetic", "elastic", "gravity", "viscous_dissipated", "numerical_dissipated")
@@ -67,6 +68,57 @@ def check_scenes(sw, weft):
         raise SweepError(f"{sw.name}: {sw.culprit(first)}: the scene is refused: {refused[0]['error']}{more}")
 
 
+def experiment_argv(name, options):
+    """`weft experiment NAME`'s arguments for a run's options: {"specimen_diameter": 0.24,
+    "self_collision": true} -> --specimen-diameter 0.24 --self-collision (false: the flag left out)."""
+    argv = ["experiment", name]
+    for key, value in options.items():
+        flag = "--" + key.replace("_", "-")
+        if value is True:
+            argv.append(flag)
+        elif value is not False:
+            argv += [flag, value if isinstance(value, str) else json.dumps(value)]
+    return argv
+
+
+def _probe(options):
+    """A drape run's options cut to one time step: every option still goes through the
+    experiment's own checks (a --max-time that is not a positive number is left to them)."""
+    probe = dict(options)
+    dt = options.get("dt", 0.005)
+    dt = dt if isinstance(dt, (int, float)) and not isinstance(dt, bool) and dt > 0 else 0.005
+    limit = options.get("max_time", dt)
+    if isinstance(limit, (int, float)) and not isinstance(limit, bool) and limit > 0:
+        probe["max_time"] = min(limit, dt)
+    return probe
+
+
+def check_experiments(sw, weft):
+    """Every run's options through the experiment's own checks before anything runs: `weft
+    experiment NAME` of each distinct set of options cut to one time step, in a temporary folder
+    (exit status 2: refused). Raises SweepError naming the sweep's key and value behind the
+    first refused run."""
+    def probe(run):
+        with tempfile.TemporaryDirectory(prefix="weft-sweep-check-") as tmp:
+            argv = experiment_argv(sw.experiment, _probe(run.scene)) + ["--out", os.path.join(tmp, "out"), "-q",
+                                                                         "--no-pictures"]
+            proc = subprocess.run([weft, "--threads", "1", *argv], capture_output=True, text=True, cwd=sw.base_dir)
+        lines = [l for l in proc.stderr.splitlines() if l.strip()]
+        said = lines[0].removeprefix("weft: error: ") if lines else f"exit status {proc.returncode}"
+        return said if proc.returncode == 2 else None
+
+    distinct = {}
+    for r in sw.runs:
+        distinct.setdefault(r.hash, r)
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+        refused = {h: e for h, e in zip(distinct, pool.map(probe, distinct.values())) if e}
+    bad = [r for r in sw.runs if r.hash in refused]
+    if bad:
+        more = f" ({len(bad)} of {len(sw.runs)} runs refused)" if len(bad) > 1 else ""
+        raise SweepError(f"{sw.name}: {sw.culprit(bad[0])}: weft experiment {sw.experiment} refuses it: "
+                         f"{refused[bad[0].hash]}{more}")
+
+
 def shipped_files(sw):
     """The files the runs' scenes name (absolute paths of existing files) go to the workers
     with the task: {path: name under the run's files/ folder}."""
@@ -107,6 +159,14 @@ def run_arguments(keep):
     return args + ([] if frames else ["--no-frames"])
 
 
+def task_command(sw, run, names):
+    """(arguments after `weft --threads T`, scene text or None) of a run's task."""
+    if sw.experiment:
+        argv = experiment_argv(sw.experiment, relocated(run.scene, names)) + ["--out", "{out}", "-q"]
+        return argv + ([] if "pictures" in sw.keep else ["--no-pictures"]), None
+    return ["run", "-q", "{scene}", "--out", "{out}"] + run_arguments(sw.keep), json.dumps(relocated(run.scene, names))
+
+
 def status_of(result, summary):
     """(status, error) of a run from its task's result."""
     stderr = result.get("stderr", "")
@@ -118,7 +178,12 @@ def status_of(result, summary):
     if result.get("timed_out"):
         return "timeout", f"stopped after the sweep's timeout of {result.get('timeout')} s"
     code = result["exit_code"]
-    if summary is not None and code in (0, 3, 4, 130):
+    if result.get("experiment"):
+        if code == 0 and summary is not None:
+            return "ok", ""
+        if code == 3:
+            return "unstable", said
+    elif summary is not None and code in (0, 3, 4, 130):
         status = summary.get("status", "?")
         return status, ("" if status in OK_STATUSES else said)
     if code is not None and code < 0:
@@ -130,6 +195,12 @@ def row_of(run, result, summary, status, error):
     row = {"id": run.id, **{k: json.dumps(v) if isinstance(v, (list, dict)) else v for k, v in run.params.items()},
            "status": status, "exit_code": result.get("exit_code"), "error": error}
     s = summary or {}
+    if run.experiment:  # the experiment's figures, from its results.json
+        for k in EXPERIMENTS[run.experiment]["figures"]:
+            row[k] = s.get(k)
+        row["run_seconds"] = round(result["seconds"], 3)
+        row["host"] = result.get("host")
+        return row
     inter = s.get("intersections")
     row.update({
         "steps": s.get("steps"), "wall_seconds": s.get("wall_seconds"), "run_seconds": round(result["seconds"], 3),
@@ -140,6 +211,13 @@ def row_of(run, result, summary, status, error):
     energy = s.get("energy_final") or {}
     for e in ENERGIES:
         row[f"energy_{e}"] = energy.get(e)
+    # The contact fail-safes' work and moves, the steps halved and the guard's parts per step
+    # (tools/perturb.py's table), and whether the run ended ok with no intersecting pair.
+    contacts = s.get("contacts") or {}
+    row.update({"fail_safe_work_J": contacts.get("fail_safe_work_J"), "fail_safe_moves": contacts.get("fail_safe_moves"),
+                "halved_steps": contacts.get("halved_steps"),
+                "guard_parts_per_step": (s.get("guard") or {}).get("parts_per_step")})
+    row["clear"] = None if summary is None else status == "ok" and row["intersections"] == 0
     row["host"] = result.get("host")
     return row
 
@@ -174,7 +252,11 @@ class RunFolders:
             shutil.rmtree(tmp, ignore_errors=True)
             os.makedirs(tmp)
             files = dict(result["outputs"])
-            files["scene.json"] = (json.dumps(run.scene, indent=1) + "\n").encode()
+            if run.experiment:
+                files["experiment.json"] = (json.dumps({"experiment": run.experiment, "options": run.scene}, indent=1)
+                                            + "\n").encode()
+            else:
+                files["scene.json"] = (json.dumps(run.scene, indent=1) + "\n").encode()
             if result.get("stderr"):
                 files["stderr.txt"] = result["stderr"].encode()
             for name, data in files.items():
@@ -299,7 +381,7 @@ def start_client(scheduler, workers):
 def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet=False, stream=None):
     """Runs the sweep `sw` into `out`; returns (rows sorted by id, runs started)."""
     weft = find_weft(weft)
-    check_scenes(sw, weft)
+    (check_experiments if sw.experiment else check_scenes)(sw, weft)
     distributed = import_dask()  # before DIR is made
     try:
         os.makedirs(out, exist_ok=True)
@@ -338,11 +420,11 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
         # One object for the cluster, its key the hash of its contents (a dict given to scatter
         # would make its names the keys, shared with other sweeps on the same scheduler).
         files_future = client.scatter([files], hash=True)[0] if files else {}
-        args = run_arguments(sw.keep)
         futures = {}
         for r in todo:
+            argv, scene_text = task_command(sw, r, names)
             task = {"id": r.id, "hash": r.hash, "weft": weft, "threads": sw.threads, "timeout": sw.timeout,
-                    "keep": sw.keep, "args": args, "scene_text": json.dumps(relocated(r.scene, names))}
+                    "keep": "all" if sw.experiment else sw.keep, "argv": argv, "scene_text": scene_text}
             f = client.submit(worker.run_one, task, files_future, key=f"weft-run-{r.id}-{r.hash}", priority=-r.index,
                               pure=False)
             futures[f] = r
@@ -357,8 +439,10 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
                 for f in done:  # written, then let go: the cluster holds no run's outputs longer
                     rows.append(_finish(folders, futures.pop(f), f, sw, progress))
                     f.release()
-                try:
-                    progress.running = sum(1 for ks in client.processing().values() for k in ks if k in keys)
+                try:  # a worker's processing tasks include those queued on it: at most its threads run
+                    threads = {w: i.get("nthreads", 1) for w, i in client.scheduler_info().get("workers", {}).items()}
+                    progress.running = sum(min(sum(1 for k in ks if k in keys), threads.get(w, 1))
+                                           for w, ks in client.processing().items())
                 except Exception:  # noqa: BLE001 - progress only
                     pass
                 progress.show(force=bool(done) and not progress.tty and progress.done == progress.total)
@@ -392,10 +476,12 @@ def _finish(folders, run, future, sw, progress):
         result = {"exit_code": None, "error": f"the task failed on the cluster: {type(e).__name__}: {e}",
                   "outputs": {}, "seconds": 0.0, "host": None}
     result["timeout"] = sw.timeout
+    result["experiment"] = sw.experiment
     summary = None
-    if "summary.json" in result["outputs"]:
+    report = "results.json" if sw.experiment else "summary.json"
+    if report in result["outputs"]:
         try:
-            summary = json.loads(result["outputs"]["summary.json"])
+            summary = json.loads(result["outputs"][report])
         except ValueError:
             summary = None
     status, error = status_of(result, summary)

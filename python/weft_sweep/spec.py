@@ -12,10 +12,25 @@ import os
 import random
 import re
 
-TOP_KEYS = {"weft_sweep", "description", "scene", "set", "vary", "combine", "keep", "threads", "timeout",
-            "index"}
+TOP_KEYS = {"weft_sweep", "description", "scene", "experiment", "set", "vary", "combine", "keep", "threads",
+            "timeout", "index"}
 KEEP = ("last_frame", "frames", "glb", "pc2", "usda")
-INDEX_COLUMNS = ("status", "exit_code", "vertices", "intersections", "steps", "wall_seconds")
+INDEX_COLUMNS = ("status", "exit_code", "vertices", "intersections", "steps", "wall_seconds", "fail_safe_work_J",
+                 "fail_safe_moves", "clear")
+
+# The experiments a sweep can run in place of `weft run` (docs/sweeps.md, "Experiment sweeps"):
+# their figures (results.json's keys) are results.csv's columns; the options the sweep itself
+# gives are not the sweep file's to set.
+EXPERIMENTS = {
+    "drape": {
+        "figures": ("drape_coefficient", "nodes", "at_rest", "shadow_area_m2", "edge_radius_min_m",
+                    "edge_radius_max_m", "final_max_speed_m_s", "simulated_time_s", "steps", "vertices",
+                    "wall_seconds"),
+        "reserved": ("out", "quiet", "no_pictures"),
+        "keep": ("pictures",),
+    },
+}
+_OPTION = re.compile(r"[a-z][a-z0-9_]*")
 
 
 class SweepError(Exception):
@@ -108,11 +123,12 @@ def random_offset(base, seed, size):
 
 
 class Run:
-    """One run of a sweep: its id, the values of the axes and its scene (file paths absolute)."""
+    """One run of a sweep: its id, the values of the axes and its scene (file paths absolute), or
+    for an experiment sweep the experiment's options ({name: value}, as the sweep file names them)."""
 
-    def __init__(self, index, run_id, params, scene):
-        self.index, self.id, self.params, self.scene = index, run_id, params, scene
-        text = json.dumps(scene, sort_keys=True)
+    def __init__(self, index, run_id, params, scene, experiment=None):
+        self.index, self.id, self.params, self.scene, self.experiment = index, run_id, params, scene, experiment
+        text = json.dumps(scene if experiment is None else {"experiment": experiment, "options": scene}, sort_keys=True)
         self.hash = hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -135,6 +151,100 @@ class Sweep:
                 raise self.err(key, f"unknown key (expected one of: {', '.join(sorted(TOP_KEYS))})")
         if spec.get("weft_sweep") != 1:
             raise self.err("weft_sweep", f"must be 1 (the sweep format's version), got {show(spec.get('weft_sweep'))}")
+        self.experiment = spec.get("experiment")
+        if self.experiment is not None:
+            self._check_experiment(spec)
+        else:
+            self._check_scene(spec)
+        self.vary = self._object(spec, "vary", axes=True)
+        for key, value in self.vary.items():
+            if isinstance(value, dict) and set(value) == {"named"}:
+                self._check_named(f"vary.{key}.named", value["named"])
+                continue
+            if self.experiment and isinstance(value, dict):
+                raise self.err(f"vary.{key}", "an experiment's axis is a list of values (or {\"named\": {...}}), "
+                                              f"got {show(value)[:80]}")
+            if isinstance(value, dict) and set(value) == {"random"}:
+                self._check_random(f"vary.{key}.random", value["random"])
+                continue
+            values = value.get("add") if isinstance(value, dict) and set(value) == {"add"} else value
+            if not isinstance(values, list):
+                raise self.err(f"vary.{key}", "must be a list of values (or {\"add\": [...]}, {\"random\": {...}} or "
+                                              f"{{\"named\": {{...}}}}), got {show(value)[:80]}")
+            if not values:
+                raise self.err(f"vary.{key}", "an empty list: an axis needs one value at least")
+            if self.experiment:
+                for v in values:
+                    self._check_option_value(f"vary.{key}", v)
+        self.combine = spec.get("combine", "product")
+        if self.combine not in ("product", "zip"):
+            raise self.err("combine", f"must be \"product\" or \"zip\", got {show(self.combine)}")
+        if self.combine == "zip" and self.vary:
+            lengths = {k: len(self._values(v)) for k, v in self.vary.items()}
+            if len(set(lengths.values())) > 1:
+                raise self.err("vary", "zipped axes must have as many values each, got " +
+                               ", ".join(f"{k}: {n}" for k, n in lengths.items()))
+        kinds = EXPERIMENTS[self.experiment]["keep"] if self.experiment else KEEP
+        self.keep = spec.get("keep", [])
+        if not isinstance(self.keep, list) or any(k not in kinds for k in self.keep):
+            raise self.err("keep", f"must be a list of {', '.join(kinds)}, got {show(self.keep)}")
+        self.threads = spec.get("threads", 1)
+        if not isinstance(self.threads, int) or isinstance(self.threads, bool) or not 1 <= self.threads <= 4096:
+            raise self.err("threads", f"must be an integer from 1 to 4096 (threads of each run), got {show(self.threads)}")
+        self.timeout = spec.get("timeout")
+        if self.timeout is not None and (not isinstance(self.timeout, (int, float)) or isinstance(self.timeout, bool)
+                                         or not 0 < self.timeout < math.inf):
+            raise self.err("timeout", f"must be a number of seconds > 0, got {show(self.timeout)}")
+        self.index = spec.get("index")
+        if self.index is not None:
+            self._check_index(self.index)
+        self.description = spec.get("description", "")
+
+    def _check_experiment(self, spec):
+        if self.experiment not in EXPERIMENTS:
+            raise self.err("experiment", f"must be one of {', '.join(sorted(EXPERIMENTS))} (the experiments a sweep "
+                                         f"runs), got {show(self.experiment)}")
+        if "scene" in spec:
+            raise self.err("scene", f"an experiment sweep has no scene (weft experiment {self.experiment} makes its "
+                                    "own); its \"set\" and \"vary\" name the experiment's options")
+        self.scene_file, self.scene_dir = f"weft experiment {self.experiment}", self.base_dir
+        self.base = {}
+        self.set = self._object(spec, "set")
+        for key, value in self.set.items():
+            self._check_option_value(f"set.{key}", value)
+
+    def _check_option_value(self, key, value):
+        if not isinstance(value, (str, int, float, bool)) or (isinstance(value, float) and not math.isfinite(value)):
+            raise self.err(key, f"an experiment's option takes a number, a string or true/false, got {show(value)[:80]}")
+
+    def _check_named(self, key, named):
+        if not isinstance(named, dict) or not named:
+            raise self.err(key, "must be a non-empty object: NAME -> {KEY PATH: value, ...} (the settings of that "
+                                f"name), got {show(named)[:80]}")
+        for name, settings in named.items():
+            if not isinstance(settings, dict):
+                raise self.err(f"{key}.{name}", f"must be an object of {self._setting_kind()} ({{}}: the base as it "
+                                                f"is), got {show(settings)[:80]}")
+            for path, value in settings.items():
+                self._check_setting(f"{key}.{name}.{path}", path)
+                if self.experiment:
+                    self._check_option_value(f"{key}.{name}.{path}", value)
+
+    def _setting_kind(self):
+        return "option names" if self.experiment else "key paths"
+
+    def _check_setting(self, key, path):
+        if self.experiment:
+            if not isinstance(path, str) or not _OPTION.fullmatch(path):
+                raise self.err(key, f"not an option of weft experiment {self.experiment} (names such as "
+                                    "specimen_diameter for --specimen-diameter)")
+            if path in EXPERIMENTS[self.experiment]["reserved"]:
+                raise self.err(key, f"--{path.replace('_', '-')} is the sweep's own to give")
+        elif parse_key_path(path) is None:
+            raise self.err(key, "not a key path (names joined by dots, list indices in brackets: "
+                                "colliders[0].friction)")
+
+    def _check_scene(self, spec):
         scene = spec.get("scene")
         if isinstance(scene, dict):
             self.scene_file, self.scene_dir = "scene (object)", self.base_dir
@@ -155,39 +265,6 @@ class Sweep:
             raise self.err("scene", "the scene is not a JSON object")
         self.base = absolutize(base, self.scene_dir)
         self.set = self._object(spec, "set")
-        self.vary = self._object(spec, "vary")
-        for key, value in self.vary.items():
-            if isinstance(value, dict) and set(value) == {"random"}:
-                self._check_random(f"vary.{key}.random", value["random"])
-                continue
-            values = value.get("add") if isinstance(value, dict) and set(value) == {"add"} else value
-            if not isinstance(values, list):
-                raise self.err(f"vary.{key}", "must be a list of values (or {\"add\": [...]} or {\"random\": {...}}), "
-                                              f"got {show(value)[:80]}")
-            if not values:
-                raise self.err(f"vary.{key}", "an empty list: an axis needs one value at least")
-        self.combine = spec.get("combine", "product")
-        if self.combine not in ("product", "zip"):
-            raise self.err("combine", f"must be \"product\" or \"zip\", got {show(self.combine)}")
-        if self.combine == "zip" and self.vary:
-            lengths = {k: len(self._values(v)) for k, v in self.vary.items()}
-            if len(set(lengths.values())) > 1:
-                raise self.err("vary", "zipped axes must have as many values each, got " +
-                               ", ".join(f"{k}: {n}" for k, n in lengths.items()))
-        self.keep = spec.get("keep", [])
-        if not isinstance(self.keep, list) or any(k not in KEEP for k in self.keep):
-            raise self.err("keep", f"must be a list of {', '.join(KEEP)}, got {show(self.keep)}")
-        self.threads = spec.get("threads", 1)
-        if not isinstance(self.threads, int) or isinstance(self.threads, bool) or not 1 <= self.threads <= 4096:
-            raise self.err("threads", f"must be an integer from 1 to 4096 (threads of each run), got {show(self.threads)}")
-        self.timeout = spec.get("timeout")
-        if self.timeout is not None and (not isinstance(self.timeout, (int, float)) or isinstance(self.timeout, bool)
-                                         or not 0 < self.timeout < math.inf):
-            raise self.err("timeout", f"must be a number of seconds > 0, got {show(self.timeout)}")
-        self.index = spec.get("index")
-        if self.index is not None:
-            self._check_index(self.index)
-        self.description = spec.get("description", "")
 
     def _check_index(self, index):
         if not isinstance(index, dict) or set(index) - {"file", "columns"} or not isinstance(index.get("file"), str) \
@@ -197,9 +274,10 @@ class Sweep:
         columns = index.get("columns", {})
         if not isinstance(columns, dict):
             raise self.err("index.columns", f"must be an object, got {show(columns)[:80]}")
+        known = (("status", "exit_code") + EXPERIMENTS[self.experiment]["figures"]) if self.experiment else INDEX_COLUMNS
         for name, what in columns.items():
-            if what not in INDEX_COLUMNS and what not in self.vary:
-                raise self.err(f"index.columns.{name}", f"must name an axis of \"vary\" or one of {', '.join(INDEX_COLUMNS)}"
+            if what not in known and what not in self.vary:
+                raise self.err(f"index.columns.{name}", f"must name an axis of \"vary\" or one of {', '.join(known)}"
                                f", got {show(what)}")
 
     def _check_random(self, key, r):
@@ -213,19 +291,23 @@ class Sweep:
         if not isinstance(size, (int, float)) or isinstance(size, bool) or not 0 < size < math.inf:
             raise self.err(f"{key}.size", f"must be a number > 0, got {show(size)}")
 
-    def _object(self, spec, key):
+    def _object(self, spec, key, axes=False):
         value = spec.get(key, {})
         if not isinstance(value, dict):
-            raise self.err(key, f"must be an object of key paths, got {show(value)[:80]}")
-        for path in value:
-            if parse_key_path(path) is None:
-                raise self.err(f"{key}.{path}", "not a key path (names joined by dots, list indices in brackets: "
-                                                "colliders[0].friction)")
+            raise self.err(key, f"must be an object of {self._setting_kind()}, got {show(value)[:80]}")
+        for path, axis in value.items():
+            if axes and isinstance(axis, dict) and set(axis) == {"named"}:
+                if not isinstance(path, str) or not _OPTION.fullmatch(path.lower()):
+                    raise self.err(f"{key}.{path}", "a named axis's name is its column's: letters, digits and _")
+                continue
+            self._check_setting(f"{key}.{path}", path)
         return value
 
     @staticmethod
     def _values(axis):
-        """An axis's values: its list, its offsets ("add") or its seeds ("random")."""
+        """An axis's values: its list, its offsets ("add"), its seeds ("random") or its names ("named")."""
+        if isinstance(axis, dict) and "named" in axis:
+            return list(axis["named"])
         if isinstance(axis, dict) and "random" in axis:
             seeds = axis["random"]["seeds"]
             return list(range(seeds)) if isinstance(seeds, int) else seeds
@@ -246,25 +328,31 @@ class Sweep:
             scene = copy.deepcopy(base)
             params = {}
             for key, value in zip(keys, combo):
-                parts = parse_key_path(key)
                 where = f"{self.name}: vary.{key}: value {show(value)}"
                 params[key] = value
-                if isinstance(self.vary[key], dict):
+                axis = self.vary[key]
+                if isinstance(axis, dict) and "named" in axis:
+                    for path, setting in axis["named"][value].items():
+                        set_path(scene, parse_key_path(path), absolutize(setting, self.base_dir),
+                                 f"{self.name}: vary.{key}.named.{value}.{path}")
+                    continue
+                parts = parse_key_path(key)
+                if isinstance(axis, dict):
                     old = get_path(base, parts)
                     if old is None:
-                        raise SweepError(f"{where}: \"{next(iter(self.vary[key]))}\" needs the scene to have a value there")
-                    if "random" in self.vary[key]:
-                        value = random_offset(old, value, self.vary[key]["random"]["size"])
+                        raise SweepError(f"{where}: \"{next(iter(axis))}\" needs the scene to have a value there")
+                    if "random" in axis:
+                        value = random_offset(old, value, axis["random"]["size"])
                     value = added(old, value, where)
-                    params[key] = params[key] if "random" in self.vary[key] else value
+                    params[key] = params[key] if "random" in axis else value
                 set_path(scene, parts, absolutize(value, self.base_dir), where)
-            runs.append(Run(index, f"{index:0{width}d}", params, scene))
+            runs.append(Run(index, f"{index:0{width}d}", params, scene, self.experiment))
         return runs
 
     def culprit(self, run):
         """The sweep keys a refused scene of `run` comes from, for the message."""
         if not run.params:
-            return "set" if self.set else "scene"
+            return "set" if self.set or self.experiment else "scene"
         return ", ".join(f"vary.{k} = {show(v)}" for k, v in run.params.items())
 
 

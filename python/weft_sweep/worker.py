@@ -1,5 +1,6 @@
-"""What a Dask worker does for one run: `weft run` in a fresh temporary folder, in its own
-process, and the run's outputs returned as bytes (no shared file system needed).
+"""What a Dask worker does for one run: `weft run` (or `weft experiment NAME`) in a fresh
+temporary folder, in its own process, and the run's outputs returned as bytes (no shared file
+system needed).
 
 This module is sent to the workers by value (cloudpickle), so a worker needs only Python with
 Dask and the `weft` command, not weft's Python files. It imports nothing from weft_sweep.
@@ -25,7 +26,10 @@ def _die_with_parent():
 
 def _outputs(folder, keep):
     """The files of a finished run that go back to the driver: summary.json, energy.csv and
-    what `keep` asks for."""
+    what `keep` asks for; every file of an experiment's (keep "all")."""
+    if keep == "all":
+        return {os.path.relpath(os.path.join(d, n), folder): _read(os.path.join(d, n))
+                for d, _, files in os.walk(folder) for n in files}
     names = ["summary.json", "energy.csv"]
     for k, files in (("glb", ["animation.glb"]), ("pc2", ["animation.pc2", "animation_rest.obj"]),
                      ("usda", ["animation.usda"])):
@@ -40,18 +44,19 @@ def _outputs(folder, keep):
         if cloth:
             number = cloth[-1][len("frame_"):]
             names += [os.path.join("frames", f) for f in frames if f.endswith("_" + number)]
-    out = {}
-    for name in names:
-        path = os.path.join(folder, name)
-        if os.path.isfile(path):
-            with open(path, "rb") as f:
-                out[name] = f.read()
-    return out
+    return {name: _read(os.path.join(folder, name)) for name in names if os.path.isfile(os.path.join(folder, name))}
+
+
+def _read(path):
+    with open(path, "rb") as f:
+        return f.read()
 
 
 def run_one(task, files):
-    """Runs task["scene_text"] (with `files`, {name: bytes}, in its files/ folder) with `weft run`; returns a dict: id, hash, exit_code, stderr,
-    seconds, host, outputs {relative path: bytes}, error (when weft could not be started)."""
+    """Runs `weft --threads T` with task["argv"] in a temporary folder holding `files` ({name:
+    bytes}) in files/ and task["scene_text"] (if any) as scene.json ("{scene}" and "{out}" in the
+    arguments are their paths); returns a dict: id, hash, exit_code, stderr, seconds, host,
+    outputs {relative path: bytes}, error (when weft could not be started)."""
     result = {"id": task["id"], "hash": task["hash"], "host": socket.gethostname(), "pid": os.getpid(),
               "exit_code": None, "stderr": "", "error": "", "outputs": {}, "timed_out": False}
     weft = os.environ.get("WEFT_EXE") or task["weft"]
@@ -64,10 +69,12 @@ def run_one(task, files):
             with open(path, "wb") as f:
                 f.write(data)
         scene = os.path.join(folder, "scene.json")
-        with open(scene, "w") as f:
-            f.write(task["scene_text"])
+        if task.get("scene_text") is not None:
+            with open(scene, "w") as f:
+                f.write(task["scene_text"])
         out = os.path.join(folder, "run")
-        command = _die_with_parent() + [weft, "--threads", str(task["threads"]), "run", "-q", scene, "--out", out] + task["args"]
+        places = {"{scene}": scene, "{out}": out}
+        command = _die_with_parent() + [weft, "--threads", str(task["threads"])] + [places.get(a, a) for a in task["argv"]]
         try:
             proc = subprocess.run(command, cwd=folder, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                                   timeout=task["timeout"])
