@@ -189,6 +189,20 @@ std::pair<std::vector<double>, std::vector<double>> branch(const Ctx& c, const s
   return {std::move(x), std::move(y)};
 }
 
+/// Strain over which a softened compression blends into the tensile modulus, each side of 0.
+constexpr double kCompressionBlendStrain = 1e-4;
+
+/// A linear curve of modulus k in tension and f k in compression (0 < f <= 1): the spline
+/// through (-2d, -2fkd), (-d, -fkd), (0, 0), (d, kd), (2d, 2kd) with d the blend strain is the
+/// straight line f k e for e <= -d and k e for e >= d (the Fritsch-Carlson slopes there are the
+/// secants, and so are the end slopes it is extended with), with a monotone C1 blend between.
+StressCurve compression_softened(double k, double f, const std::string& where) {
+  if (f == 1.0) return StressCurve::linear(k);
+  const double d = kCompressionBlendStrain;
+  return StressCurve::tabulated({-2 * d, -d, 0.0, d, 2 * d}, {-2 * d * f * k, -d * f * k, 0.0, d * k, 2 * d * k},
+                                where);
+}
+
 StressCurve curve(const Ctx& c, const std::string& field, const json& v, bool shear) {
   if (v.is_number()) {
     const double k = number(c, field, v);
@@ -201,13 +215,18 @@ StressCurve curve(const Ctx& c, const std::string& field, const json& v, bool sh
                       v.type_name());
   }
   if (v.contains("linear")) {
-    check_keys(c, field, v, {"linear", "unit"});
+    check_keys(c, field, v, {"linear", "unit", "compression"});
     const double factor =
         v.contains("unit") ? unit_factor(c, field + ".unit", v["unit"], kStressUnits) : 1.0;
     const double k = number(c, field + ".linear", v["linear"]) * factor;
     if (!(k > 0.0)) c.fail(field + ".linear", "modulus must be positive, got " + num(k));
     check_range(c, field + ".linear", k, 0, kMaxStress_N_m, true, "N/m");
-    return StressCurve::linear(k);
+    if (!v.contains("compression")) return StressCurve::linear(k);
+    // Woven fabric buckles at a small fraction of its tensile stiffness (docs/materials.md).
+    if (shear) c.fail(field + ".compression", "applies to weft and warp only (shear is symmetric)");
+    const double f = number(c, field + ".compression", v["compression"]);
+    check_range(c, field + ".compression", f, 0, 1, true, "(fraction of the tensile modulus)");
+    return compression_softened(k, f, c.prefix(field));
   }
   check_keys(c, field, v, {"strain", "stress", "unit", "strain_unit", "strain_measure", "unload"});
   const double factor =

@@ -3,6 +3,7 @@
 // deformed states.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
 #include <random>
 #include <unsupported/Eigen/KroneckerProduct>
 
@@ -11,6 +12,7 @@
 #include "elements/spring.hpp"
 #include "mesh/mesh.hpp"
 #include "support/membrane_fd.hpp"
+#include "weft/material.hpp"
 
 using namespace weft;
 
@@ -81,6 +83,30 @@ TEST(MembraneElement, ForcesAreMinusEnergyGradientAndJacobiansMatchFiniteDiffere
     EXPECT_NEAR(rv.viscous_power, (rv.force - r.force).dot(vv), 1e-9 * std::abs(rv.viscous_power) + 1e-15);
     EXPECT_LE(rv.viscous_power, 0.0);
   }
+}
+
+TEST(MembraneElement, CompressionSoftenedCurvesMatchFiniteDifferences) {
+  // Weft and warp ten and twenty times softer in compression (docs/materials.md), through the
+  // triangle-at-a-time path of curved materials, in stretched, compressed and mixed states.
+  Material mat = parse_material(nlohmann::json{{"weft", {{"linear", 400}, {"compression", 0.1}}},
+                                               {"warp", {{"linear", 250}, {"compression", 0.05}}},
+                                               {"shear", 40}},
+                                "test material");
+  MembraneGeometry g;
+  ASSERT_TRUE(make_membrane_geometry(Vec2(0, 0), Vec2(0.02, 0.003), Vec2(-0.002, 0.02), g));
+  int compressed = 0;
+  for (int trial = 0; trial < 30; ++trial) {
+    std::array<Vec3, 3> x{Vec3(0, 0, 0), Vec3(0.02 * uniform(0.8, 1.2), 0.003, 0), Vec3(-0.002, 0.02 * uniform(0.8, 1.2), 0)};
+    for (auto& p : x) p += random_vec(2e-3);
+    const std::array<Vec3, 3> v{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+    MembraneResult r;
+    evaluate_membrane(g, mat, Vec3::Zero(), x, v, true, false, r);
+    if (r.strain[0] < -1e-3 || r.strain[1] < -1e-3) ++compressed;
+    const auto fd = weft::test::membrane_finite_differences(g, mat, x, v, 1e-8);
+    EXPECT_LT(rel_err(r.force, -fd.energy_gradient), 1e-6) << "trial " << trial;
+    EXPECT_LT(rel_err(r.stiffness, fd.force_jacobian), 1e-5) << "trial " << trial;
+  }
+  EXPECT_GT(compressed, 5) << "the test should reach compressed states";
 }
 
 TEST(MembraneElement, DefiniteStiffnessIsNegativeSemiDefiniteUnderCompression) {

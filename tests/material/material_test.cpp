@@ -274,6 +274,49 @@ TEST(MaterialFile, EveryShippedMaterialFileHasASourceAndLoads) {
   EXPECT_GE(files, static_cast<int>(material_preset_names().size()));
 }
 
+TEST(MaterialCurve, CompressionSoftenedLinearCurve) {
+  // {"linear": k, "compression": f}: modulus f k under compression, k under tension, blended
+  // over strains within 1e-4 of 0.
+  const double k = 2000, f = 0.1, blend = 1e-4;
+  const Material m = parse_material(
+      json{{"weft", {{"linear", k}, {"compression", f}}}, {"warp", {{"linear", k / 0.980665}, {"unit", "gf/cm"}, {"compression", 1}}}},
+      "m");
+  EXPECT_TRUE(m.warp.is_linear());  // a factor of 1 is the plain linear curve
+  EXPECT_NEAR(m.warp.modulus(), k, 1e-9);
+  const StressCurve& c = m.weft;
+  for (double e : {blend, 2e-4, 1e-3, 0.05, 0.3}) {
+    EXPECT_NEAR(c.stress(e), k * e, 1e-9 * k * e) << e;
+    EXPECT_NEAR(c.tangent(e), k, 1e-9 * k) << e;
+    EXPECT_NEAR(c.stress(-e), -f * k * e, 1e-9 * k * e) << e;
+    EXPECT_NEAR(c.tangent(-e), f * k, 1e-9 * k) << e;
+  }
+  EXPECT_EQ(c.stress(0.0), 0.0);
+  EXPECT_EQ(c.energy(0.0), 0.0);
+  // Monotone, C1, and energy, stress and tangent consistent (central differences) through the blend.
+  double previous = c.stress(-3e-3);
+  for (int i = -299; i <= 300; ++i) {
+    const double e = 1e-5 * i + 3.7e-8, h = 1e-9;
+    EXPECT_GE(c.stress(e), previous) << e;
+    previous = c.stress(e);
+    EXPECT_GT(c.tangent(e), 0.0) << e;
+    EXPECT_NEAR((c.energy(e + h) - c.energy(e - h)) / (2 * h), c.stress(e), 1e-6 * k * (std::abs(e) + h)) << e;
+    EXPECT_NEAR((c.stress(e + h) - c.stress(e - h)) / (2 * h), c.tangent(e), 1e-5 * k) << e;
+  }
+  // Errors: shear, and the factor outside (0, 1].
+  auto message = [](const json& j) { return error_of([&] { parse_material(j, "m.json"); }); };
+  EXPECT_EQ(message(json{{"shear", {{"linear", 50}, {"compression", 0.5}}}}),
+            "m.json: field shear.compression: applies to weft and warp only (shear is symmetric)");
+  EXPECT_EQ(message(json{{"weft", {{"linear", 500}, {"compression", 0}}}}),
+            "m.json: field weft.compression: value 0 (fraction of the tensile modulus) is out of range (0, 1] "
+            "(fraction of the tensile modulus)");
+  EXPECT_EQ(message(json{{"warp", {{"linear", 500}, {"compression", 1.5}}}}),
+            "m.json: field warp.compression: value 1.5 (fraction of the tensile modulus) is out of range (0, 1] "
+            "(fraction of the tensile modulus)");
+  EXPECT_NE(message(json{{"weft", {{"strain", {0, 0.1}}, {"stress", {0, 10}}, {"compression", 0.5}}}})
+                .find("m.json: field weft.compression: unknown key"),
+            std::string::npos);
+}
+
 TEST(MaterialFile, LoadAndUnloadBranchesAveraged) {
   const json j = {{"weft", {{"strain", {0.0, 0.02, 0.04}}, {"stress", {0.0, 20.0, 80.0}},
                             {"unload", {{"strain", {0.04, 0.03, 0.0}}, {"stress", {80.0, 20.0, 0.0}}}}}}};
