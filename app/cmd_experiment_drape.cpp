@@ -80,6 +80,7 @@ int run_drape(const DrapeArgs& a) {
                   {"edge_length_m", o.edge_length_m},           {"grain_deg", o.grain_deg},
                   {"method", o.method}, {"dt_s", o.dt_s},                             {"max_time_s", o.max_time_s},
                   {"rest_speed_m_s", o.rest_speed_m_s},         {"rest_time_s", o.rest_time_s},
+                  {"imperfection_m", o.imperfection_m},         {"seed", o.imperfection_seed},
                   {"bending_model", o.bending_model},           {"self_collision", o.self_collision},
                   {"pixel_m", o.pixel_m},                       {"node_prominence", o.node_prominence}};
   j["drape_coefficient"] = r.drape_coefficient;
@@ -163,6 +164,10 @@ const RegisterCommand register_drape{CommandSpec{
       sub.add_option("--rest-speed", a->options.rest_speed_m_s,
                      "At rest when every vertex is slower than this (m/s; default 0.002) ...");
       sub.add_option("--rest-time", a->options.rest_time_s, "... for this long (s; default 0.3)");
+      sub.add_option("--imperfection", a->options.imperfection_m,
+                     "Start with the overhang lifted or lowered by a smooth random wave of at most this height "
+                     "(m; default 0: flat)");
+      sub.add_option("--seed", a->options.imperfection_seed, "Seed of the imperfection's wave (default 1)");
       sub.add_option("--bending-model", a->options.bending_model, "hinge (default) or plate");
       sub.add_option("--pixel", a->options.pixel_m, "Raster pixel of the shadow area (m; default 0.0005)");
       sub.add_flag("--self-collision", a->self_collision,

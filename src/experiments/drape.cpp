@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <random>
 
 #include "mesh/panel_mesher.hpp"
 #include "weft/error.hpp"
@@ -52,8 +53,37 @@ void check_options(const DrapeOptions& o) {
     throw InputError("--pixel " + number(o.pixel_m) + ": expected a positive size (m) at most the edge length");
   if (!(o.node_prominence >= 0 && o.node_prominence < 1))
     throw InputError("drape: the node prominence must be in [0, 1)");
+  if (!(o.imperfection_m >= 0) || !(o.imperfection_m <= 0.25 * (o.specimen_diameter_m - o.support_diameter_m)))
+    throw InputError("--imperfection " + number(o.imperfection_m) + ": expected a height (m) from 0 to half the overhang (" +
+                     number(0.25 * (o.specimen_diameter_m - o.support_diameter_m)) + " m)");
   if (o.bending_model != "hinge" && o.bending_model != "plate")
     throw InputError("--bending-model \"" + o.bending_model + "\": expected hinge or plate");
+}
+
+/// A number in [0, 1) from the generator's next 53 bits (the same on every platform, unlike
+/// the standard distributions).
+double unit_draw(std::mt19937_64& g) { return static_cast<double>(g() >> 11) * 0x1p-53; }
+
+/// Lifts the overhang by the imperfection of DrapeOptions::imperfection_m (y up).
+void add_imperfection(const DrapeOptions& o, Points& x) {
+  if (o.imperfection_m == 0) return;
+  constexpr int kModes = 12;
+  std::mt19937_64 g(o.imperfection_seed);
+  double a[kModes], phi[kModes], sum = 0;
+  for (int k = 0; k < kModes; ++k) {
+    a[k] = 2 * unit_draw(g) - 1;
+    phi[k] = 2 * M_PI * unit_draw(g);
+    sum += std::abs(a[k]);
+  }
+  const double R = o.specimen_diameter_m / 2, r = o.support_diameter_m / 2;
+  for (Eigen::Index i = 0; i < x.rows(); ++i) {
+    const double rho = std::hypot(x(i, 0), x(i, 2));
+    if (rho <= r) continue;
+    const double theta = std::atan2(-x(i, 2), x(i, 0));
+    double wave = 0;
+    for (int k = 0; k < kModes; ++k) wave += a[k] * std::cos((k + 1) * theta + phi[k]);
+    x(i, 1) = o.imperfection_m * std::min(1.0, (rho - r) / (R - r)) * wave / sum;
+  }
 }
 
 }  // namespace
@@ -179,6 +209,7 @@ DrapeResult run_drape_test(const Material& material, const DrapeOptions& o, cons
   DrapeResult res;
   std::vector<int> support, edge;
   auto mesh = std::make_shared<TriMesh>(drape_specimen_mesh(o, support, edge));
+  add_imperfection(o, mesh->positions);  // the rest shape is the pattern's: the start only
 
   Scene scene = parse_scene_text(
       R"({"weft_scene": 1, "duration": 1, "frame_interval": 0.05, "gravity": [0, -9.81, 0],

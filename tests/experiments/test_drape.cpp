@@ -156,6 +156,37 @@ TEST(DrapeTest, FoldCountOfABalancedFabricDoesNotChangeWhenTheGrainTurnsBy90Degr
   EXPECT_NEAR(along.drape_coefficient, turned.drape_coefficient, 0.01);
 }
 
+TEST(DrapeTest, ImperfectionStartsTheOverhangOffFlatAndDependsOnlyOnTheSeed) {
+  // A run too short to move: the result is the start.
+  DrapeOptions o = coarse();
+  o.max_time_s = o.dt_s;
+  o.frame_interval_s = o.dt_s;
+  o.imperfection_m = 0.01;
+  const Material m = material_preset("cotton");
+  const DrapeResult a = run_drape_test(m, o), b = run_drape_test(m, o);
+  o.imperfection_seed = 2;
+  const DrapeResult c = run_drape_test(m, o);
+  double highest = 0, edge_highest = 0;
+  for (int i = 0; i < a.mesh.num_vertices(); ++i) {
+    const double rho = std::hypot(a.mesh.positions(i, 0), a.mesh.positions(i, 2));
+    const double lift = std::abs(a.mesh.positions(i, 1));
+    highest = std::max(highest, lift);
+    if (rho < 0.09 - 1e-9) EXPECT_LT(lift, 1e-6) << "the clamped disk stays flat";
+    if (rho > 0.14) edge_highest = std::max(edge_highest, lift);
+  }
+  EXPECT_LE(highest, 0.01 + 2e-4);       // the wave's bound, plus one step of falling
+  EXPECT_GT(edge_highest, 0.3 * 0.01);   // and the edge does leave the plane
+  EXPECT_EQ(a.mesh.positions, b.mesh.positions);
+  EXPECT_NE(a.mesh.positions, c.mesh.positions);
+  o.imperfection_m = 0.05;  // more than half the 6 cm overhang
+  try {
+    run_drape_test(m, o);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "--imperfection 0.05: expected a height (m) from 0 to half the overhang (0.03 m)");
+  }
+}
+
 TEST(DrapeTest, RejectsBadOptionsNamingThem) {
   DrapeOptions o = coarse();
   o.support_diameter_m = 0.4;

@@ -30,6 +30,13 @@ struct DrapeOptions {
   /// At rest: the largest vertex speed has stayed below rest_speed_m_s for rest_time_s.
   double rest_speed_m_s = 0.002;
   double rest_time_s = 0.3;
+  /// The specimen starts flat, or (imperfection_m > 0) with its overhang lifted or lowered by a
+  /// smooth random wave: height imperfection_m * s * sum_k a_k cos(k theta + phi_k) / sum_k |a_k|
+  /// over k = 1..12, s = 0 at the disk's edge rising linearly to 1 at the specimen's, a_k and
+  /// phi_k drawn from imperfection_seed. A real specimen is never flat nor the fabric uniform;
+  /// a perfectly flat start keeps the material's fourfold symmetry in the folds.
+  double imperfection_m = 0;
+  unsigned imperfection_seed = 1;
   std::string bending_model = "hinge";
   /// Cloth-cloth contact. Off by default: a Cusick specimen's folds do not touch, and with the
   /// default contact thickness (3 mm) on meshes finer than about 1 cm the repulsion between
