@@ -318,6 +318,7 @@ nlohmann::json sewing_summary(const Pattern& pattern, const PlacedGarment& place
   return {{"clearance_m", a.clearance_m},
           {"panel_parts", parts},
           {"vertices_pushed_out_of_the_body", placed.vertices_pushed_out},
+          {"panels_moved_apart", placed.panels_moved_apart},
           {"material", a.material},
           {"seam_stiffness_N_m", a.seam_stiffness_N_m},
           {"largest_seam_gap_placed_m", sewn.largest_gap_placed_m},

@@ -312,9 +312,16 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
   // Panels of one part that would lie on each other (the overlapping fronts of a jacket) go
   // on layers further out, kLayer_m apart, each its own cylinder.
   constexpr double kLayer_m = 0.008;
+  // Panels of one part and layer that meet edge on edge around the girth (the two fronts of
+  // an open jacket, drawn touching in the file) are moved apart to leave this gap: their
+  // edges would otherwise lie on one line, vertex on vertex, which sewing cannot part (two
+  // coincident vertices have no direction to push apart) and which the garment keeps as
+  // intersecting triangles.
+  constexpr double kSideGap_m = 0.006;
   struct Extent {
     BodyPart part;
     double s_lo, s_hi, h_lo, h_hi;
+    int layer;
   };
   std::vector<Extent> placed_extents;
   std::map<std::pair<BodyPart, int>, Cylinder> layers;
@@ -345,14 +352,33 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     }
     const double centre_fraction =
         (g.cyl.arc_at(phi_n) + (f.centroid - g.file_origin).dot(tau)) / g.cyl.girth();
-    const Extent e{f.part, centre_fraction + s_lo / g.cyl.girth(), centre_fraction + s_hi / g.cyl.girth(),
-                   f.centroid.dot(g.file_axis) + h_lo, f.centroid.dot(g.file_axis) + h_hi};
+    Extent e{f.part, centre_fraction + s_lo / g.cyl.girth(), centre_fraction + s_hi / g.cyl.girth(),
+             f.centroid.dot(g.file_axis) + h_lo, f.centroid.dot(g.file_axis) + h_hi, 0};
+    auto beside = [&](const Extent& o) {
+      return o.part == e.part && std::min(o.h_hi, e.h_hi) - std::max(o.h_lo, e.h_lo) > 0.01;
+    };
     int layer = 0;
     for (const Extent& o : placed_extents) {
-      if (o.part != e.part || std::min(o.h_hi, e.h_hi) - std::max(o.h_lo, e.h_lo) <= 0.01) continue;
+      if (!beside(o)) continue;
       for (double wrap : {-1.0, 0.0, 1.0})
         if (std::min(o.s_hi + wrap, e.s_hi) - std::max(o.s_lo + wrap, e.s_lo) > 0.01 / g.cyl.girth()) ++layer;
     }
+    e.layer = layer;
+    // Around the girth, as a fraction of it: moved away from a panel of its layer it meets.
+    double nudge = 0;
+    const double side_gap = kSideGap_m / g.cyl.girth();
+    for (const Extent& o : placed_extents) {
+      if (!beside(o) || o.layer != e.layer) continue;
+      for (double wrap : {-1.0, 0.0, 1.0}) {
+        const double overlap = std::min(o.s_hi + wrap, e.s_hi + nudge) - std::max(o.s_lo + wrap, e.s_lo + nudge);
+        if (overlap <= -side_gap || overlap > 0.01 / g.cyl.girth()) continue;
+        const bool after = e.s_lo + e.s_hi + 2 * nudge > o.s_lo + o.s_hi + 2 * wrap;
+        nudge += (after ? 1 : -1) * (overlap + side_gap);
+        ++out.panels_moved_apart;
+      }
+    }
+    e.s_lo += nudge;
+    e.s_hi += nudge;
     placed_extents.push_back(e);
     auto [lit, fresh] = layers.try_emplace({f.part, layer}, g.cyl);
     Cylinder& c = lit->second;
@@ -361,7 +387,7 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
       c.r2 += layer * kLayer_m;
       c.tabulate();
     }
-    const double s_centre = c.arc_at(phi_n) + (f.centroid - g.file_origin).dot(tau);
+    const double s_centre = c.arc_at(phi_n) + (f.centroid - g.file_origin).dot(tau) + nudge * c.girth();
     const bool mirror = pattern.panels[p].clockwise;
     const int first = out.panel_first_vertex[p];
     const std::vector<Vec2> material = material_coordinates(pm);

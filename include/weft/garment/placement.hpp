@@ -51,6 +51,9 @@ struct PlacedGarment {
   std::vector<std::array<int, 2>> seam_pairs;
   std::vector<int> seam_stitch;          ///< the stitch of each pair (index into Pattern::stitches)
   int vertices_pushed_out = 0;           ///< placed too near the body and moved out
+  /// Times a panel was moved around its part, away from a panel it met edge on edge, to leave
+  /// a 6 mm gap (the two fronts of an open jacket).
+  int panels_moved_apart = 0;
 };
 
 /// Places every panel. Throws InputError naming the pattern file and the panel when a panel
