@@ -34,6 +34,11 @@ def weft_sweep(tmp_path, spec, out, *args, timeout=120):
     return r.returncode, r.stderr
 
 
+def open_text(path):
+    with open(path) as f:
+        return f.read()
+
+
 def results(out):
     with open(os.path.join(out, "results.csv")) as f:
         return list(csv.DictReader(f))
@@ -243,6 +248,14 @@ def free_port():
         return s.getsockname()[1]
 
 
+def parent(pid):
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return int(f.read().rsplit(")", 1)[1].split()[1])
+    except OSError:
+        return None
+
+
 def weft_runs():
     """{pid: (parent pid, run id)} of the `weft run` processes of sweeps on this machine."""
     found = {}
@@ -281,7 +294,7 @@ def cluster(tmp_path):
                                        "--host", "127.0.0.1", "--no-dashboard"], stderr=subprocess.DEVNULL))
     with distributed.Client(address, timeout="30s") as c:
         c.wait_for_workers(2, timeout=60)
-    yield address
+    yield address, {p.pid for p in procs[1:]}
     for p in reversed(procs):
         p.terminate()
     for p in procs:
@@ -297,13 +310,14 @@ def test_a_worker_killed_mid_run_has_its_run_retried_and_every_row_present(tmp_p
     path = tmp_path / "sweep.json"
     path.write_text(json.dumps(spec))
     out = tmp_path / "out"
-    driver = subprocess.Popen([WEFT_EXE, "sweep", str(path), "--out", str(out), "--scheduler", cluster],
+    address, nannies = cluster
+    driver = subprocess.Popen([WEFT_EXE, "sweep", str(path), "--out", str(out), "--scheduler", address],
                               stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
     victim = None
     while victim is None and time.monotonic() < deadline and driver.poll() is None:
-        runs = weft_runs()
-        victim = next(((pid, ppid, run_id) for pid, (ppid, run_id) in runs.items()), None)
+        runs = weft_runs()  # this cluster's: the run's worker is a child of one of its nannies
+        victim = next(((pid, ppid, run_id) for pid, (ppid, run_id) in runs.items() if parent(ppid) in nannies), None)
         time.sleep(0.02)
     assert victim is not None, "no run was seen running"
     run_pid, worker_pid, run_id = victim
@@ -335,7 +349,7 @@ def test_a_random_axis_moves_by_at_most_its_size_the_same_for_a_seed_every_time(
     spec = swing_sweep(**{"cloth.placement.translation": {"random": {"seeds": 3, "size": 0.001}},
                           "integrator.dt": [0.01, 0.02]})
     runs = load(spec).runs
-    base = json.load(open(SWING))["cloth"]["placement"]["translation"]
+    base = json.loads(open_text(SWING))["cloth"]["placement"]["translation"]
     moved = {}
     for r in runs:
         seed = r.params["cloth.placement.translation"]
@@ -429,7 +443,7 @@ def test_a_named_axis_sets_several_keys_and_its_column_holds_the_name():
     runs = load(spec).runs
     assert [r.params for r in runs] == [{"pace": p, "cloth.material": m} for p in ["fine", "coarse"]
                                         for m in ["cotton", "silk"]]
-    base = json.load(open(SWING))["integrator"]
+    base = json.loads(open_text(SWING))["integrator"]
     for r in runs:
         fine = r.params["pace"] == "fine"
         assert r.scene["integrator"]["dt"] == (0.005 if fine else 0.02)
@@ -449,7 +463,7 @@ def test_perturb_py_runs_its_variations_as_a_sweep_with_the_fail_safes_work_in_r
     spec = json.loads((out / "perturb.json").read_text())
     names = ["as-shipped", "shift+x", "shift-x", "shift+y", "shift+z", "friction"]
     assert list(spec["vary"]["variation"]["named"]) == names
-    base = json.load(open(scene))
+    base = json.loads(open_text(scene))
     rows = results(out)
     assert [row["variation"] for row in rows] == names
     table = r.stdout.splitlines()

@@ -17,7 +17,7 @@ def main(argv=None):
     a = p.parse_args(argv)
     try:
         sw = load(a.sweep)
-        rows, _ = execute(sw, a.out, scheduler=a.scheduler, workers=a.workers, weft=a.weft, quiet=a.quiet)
+        rows, _ = execute(sw, a.out, scheduler=a.scheduler, workers=a.workers, weft=a.weft, quiet=a.quiet, fork=True)
     except SweepError as e:
         print(f"weft: error: {e}", file=sys.stderr)
         return 2

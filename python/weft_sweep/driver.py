@@ -363,23 +363,33 @@ def dashboard(client):
     return link if has_bokeh else f"{link} (its pages need bokeh on the scheduler, which it lacks)"
 
 
-def start_client(scheduler, workers):
+def start_client(scheduler, workers, fork=False):
     """A client of the scheduler at `scheduler`, else of a new local cluster of `workers`
-    single-threaded worker processes; returns (client, cluster or None)."""
+    single-threaded worker processes; returns (client, cluster or None).
+
+    fork: the local workers are forks of this process rather than fresh interpreters (Dask's
+    default, spawn, which imports Dask again in each: 1.5 to 3 s of a 2-core machine at every
+    sweep, and as long again to stop them). `weft sweep` forks, its process being the driver
+    alone; weft.sweep() spawns, since the caller's process may hold threads a fork would not
+    carry over."""
     distributed = import_dask()
     import logging
+    import dask
     if scheduler:
         try:
             return distributed.Client(scheduler, timeout="30s"), None
         except (OSError, ValueError) as e:
             raise SweepError(f"command line: --scheduler {scheduler}: no scheduler answered there ({e})")
-    cluster = distributed.LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                                       processes=True, dashboard_address=":0", silence_logs=logging.ERROR)
+    method = "fork" if fork else dask.config.get("distributed.worker.multiprocessing-method")
+    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
+        cluster = distributed.LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                                           processes=True, dashboard_address=":0", silence_logs=logging.ERROR)
     return distributed.Client(cluster), cluster
 
 
-def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet=False, stream=None):
-    """Runs the sweep `sw` into `out`; returns (rows sorted by id, runs started)."""
+def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet=False, stream=None, fork=False):
+    """Runs the sweep `sw` into `out`; returns (rows sorted by id, runs started). fork: a local
+    cluster's workers are forks of this process (start_client)."""
     weft = find_weft(weft)
     (check_experiments if sw.experiment else check_scenes)(sw, weft)
     distributed = import_dask()  # before DIR is made
@@ -404,7 +414,7 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
     own = client is None
     cluster = None
     if own:
-        client, cluster = start_client(scheduler, workers)
+        client, cluster = start_client(scheduler, workers, fork)
     try:
         n_workers = len(client.scheduler_info().get("workers", {}))
         where = f"the scheduler at {scheduler}" if scheduler else (
