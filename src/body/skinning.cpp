@@ -3,7 +3,7 @@
 
 #include "weft/body.hpp"
 #include "weft/error.hpp"
-#include "sim/threads.hpp"
+#include "util/threads.hpp"
 
 namespace weft {
 

@@ -6,7 +6,7 @@
 #include <limits>
 #include <vector>
 
-#include "sim/threads.hpp"
+#include "util/threads.hpp"
 #include "weft/types.hpp"
 
 namespace weft {

@@ -8,7 +8,7 @@
 #include "collision/aabb_tree.hpp"
 #include "collision/colliders.hpp"
 #include "collision/geometry.hpp"
-#include "sim/threads.hpp"
+#include "util/threads.hpp"
 
 namespace weft {
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 
 #include "collision/colliders.hpp"
-#include "sim/threads.hpp"
+#include "util/threads.hpp"
 
 namespace weft {
 

@@ -1,7 +1,6 @@
 #include "collision/self_contact.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <map>
 #include <numeric>
@@ -9,7 +8,8 @@
 #include <stdexcept>
 
 #include "collision/geometry.hpp"
-#include "sim/threads.hpp"
+#include "util/threads.hpp"
+#include "util/timer.hpp"
 
 namespace weft {
 
@@ -640,7 +640,7 @@ void SelfContacts::rigidify_zones(const VecX& x0, double dt, bool stop) {
 
 void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/, double dt, ContactReport& report) {
   if (!(dt > 0)) return;
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = Clock::now();
   const int n = static_cast<int>(fixed_.size());
   u_ = (x1 - x0) / dt;
   step_inverse_mass_ = inverse_mass_;
@@ -744,7 +744,7 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
                    (node(v1, i).squaredNorm() - v_old.squaredNorm());
     ++report.fail_safe_moves;
   }
-  stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  stats_.seconds += seconds_since(start);
 }
 
 }  // namespace weft

@@ -159,7 +159,7 @@ class SelfContacts : public ContactHandler {
   /// node whose boxes (holding them at xa and xb, grown by `margin`; xa alone when xb is the
   /// same vector) overlap, the tree refitted the same way, and appends to pairs_ the stencils s of the calls that return
   /// true, in the tree's order; `only_changed`: only pairs with a node whose u changed since
-  /// the last detection. The calls run on several threads (sim/threads.hpp) and must only
+  /// the last detection. The calls run on several threads (util/threads.hpp) and must only
   /// read shared state. They must return false for every pair that stays `reach` (m) apart or
   /// more along the straight motions from xa to xb: pairs inside regions that culling shows to
   /// hold none are not offered.

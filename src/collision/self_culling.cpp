@@ -5,7 +5,7 @@
 #include <map>
 #include <limits>
 
-#include "sim/threads.hpp"
+#include "util/threads.hpp"
 
 namespace weft {
 

@@ -6,10 +6,10 @@
 #include "integrate/integrator.hpp"
 #include "weft/garment/sewing.hpp"
 #include "sim/checkpoint.hpp"
+#include "util/timer.hpp"
 #include "weft/error.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -140,7 +140,6 @@ constexpr double kFailSafeEnergyFactor = 100;
 }  // namespace
 
 RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResult* resumed) {
-  using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   RunResult res;
   if (resumed) {
@@ -189,7 +188,7 @@ RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResul
     res.energy.push_back(e);
     if (cb.on_frame) cb.on_frame(static_cast<int>(f), sim);
     if (cb.on_progress) cb.on_progress(frames ? static_cast<double>(f) / frames : 1.0);
-    res.wall_seconds = wall_before + std::chrono::duration<double>(Clock::now() - start).count();
+    res.wall_seconds = wall_before + seconds_since(start);
     if (f < frames && cb.after_frame && cb.after_frame(res)) {
       res.status = "interrupted";
       res.message = "stopped at t = " + std::to_string(s.t) + " s on request";
@@ -198,7 +197,7 @@ RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResul
   }
   res.steps = sim.core().statistics();
   res.damping = sim.core().system().statistics();
-  res.wall_seconds = wall_before + std::chrono::duration<double>(Clock::now() - start).count();
+  res.wall_seconds = wall_before + seconds_since(start);
   return res;
 }
 

@@ -1,7 +1,7 @@
 #include "system/cloth.hpp"
 
 #include "linalg/dispatch.hpp"
-#include "sim/threads.hpp"
+#include "util/threads.hpp"
 
 #include <algorithm>
 #include <cstring>

@@ -1,4 +1,4 @@
-#include "sim/threads.hpp"
+#include "util/threads.hpp"
 
 #include <memory>
 #include <mutex>
