@@ -6,7 +6,6 @@
 #include <map>
 #include <numeric>
 
-#include "weft/atomic_file.hpp"
 #include "weft/error.hpp"
 
 namespace weft {
@@ -164,17 +163,6 @@ std::vector<FlatStencil> interior_edge_flat_stencils(const TriMesh& mesh) {
     out.push_back(s);
   }
   return out;
-}
-
-void write_obj(const std::string& path, const VecX& x, const std::vector<std::array<int, 3>>& triangles) {
-  write_file_atomically(path, [&](std::ostream& out) {
-    char buf[96];
-    for (int i = 0; i < x.size() / 3; ++i) {
-      std::snprintf(buf, sizeof buf, "v %.9g %.9g %.9g\n", x[3 * i], x[3 * i + 1], x[3 * i + 2]);
-      out << buf;
-    }
-    for (const auto& t : triangles) out << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
-  });
 }
 
 }  // namespace weft

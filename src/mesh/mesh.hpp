@@ -34,7 +34,4 @@ std::vector<FlatStencil> interior_edge_flat_stencils(const TriMesh& mesh);
 /// preconditioner takes the nodes in this order).
 std::vector<int> banded_order(const TriMesh& mesh);
 
-/// Writes positions and triangles as an OBJ file (atomically).
-void write_obj(const std::string& path, const VecX& x, const std::vector<std::array<int, 3>>& triangles);
-
 }  // namespace weft
