@@ -256,20 +256,24 @@ def parent(pid):
         return None
 
 
-def weft_runs():
-    """{pid: (parent pid, run id)} of the `weft run` processes of sweeps on this machine."""
+def weft_runs(young=None):
+    """{pid: (parent pid, run id)} of the `weft run` processes of sweeps on this machine (with
+    `young`, only those started less than that many seconds ago)."""
     found = {}
+    with open("/proc/uptime") as f:
+        uptime = float(f.read().split()[0])
     for pid in filter(str.isdigit, os.listdir("/proc")):
         try:
             with open(f"/proc/{pid}/cmdline", "rb") as f:
                 args = f.read().split(b"\0")
             with open(f"/proc/{pid}/stat") as f:
-                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+                fields = f.read().rsplit(")", 1)[1].split()
         except OSError:
             continue
         folder = next((a.decode() for a in args if b"weft-sweep-" in a), None)
-        if b"run" in args and folder:
-            found[int(pid)] = (ppid, folder.split("weft-sweep-")[1].split("-")[0])
+        age = uptime - int(fields[19]) / os.sysconf("SC_CLK_TCK")
+        if b"run" in args and folder and (young is None or age < young):
+            found[int(pid)] = (int(fields[1]), folder.split("weft-sweep-")[1].split("-")[0])
     return found
 
 
@@ -316,7 +320,9 @@ def test_a_worker_killed_mid_run_has_its_run_retried_and_every_row_present(tmp_p
     deadline = time.monotonic() + 60
     victim = None
     while victim is None and time.monotonic() < deadline and driver.poll() is None:
-        runs = weft_runs()  # this cluster's: the run's worker is a child of one of its nannies
+        # This cluster's (the run's worker a child of one of its nannies), and just started, so
+        # that it is still running when its worker is killed (a run takes about a second).
+        runs = weft_runs(young=0.3)
         victim = next(((pid, ppid, run_id) for pid, (ppid, run_id) in runs.items() if parent(ppid) in nannies), None)
         time.sleep(0.02)
     assert victim is not None, "no run was seen running"
