@@ -146,7 +146,7 @@ MUTATIONS = [
     M("spline-interior-limiter", "materials", "src/material/stress_curve.cpp",
       "c.slope_[k] = (w1 + w2) / (w1 / d[k - 1] + w2 / d[k]);", "c.slope_[k] = 0.5 * (d[k - 1] + d[k]);",
       "interior slopes of the spline are plain means (no monotone limiter)", "SplineCurve.*:SplineLimiters.*"),
-    M("areal-density-unit", "materials", "src/material/material.cpp",
+    M("areal-density-unit", "materials", "src/io/material_file.cpp",
       '{"g/m2", 1e-3},', '{"g/m2", 1e-2},',
       "g/m2 converted with a wrong factor", "Material*"),
     # Solvers
