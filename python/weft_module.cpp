@@ -154,33 +154,16 @@ class PySimulation {
   }
 
   py::dict statistics() const {
+    // Every step statistic, named by its field (WEFT_STEP_STATISTICS).
     const weft::StepStatistics& s = sim_->step_statistics();
     py::dict d;
-    d["steps"] = s.steps;
-    d["rejected_steps"] = s.rejected_steps;
-    d["cg_iterations"] = s.cg_iterations;
-    d["cg_solves"] = s.cg_solves;
-    d["cg_failures"] = s.cg_failures;
-    d["contacts"] = s.contacts;
-    d["contact_solves"] = s.contact_solves;
-    d["max_contacts"] = s.max_contacts;
-    d["released_contacts"] = s.released_contacts;
-    d["fail_safe_moves"] = s.fail_safe_moves;
-    d["contact_passes"] = s.contact_passes;
-    d["failed_contact_steps"] = s.failed_contact_steps;
-    d["halved_steps"] = s.halved_steps;
-    d["guard_redone_steps"] = s.guard_redone_steps;
-    d["guard_raised_steps"] = s.guard_raised_steps;
-    d["guard_max_alpha"] = s.guard_max_alpha;
-    d["guard_split_steps"] = s.guard_split_steps;
-    d["guard_futile_splits"] = s.guard_futile_splits;
-    d["guard_newton_steps"] = s.guard_newton_steps;
-    d["guard_parts"] = s.guard_parts;
-    d["assembly_seconds"] = s.assembly_seconds;
-    d["solve_seconds"] = s.solve_seconds;
-    d["detection_seconds"] = s.detection_seconds;
-    d["response_seconds"] = s.response_seconds;
-    d["guard_seconds"] = s.guard_seconds;
+    for (const weft::StepStatistic& st : weft::kStepStatistics) {
+      if (st.count) {
+        d[st.field] = s.*st.count;
+      } else {
+        d[st.field] = s.*st.value;
+      }
+    }
     return d;
   }
 

@@ -123,6 +123,12 @@ def test_energies_and_statistics(sheet):
     assert e["kinetic"] == pytest.approx(0.5 * (m[:, None] * v * v).sum(), rel=1e-12)
     assert e["gravity"] == pytest.approx(9.81 * (m * (sim.positions[:, 1] - y0)).sum(), rel=1e-9)
     assert e["gravity"] < 0 < e["kinetic"]  # falling
+    # Every step statistic by its field (WEFT_STEP_STATISTICS): the counts whole numbers, the
+    # largest alpha and the seconds floats.
+    s = sim.statistics
+    assert s["steps"] == 5 and {"newton_iterations", "newton_seconds", "guard_max_alpha"} <= set(s)
+    for key, value in s.items():
+        assert isinstance(value, float if key.endswith("seconds") or key == "guard_max_alpha" else int), key
     s = sim.statistics
     assert s["steps"] == 5 and s["cg_solves"] >= 5 and s["cg_iterations"] >= s["cg_solves"]
 

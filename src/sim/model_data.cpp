@@ -436,6 +436,37 @@ LogStatistics get_statistics(BinaryReader& in) {
   }
 }
 
+// The step statistics as WEFT_STEP_STATISTICS lists them: the counts, then the largest values,
+// then the seconds, each kind in the list's order.
+constexpr StatisticKind kStatisticKindsInCheckpoints[] = {StatisticKind::kCount, StatisticKind::kLargest,
+                                                          StatisticKind::kSeconds};
+
+void put(BinaryWriter& out, const StepStatistics& st) {
+  for (const StatisticKind kind : kStatisticKindsInCheckpoints)
+    for (const StepStatistic& s : kStepStatistics) {
+      if (s.kind != kind) continue;
+      if (s.count) {
+        out.i64(st.*s.count);
+      } else {
+        out.f64(st.*s.value);
+      }
+    }
+}
+
+StepStatistics get_step_statistics(BinaryReader& in) {
+  StepStatistics st;
+  for (const StatisticKind kind : kStatisticKindsInCheckpoints)
+    for (const StepStatistic& s : kStepStatistics) {
+      if (s.kind != kind) continue;
+      if (s.count) {
+        st.*s.count = in.i64();
+      } else {
+        st.*s.value = in.f64();
+      }
+    }
+  return st;
+}
+
 void put_vec3(BinaryWriter& out, const Vec3& v) { out.raw(v.data(), 3 * sizeof(double)); }
 
 void put(BinaryWriter& out, const Points& p) { out.doubles(p.data(), static_cast<size_t>(p.size())); }
@@ -579,16 +610,7 @@ void save_data(const SimulationModel& M, const SimulationData& D, BinaryWriter& 
   out.f64(s.fail_safe_work);
   out.f64(s.rk45_step);
   out.f64(s.step_clock);
-  for (long c : {D.statistics.steps, D.statistics.rejected_steps, D.statistics.cg_iterations, D.statistics.cg_solves, D.statistics.cg_failures,
-                 D.statistics.contacts, D.statistics.contact_solves, D.statistics.max_contacts, D.statistics.released_contacts, D.statistics.fail_safe_moves,
-                 D.statistics.contact_passes, D.statistics.failed_contact_steps, D.statistics.halved_steps, D.statistics.guard_redone_steps,
-                 D.statistics.guard_raised_steps, D.statistics.guard_split_steps, D.statistics.guard_futile_splits, D.statistics.guard_parts, D.statistics.guard_newton_steps, D.statistics.newton_iterations,
-                 D.statistics.newton_steps, D.statistics.newton_halvings, D.statistics.newton_unconverged, D.statistics.newton_automatic_steps})
-    out.i64(c);
-  out.f64(D.statistics.guard_max_alpha);
-  for (double d : {D.statistics.assembly_seconds, D.statistics.solve_seconds, D.statistics.detection_seconds, D.statistics.response_seconds,
-                   D.statistics.guard_seconds, D.statistics.newton_seconds})
-    out.f64(d);
+  put(out, D.statistics);
   out.f64(D.gravity0);
   out.f64(D.total0);
   out.f64(D.energy_scale);
@@ -644,17 +666,7 @@ void restore_data(const SimulationModel& M, SimulationData& D, BinaryReader& in)
   s.fail_safe_work = in.f64();
   s.rk45_step = in.f64();
   s.step_clock = in.f64();
-  StepStatistics st;
-  for (long* c : {&st.steps, &st.rejected_steps, &st.cg_iterations, &st.cg_solves, &st.cg_failures, &st.contacts,
-                  &st.contact_solves, &st.max_contacts, &st.released_contacts, &st.fail_safe_moves, &st.contact_passes,
-                  &st.failed_contact_steps, &st.halved_steps, &st.guard_redone_steps, &st.guard_raised_steps,
-                  &st.guard_split_steps, &st.guard_futile_splits, &st.guard_parts, &st.guard_newton_steps, &st.newton_iterations, &st.newton_steps,
-                  &st.newton_halvings, &st.newton_unconverged, &st.newton_automatic_steps})
-    *c = in.i64();
-  st.guard_max_alpha = in.f64();
-  for (double* d : {&st.assembly_seconds, &st.solve_seconds, &st.detection_seconds, &st.response_seconds,
-                    &st.guard_seconds, &st.newton_seconds})
-    *d = in.f64();
+  const StepStatistics st = get_step_statistics(in);
   const double gravity0 = in.f64(), total0 = in.f64(), energy_scale = in.f64();
 
   ClothSystem::Data sys;  // caches at their start; the viscosities and statistics read below

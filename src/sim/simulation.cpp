@@ -205,6 +205,19 @@ namespace {
 nlohmann::json stats_json(const LogStatistics& s) {
   return {{"min", s.min()}, {"median", s.median()}, {"max", s.max()}, {"count", s.count()}};
 }
+
+// The statistics that summary.json reports as they are in its object `group` ("": the top
+// level), under their keys (WEFT_STEP_STATISTICS).
+void add_step_statistics(nlohmann::json& j, const StepStatistics& st, const std::string& group) {
+  for (const StepStatistic& s : kStepStatistics) {
+    if (group != s.group || !*s.key) continue;
+    if (s.count) {
+      j[s.key] = st.*s.count;
+    } else {
+      j[s.key] = st.*s.value;
+    }
+  }
+}
 }  // namespace
 
 nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
@@ -222,14 +235,9 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
   j["uv_scale"] = sc.cloth.uv_scale;
   j["vertices"] = r.vertices;
   j["triangles"] = r.triangles;
-  j["steps"] = r.steps.steps;
-  j["rejected_steps"] = r.steps.rejected_steps;
+  add_step_statistics(j, r.steps, "");
   j["wall_seconds"] = r.wall_seconds;
-  j["assembly_seconds"] = r.steps.assembly_seconds;
-  j["solve_seconds"] = r.steps.solve_seconds;
   j["solver_iterations_mean"] = r.steps.cg_solves ? static_cast<double>(r.steps.cg_iterations) / r.steps.cg_solves : 0.0;
-  j["solver_iterations_total"] = r.steps.cg_iterations;
-  j["solver_failures"] = r.steps.cg_failures;
   j["solver_tolerance"] = sc.integrator.cg_tolerance;
   j["preconditioner"] = preconditioner_name(sim.core().integrator().preconditioner());
   if (sim.core().integrator().preconditioner() == Preconditioner::kSsor) {
@@ -253,16 +261,9 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
     const StepStatistics& st = r.steps;
     j["contacts"] = {{"colliders", sim.core().colliders().size()},
                      {"node_contacts_mean", st.contact_solves ? static_cast<double>(st.contacts) / st.contact_solves : 0.0},
-                     {"node_contacts_max", st.max_contacts},
-                     {"released", st.released_contacts},
-                     {"fail_safe_moves", st.fail_safe_moves},
-                     {"repeated_solves", st.contact_passes},
-                     {"failed_steps", st.failed_contact_steps},
-                     {"halved_steps", st.halved_steps},
-                     {"detection_seconds", st.detection_seconds},
-                     {"response_seconds", st.response_seconds},
                      {"work_J", r.energy.empty() ? 0.0 : r.energy.back().contact_work},
                      {"fail_safe_work_J", r.energy.empty() ? 0.0 : r.energy.back().fail_safe_work}};
+    add_step_statistics(j["contacts"], st, "contacts");
     if (const SelfContacts* self = sim.core().self_contacts()) {
       const SelfContactStatistics& ss = self->statistics();
       j["contacts"]["self"] = {{"thickness", self->thickness()},
@@ -278,14 +279,9 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
   if (sc.integrator.guard) {
     const StepStatistics& st = r.steps;
     j["guard"] = {{"parts_per_step", st.steps ? static_cast<double>(st.guard_parts) / st.steps : 0.0},
-                  {"split_steps", st.guard_split_steps},
-                  {"futile_splits", st.guard_futile_splits},
-                  {"newton_last_resorts", st.guard_newton_steps},
-                  {"seconds", st.guard_seconds},
-                  {"redone_steps", st.guard_redone_steps},
-                  {"raised_steps", st.guard_raised_steps},
                   {"raised_fraction", st.steps ? static_cast<double>(st.guard_raised_steps) / st.steps : 0.0},
                   {"max_alpha", std::max(sc.integrator.alpha, st.guard_max_alpha)}};
+    add_step_statistics(j["guard"], st, "guard");
   }
   // Unguarded backward Euler takes a step that put energy in again with Newton iterations
   // (IntegratorSettings::backward_euler_newton).
@@ -295,14 +291,9 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
   if (sc.integrator.newton_iterations > 0 || automatic) {
     const StepStatistics& st = r.steps;
     j["newton"] = {{"max_iterations", sc.integrator.newton_iterations},
-                   {"automatic_steps", st.newton_automatic_steps},
                    {"tolerance", sc.integrator.newton_tolerance},
-                   {"iterations", st.newton_iterations},
-                   {"iterations_per_step", st.steps ? static_cast<double>(st.newton_iterations) / st.steps : 0.0},
-                   {"iterated_steps", st.newton_steps},
-                   {"line_search_halvings", st.newton_halvings},
-                   {"unconverged_steps", st.newton_unconverged},
-                   {"seconds", st.newton_seconds}};
+                   {"iterations_per_step", st.steps ? static_cast<double>(st.newton_iterations) / st.steps : 0.0}};
+    add_step_statistics(j["newton"], st, "newton");
     if (automatic) j["newton"]["automatic_max_iterations"] = kBackwardEulerNewton;
   }
   j["damping_ratio"] = r.damping_ratio;
