@@ -196,9 +196,9 @@ std::unique_ptr<SimulationModel> build_model(const Scene& scene, const SetupProg
   }
   // Clamped vertices follow their clamps whatever touches them: the colliders' and the
   // cloth's contact handling take them as pinned.
-  M.held_still = M.cloth->fixed;
+  M.held = M.cloth->fixed;
   for (const std::vector<int>& group : M.clamp_groups)
-    for (int i : group) M.held_still[i] = 1;
+    for (int i : group) M.held[i] = 1;
   if (!scene.cloth.seams.empty()) {
     // The two sides of a seam are one point of the cloth to come: they do not push apart.
     std::vector<int> group(M.num_vertices());
@@ -258,13 +258,13 @@ std::unique_ptr<SimulationData> make_data(const SimulationModel& M) {
   if (!D.colliders.empty()) {
     std::vector<Collider*> list;
     for (const auto& c : D.colliders) list.push_back(c.get());
-    D.contacts = std::make_unique<ColliderContacts>(std::move(list), cloth.mass, M.held_still, cloth.mesh.triangles);
+    D.contacts = std::make_unique<ColliderContacts>(std::move(list), cloth.mass, M.held, cloth.mesh.triangles);
     integrator.add_contact_handler(D.contacts.get());
   }
   // Cloth-cloth contact after the colliders': its fail-safe sees their corrections.
   if (scene.cloth.self_collision) {
     D.self_contacts = std::make_unique<SelfContacts>(cloth.mesh.triangles, cloth.initial_positions(), cloth.mass,
-                                                     M.held_still, scene.cloth.thickness, scene.cloth.friction);
+                                                     M.held, scene.cloth.thickness, scene.cloth.friction);
     if (D.contacts) D.self_contacts->set_held_nodes(&D.contacts->touching(), &D.contacts->touching_normals());
     if (!M.seam_groups.empty()) D.self_contacts->set_vertex_groups(M.seam_groups);
     integrator.add_contact_handler(D.self_contacts.get());

@@ -38,7 +38,7 @@ struct SimulationModel {
   std::vector<Points> collider_vertices;
   std::vector<std::vector<int>> clamp_groups;  ///< per clamp (cloth.clamps), its vertices
   /// Per vertex: pinned or clamped (the contact handlers leave it where its motion puts it).
-  std::vector<char> held_still;
+  std::vector<char> held;
   /// Per vertex, the smallest vertex it is sewn to (itself when none): the two sides of a
   /// seam do not push each other apart. Empty when the cloth has no seams.
   std::vector<int> seam_groups;
