@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 
 #include "collision/colliders.hpp"
@@ -52,6 +53,31 @@ struct Cylinder {
     return origin + h * axis + r1 * std::cos(phi) * e1 + r2 * std::sin(phi) * e2;
   }
   double phi_of_direction(const Vec3& n) const { return std::atan2(n.dot(e2), n.dot(e1)); }
+};
+
+/// A circular cone about a vertical axis, opening downwards, for a flared skirt: radius r0 at
+/// height `top` (the waist), growing by `slope` per metre down. Cones are developable: a flat
+/// panel laid on the cone's development (a sector about its apex) keeps every length.
+struct Cone {
+  Vec3 origin = Vec3::Zero();  ///< a point of the axis at height 0
+  double top = 0, r0 = 0.1, slope = 0.2;
+  double sin_a() const { return slope / std::sqrt(1 + slope * slope); }
+  /// Slant distance from the apex to the top circle.
+  double rho_top() const { return r0 / sin_a(); }
+  /// The point at slant distance rho from the apex, at development angle theta (radians of the
+  /// flat sector: azimuth = theta / sin a, 0 the front, growing towards +x).
+  Vec3 point(double rho, double theta) const {
+    const double sa = sin_a(), ca = 1 / std::sqrt(1 + slope * slope);
+    const double phi = theta / sa, y_apex = top + r0 / slope;
+    return origin + Vec3(rho * sa * std::sin(phi), y_apex - rho * ca, rho * sa * std::cos(phi));
+  }
+  /// Where a panel point lands whose flat offset is `s` across the panel (from its middle
+  /// line, at angle theta_c) and `down` along it below the top circle: the panel is laid in
+  /// the development with its middle line on the ray theta_c, rigidly, then rolled up.
+  Vec3 roll(double theta_c, double s, double down) const {
+    const double along = rho_top() + down;
+    return point(std::hypot(along, s), theta_c + std::atan2(s, along));
+  }
 };
 
 Mat3 euler_xyz(const Vec3& deg) {
@@ -116,6 +142,54 @@ void fit_to_body(Cylinder& c, const Points& body, double h0, double h1, double r
   for (const Vec2& p : q) scale = std::max(scale, ((p - mid).array() / half.array()).matrix().norm());
   c.r1 = scale * half.x();
   c.r2 = scale * half.y();
+}
+
+/// A pattern that is a skirt: its name says so, or every panel about the torso is a skirt's.
+bool is_skirt(const Pattern& pattern, const std::vector<int>& torso_panels) {
+  if (contains(lower(pattern.name), "skirt")) return true;
+  for (int p : torso_panels)
+    if (!contains(lower(pattern.panels[p].name), "skirt")) return false;
+  return !torso_panels.empty();
+}
+
+/// The cone for a skirt whose panels, in flat coordinates (s across each panel from its middle,
+/// h up along it), sum to a width growing down the skirt (each panel's top at the waist): its slope
+/// makes the girth grow as the panels' summed width does (times the allowance), from their
+/// widths in the top and bottom tenth of each panel; its radius at the top is as small as
+/// keeps `clearance` from every body vertex within 0.35 m of the axis down the skirt's length.
+Cone skirt_cone(const std::vector<std::vector<Vec2>>& panels, double span, const Vec3& origin,
+                double waist, const Points& body, double clearance, double allowance) {
+  double top_width = 0, bottom_width = 0, top_depth = 0, bottom_depth = 0;
+  for (const std::vector<Vec2>& pts : panels) {
+    double lo = 1e30, hi = -1e30;
+    for (const Vec2& q : pts) {
+      lo = std::min(lo, q.y());
+      hi = std::max(hi, q.y());
+    }
+    const double band = 0.1 * (hi - lo);
+    double t0 = 1e30, t1 = -1e30, b0 = 1e30, b1 = -1e30;
+    for (const Vec2& q : pts) {
+      if (q.y() >= hi - band) t0 = std::min(t0, q.x()), t1 = std::max(t1, q.x());
+      if (q.y() <= lo + band) b0 = std::min(b0, q.x()), b1 = std::max(b1, q.x());
+    }
+    top_width += t1 - t0;
+    bottom_width += b1 - b0;
+    top_depth += 0.5 * band / panels.size();
+    bottom_depth += (hi - lo - 0.5 * band) / panels.size();
+  }
+  Cone cone;
+  cone.origin = Vec3(origin.x(), 0, origin.z());
+  cone.top = waist;
+  const double run = std::max(bottom_depth - top_depth, 0.1 * span);
+  cone.slope = std::max(0.02, allowance * (bottom_width - top_width) / (2 * kPi * run));
+  cone.r0 = allowance * top_width / (2 * kPi) - cone.slope * top_depth;
+  for (Eigen::Index i = 0; i < body.rows(); ++i) {
+    const double down = waist - body(i, 1);
+    if (down < -0.02 || down > span) continue;
+    const double r = std::hypot(body(i, 0) - origin.x(), body(i, 2) - origin.z());
+    if (r <= 0.35) cone.r0 = std::max(cone.r0, r + clearance - cone.slope * std::max(0.0, down));
+  }
+  return cone;
 }
 
 }  // namespace
@@ -202,6 +276,7 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     Vec3 file_axis = Vec3::UnitY(), file_origin = Vec3::Zero();
     Cylinder cyl;
     double shift = 0;  ///< added to the file's axial coordinate
+    std::optional<Cone> cone;  ///< a skirt's flared panels go on this cone instead
   };
   std::map<BodyPart, PartGeometry> parts;
   for (int p = 0; p < np; ++p) parts[fp[p].part].panels.push_back(p);
@@ -225,6 +300,7 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     }
     g.file_origin = arm ? Vec3(mean / g.panels.size()) : Vec3(0.5 * (lo + hi));
     double h_lo = 1e30, h_hi = -1e30, width = 0;
+    std::vector<std::vector<Vec2>> flat;  // each panel's (across, up) coordinates
     for (int p : g.panels) {
       double s_lo = 1e30, s_hi = -1e30;
       const Vec3 n = fp[p].outward;
@@ -233,8 +309,11 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
         throw InputError(pattern.file + ": panel '" + pattern.panels[p].name + "' faces along the " +
                          body_part_name(part) + "'s axis and cannot be wrapped around it (set its part or angle)");
       const Vec3 tau = ap.normalized().cross(n);
+      flat.emplace_back();
       for (const Vec2& v : gm.panels[p].vertices_m) {
         const Vec3 x = file_point(p, v);
+        flat.back().emplace_back((x - fp[p].centroid).dot(tau),
+                                 (x - fp[p].centroid).dot(ap.normalized()) + fp[p].centroid.dot(g.file_axis));
         s_lo = std::min(s_lo, (x - fp[p].centroid).dot(tau));
         s_hi = std::max(s_hi, (x - fp[p].centroid).dot(tau));
         h_lo = std::min(h_lo, x.dot(g.file_axis));
@@ -245,7 +324,15 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     // The body's cylinder and where the panels sit along it.
     Cylinder& c = g.cyl;
     const double span = h_hi - h_lo;
-    if (part == BodyPart::torso) {
+    if (part == BodyPart::torso && is_skirt(pattern, g.panels)) {
+      // A skirt: its top at the waist, on a cone as flared as its panels.
+      c.origin = Vec3(0, 0, 0);
+      set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
+      const double waist = joint(rig, "LowerBack", true).y();
+      g.shift = waist - h_hi;
+      fit_to_body(c, body.positions, waist - span, waist, 0.35);
+      g.cone = skirt_cone(flat, span, c.origin, waist, body.positions, clearance, options.girth_allowance);
+    } else if (part == BodyPart::torso) {
       // Vertical; the panels' top at the base of the neck, the fit taken below the armpits.
       c.origin = Vec3(0, 0, 0);
       set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
@@ -359,7 +446,7 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     };
     int layer = 0;
     for (const Extent& o : placed_extents) {
-      if (!beside(o)) continue;
+      if (!beside(o) || g.cone) continue;  // a skirt's panels lie side by side on its cone
       for (double wrap : {-1.0, 0.0, 1.0})
         if (std::min(o.s_hi + wrap, e.s_hi) - std::max(o.s_lo + wrap, e.s_lo) > 0.01 / g.cyl.girth()) ++layer;
     }
@@ -368,7 +455,7 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     double nudge = 0;
     const double side_gap = kSideGap_m / g.cyl.girth();
     for (const Extent& o : placed_extents) {
-      if (!beside(o) || o.layer != e.layer) continue;
+      if (!beside(o) || o.layer != e.layer || g.cone) continue;
       for (double wrap : {-1.0, 0.0, 1.0}) {
         const double overlap = std::min(o.s_hi + wrap, e.s_hi + nudge) - std::max(o.s_lo + wrap, e.s_lo + nudge);
         if (overlap <= -side_gap || overlap > 0.01 / g.cyl.girth()) continue;
@@ -388,13 +475,25 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
       c.tabulate();
     }
     const double s_centre = c.arc_at(phi_n) + (f.centroid - g.file_origin).dot(tau) + nudge * c.girth();
+    // On a skirt's cone: the panel's middle line on the ray of the development that faces
+    // where the panel does, moved across by its offset in the file.
+    // Each panel's top (along the panel) at the waist, lowered by an override's shift.
+    double theta_c = 0, panel_top = -1e30;
+    if (g.cone) {
+      for (const Vec2& v : pm.vertices_m) panel_top = std::max(panel_top, (file_point(p, v) - f.centroid).dot(ap));
+      panel_top -= shift - g.shift;
+      theta_c = phi_n * g.cone->sin_a() + (f.centroid - g.file_origin).dot(tau) / (g.cone->rho_top() + panel_top);
+    }
     const bool mirror = pattern.panels[p].clockwise;
     const int first = out.panel_first_vertex[p];
     const std::vector<Vec2> material = material_coordinates(pm);
     for (size_t v = 0; v < pm.vertices_m.size(); ++v) {
       const Vec3 x = file_point(p, pm.vertices_m[v]);
       const double s = (x - f.centroid).dot(tau), h = (x - f.centroid).dot(ap) + f.centroid.dot(g.file_axis);
-      out.mesh.positions.row(first + v) = c.point(h + shift, c.phi_at(s_centre + s)).transpose();
+      out.mesh.positions.row(first + v) =
+          (g.cone ? g.cone->roll(theta_c, s, panel_top - (x - f.centroid).dot(ap))
+                  : c.point(h + shift, c.phi_at(s_centre + s)))
+              .transpose();
       Vec2 u = material[v];
       if (mirror) u.x() = -u.x();
       out.mesh.pattern[first + v] = u + layout[p];

@@ -8,6 +8,7 @@
 #include <numeric>
 
 #include "sample_patterns.hpp"
+#include "placed_lengths.hpp"
 #include "weft/garment/placement.hpp"
 
 namespace weft {
@@ -60,6 +61,49 @@ TEST(PlacementApart, NoTwoVerticesTheWeldKeepsApartArePlacedTogether) {
     if (pattern.name == "jacket") moved = placed.panels_moved_apart;
   }
   EXPECT_GE(moved, 1) << "the jacket's fronts meet edge on edge in its file";
+}
+
+// The four-panel skirt flares from 0.76 m round the waist to 1.68 m at the hem. Rolled onto
+// one cylinder as wide as its hem, its waist seams stood 25 cm open and sewing crumpled it;
+// on a cone (developable, like the cylinder) each panel keeps its lengths and the girth grows
+// down the skirt as the panels' summed width does.
+TEST(PlacementCone, AFlaredSkirtGoesOnAConeAtTheWaistKeepingItsLengths) {
+  const BindBody body = load_bind_body(BodyColliderSpec{}, 1.0);
+  const Pattern pattern =
+      load_pattern(std::string(WEFT_SOURCE_DIR) + "/data/patterns/garment_pattern_generator/skirt_4_panels.json");
+  GarmentMeshOptions options;
+  options.target_edge_m = 0.03;
+  const PlacedGarment placed = place_garment(pattern, mesh_garment(pattern, options), body);
+  // Lengths: every edge as long as in the flat panel, to within 1% (rolling is isometric; a
+  // 3 cm chord on a radius above 12 cm is within 0.3% of its arc).
+  EXPECT_LT(test::largest_edge_stretch(placed), 0.01);
+  // A cone: the vertices' distance from the vertical axis grows down the skirt, and the top
+  // sits at the waist, below the armpits.
+  const Vec3 centre = placed.mesh.positions.colwise().mean().transpose();
+  double top = -1e30, bottom = 1e30;
+  for (int v = 0; v < placed.mesh.num_vertices(); ++v) {
+    top = std::max(top, placed.mesh.positions(v, 1));
+    bottom = std::min(bottom, placed.mesh.positions(v, 1));
+  }
+  double top_radius = 0, bottom_radius = 0;
+  for (int v = 0; v < placed.mesh.num_vertices(); ++v) {
+    const double r = std::hypot(placed.mesh.positions(v, 0) - centre.x(), placed.mesh.positions(v, 2) - centre.z());
+    if (placed.mesh.positions(v, 1) > top - 0.02) top_radius = std::max(top_radius, r);
+    if (placed.mesh.positions(v, 1) < bottom + 0.02) bottom_radius = std::max(bottom_radius, r);
+  }
+  EXPECT_GT(bottom_radius, 1.5 * top_radius);
+  const int arm = body.rig.find("LeftArm");
+  ASSERT_GE(arm, 0);
+  EXPECT_LT(top, body.rig.head_bind[arm].y() - 0.2);
+  // Every panel on the torso, facing out: each triangle's normal away from the axis.
+  int inward = 0;
+  for (const auto& t : placed.mesh.triangles) {
+    const Vec3 a = placed.mesh.positions.row(t[0]), b = placed.mesh.positions.row(t[1]), c = placed.mesh.positions.row(t[2]);
+    const Vec3 n = (b - a).cross(c - a), m = (a + b + c) / 3 - centre;
+    inward += Vec3(m.x(), 0, m.z()).dot(n) < 0 ? 1 : 0;
+  }
+  EXPECT_EQ(inward, 0);
+  EXPECT_EQ(placed.vertices_pushed_out, 0);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <random>
 
 #include "collision/intersections.hpp"
+#include "placed_lengths.hpp"
 #include "weft/garment/placement.hpp"
 #include "weft/garment/sewing.hpp"
 #include "system/cloth.hpp"
@@ -117,15 +118,7 @@ TEST_F(Placement, PanelsAreRolledOnWithoutStretchingAndClearOfTheBody) {
   EXPECT_EQ(placed.vertices_pushed_out, 0);
   // Rolling onto a cylinder keeps lengths along the axis and around it: every edge keeps its
   // pattern length to within its sag on the curve (edges of 3 cm on radii over 5 cm: < 2%).
-  double worst = 0;
-  for (const auto& t : placed.mesh.triangles)
-    for (int k = 0; k < 3; ++k) {
-      const int a = t[k], b = t[(k + 1) % 3];
-      const double flat = (placed.mesh.pattern[a] - placed.mesh.pattern[b]).norm();
-      const double placed_length = (placed.mesh.positions.row(a) - placed.mesh.positions.row(b)).norm();
-      worst = std::max(worst, std::abs(placed_length / flat - 1));
-    }
-  EXPECT_LT(worst, 0.02);
+  EXPECT_LT(test::largest_edge_stretch(placed), 0.02);
   // The sides: sleeves on the arms (the wearer's left is +x), front and back on the torso,
   // each panel's triangles facing away from the body (outward normals point away from the
   // part's axis, on average).
