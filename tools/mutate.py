@@ -208,7 +208,7 @@ MUTATIONS = [
       's.gravity = r.vec3_within("gravity", kMaxGravity_m_s2, "m/s^2");',
       's.gravity = -r.vec3_within("gravity", kMaxGravity_m_s2, "m/s^2");',
       "gravity key read with the wrong sign", "SceneKeys.*"),
-    M("bending-model-key", "scene", "src/system/cloth.cpp",
+    M("bending-model-key", "scene", "src/system/cloth_model.cpp",
       'if (name == "plate") return BendingModel::kPlate;', 'if (name == "plate") return BendingModel::kHinge;',
       "bending_model plate builds hinges", "SceneKeys.*:PlateBending.*"),
     M("shifted-rows", "scene", "src/mesh/mesh.cpp",
@@ -272,10 +272,10 @@ MUTATIONS = [
       'if (r.has("friction")) c.friction = r.number("friction");\n  if (r.has("self_collision"))',
       "the cloth's friction taken without its range check", "SceneRanges.*"),
     # Damping of a cloth of several materials
-    M("damping-first-material", "damping", "src/system/cloth.cpp",
+    M("damping-first-material", "damping", "src/system/cloth_damping.cpp",
       "const Material& material = model_.material_of(t);", "const Material& material = model_.materials.front();",
       "adaptive damping reads the first material for every triangle (tabulated curves)", "AdaptiveDamping*"),
-    M("damping-first-material-linear", "damping", "src/system/cloth.cpp",
+    M("damping-first-material-linear", "damping", "src/system/cloth_damping.cpp",
       "const Vec3& E = moduli[model_.material_index(t)];", "const Vec3& E = moduli[0];",
       "adaptive damping reads the first material's moduli for every triangle (linear curves)", "AdaptiveDamping*"),
     # Newton
@@ -294,7 +294,7 @@ MUTATIONS = [
       "e.gravity, e.viscous_dissipated, e.numerical_dissipated, e.contact_work, e.total());",
       "e.gravity, e.numerical_dissipated, e.viscous_dissipated, e.contact_work, e.total());",
       "energy.csv's dissipation columns swapped", "EnergyCsv.*:RunCommand.*"),
-    M("added-viscosity-output", "outputs", "src/system/cloth.cpp",
+    M("added-viscosity-output", "outputs", "src/system/cloth_damping.cpp",
       "sum[k] += model_.membranes[t].area * added;", "sum[k] += added;",
       "per-vertex added viscosity not area-weighted", "DampingOutput.*"),
 ]
