@@ -381,10 +381,20 @@ def start_client(scheduler, workers, fork=False):
         except (OSError, ValueError) as e:
             raise SweepError(f"command line: --scheduler {scheduler}: no scheduler answered there ({e})")
     method = "fork" if fork else dask.config.get("distributed.worker.multiprocessing-method")
-    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
+    with dask.config.set({"distributed.worker.multiprocessing-method": method, **QUIET_CLUSTER}):
         cluster = distributed.LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
                                            processes=True, dashboard_address=":0", silence_logs=logging.ERROR)
-    return distributed.Client(cluster), cluster
+        return distributed.Client(cluster), cluster
+
+
+# A local cluster's housekeeping, slowed: each worker samples its threads' stacks every 10 ms
+# (the profiler), every process checks its event loop every 20 ms, and workers and nannies read
+# their memory every 100 ms. Idle, a cluster of two took 0.12 of a core that way (0.02 with
+# these), which the runs lose on a machine whose cores they fill. A run is a subprocess whose
+# worker thread only waits, so there is nothing to profile, and no task needs a memory check
+# more often than a second.
+QUIET_CLUSTER = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "500ms",
+                 "distributed.worker.memory.monitor-interval": "1s", "distributed.admin.system-monitor.interval": "2s"}
 
 
 def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet=False, stream=None, fork=False):
