@@ -11,6 +11,7 @@
 #include "collision/aabb_tree.hpp"
 #include "collision/self_culling.hpp"
 #include "integrate/contact.hpp"
+#include "weft/statistics.hpp"
 
 namespace weft {
 
@@ -57,15 +58,50 @@ constexpr double kSecondHoldSine = 0.5;
 /// face is the layer between the vertex and the collider.
 constexpr double kLayerNormalAgreement = 0.5;
 
-/// Counts of what the fail-safe did (accumulated over the steps it ran; checkpoints keep them).
+/// Counts of what the fail-safe did (accumulated over the steps it ran; checkpoints keep them),
+/// each declared once: X(kind, field, key, meaning), kind kCount (a long) or kSeconds (a double),
+/// key its name in summary.json's contacts.self. A checkpoint holds them in this order (the
+/// counts first). A new statistic is a line here.
+#define WEFT_SELF_CONTACT_STATISTICS(X)                                                              \
+  X(kCount, repulsions, "repulsions", "impulses on pairs within the thickness at the step's start")  \
+  X(kCount, collision_impulses, "collision_impulses",                                                \
+    "impulses on pairs continuous detection found over the step")                                    \
+  X(kCount, impact_zones, "impact_zones", "rigid impact zones formed (counted in the step they end in)") \
+  X(kCount, zone_nodes, "impact_zone_nodes", "nodes in those zones")                                 \
+  X(kCount, failed_steps, "failed_steps",                                                            \
+    "steps whose zones had to be stopped, reported invalid (taken again at half the size)")          \
+  X(kSeconds, seconds, "seconds", "time in the fail-safe")
+
 struct SelfContactStatistics {
-  long repulsions = 0;          ///< impulses on pairs within the thickness at the step's start
-  long collision_impulses = 0;  ///< impulses on pairs continuous detection found over the step
-  long impact_zones = 0;        ///< rigid impact zones formed (counted in the step they end in)
-  long zone_nodes = 0;          ///< nodes in those zones
-  long failed_steps = 0;        ///< steps whose zones had to be stopped, reported invalid (taken
-                                ///< again at half the size)
-  double seconds = 0;           ///< time in the fail-safe
+#define WEFT_SELF_CONTACT_FIELD(kind, field, key, meaning) WEFT_STATISTIC_TYPE_##kind field = 0;
+  WEFT_SELF_CONTACT_STATISTICS(WEFT_SELF_CONTACT_FIELD)
+#undef WEFT_SELF_CONTACT_FIELD
+};
+
+/// One line of WEFT_SELF_CONTACT_STATISTICS, for code that visits each (the checkpoint,
+/// summary.json).
+struct SelfContactStatistic {
+  const char* field;
+  const char* key;                         ///< the key in summary.json's contacts.self
+  long SelfContactStatistics::*count;      ///< the field of a kCount (else null)
+  double SelfContactStatistics::*value;    ///< the field of a kSeconds (else null)
+};
+
+namespace self_contact_detail {
+constexpr SelfContactStatistic entry(const char* field, const char* key, long SelfContactStatistics::*count) {
+  return {field, key, count, nullptr};
+}
+constexpr SelfContactStatistic entry(const char* field, const char* key, double SelfContactStatistics::*value) {
+  return {field, key, nullptr, value};
+}
+}  // namespace self_contact_detail
+
+/// WEFT_SELF_CONTACT_STATISTICS as a table, in its order.
+inline constexpr SelfContactStatistic kSelfContactStatistics[] = {
+#define WEFT_SELF_CONTACT_ENTRY(kind, field, key, meaning) \
+  self_contact_detail::entry(#field, key, &SelfContactStatistics::field),
+    WEFT_SELF_CONTACT_STATISTICS(WEFT_SELF_CONTACT_ENTRY)
+#undef WEFT_SELF_CONTACT_ENTRY
 };
 
 /// Cloth-cloth contact handling (integrate/contact.hpp) for one cloth mesh: vertex-face and

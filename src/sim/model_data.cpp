@@ -642,10 +642,10 @@ void save_data(const SimulationModel& M, const SimulationData& D, BinaryWriter& 
   // The cloth-cloth fail-safe keeps nothing between steps but its counts (for summary.json).
   SelfContactStatistics self;
   if (D.self_contacts) self = D.self_contacts->statistics();
-  for (long c : {self.repulsions, self.collision_impulses, self.impact_zones, self.zone_nodes,
-                 self.failed_steps})
-    out.i64(c);
-  out.f64(self.seconds);
+  for (const SelfContactStatistic& c : kSelfContactStatistics)
+    if (c.count) out.i64(self.*c.count);
+  for (const SelfContactStatistic& c : kSelfContactStatistics)
+    if (c.value) out.f64(self.*c.value);
 }
 
 
@@ -704,10 +704,10 @@ void restore_data(const SimulationModel& M, SimulationData& D, BinaryReader& in)
   for (int* g : {&id.guard_rung, &id.guard_calm_steps, &id.guard_depth, &id.guard_depth_calm_steps})
     *g = static_cast<int>(in.i64());
   SelfContactStatistics self;
-  for (long* c : {&self.repulsions, &self.collision_impulses, &self.impact_zones, &self.zone_nodes,
-                  &self.failed_steps})
-    *c = in.i64();
-  self.seconds = in.f64();
+  for (const SelfContactStatistic& c : kSelfContactStatistics)
+    if (c.count) self.*c.count = in.i64();
+  for (const SelfContactStatistic& c : kSelfContactStatistics)
+    if (c.value) self.*c.value = in.f64();
   id.energy_scale = energy_scale;
   try {
     id.history.restore(history);

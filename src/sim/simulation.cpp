@@ -266,14 +266,15 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
     add_step_statistics(j["contacts"], st, "contacts");
     if (const SelfContacts* self = sim.core().self_contacts()) {
       const SelfContactStatistics& ss = self->statistics();
-      j["contacts"]["self"] = {{"thickness", self->thickness()},
-                               {"friction", self->friction()},
-                               {"repulsions", ss.repulsions},
-                               {"collision_impulses", ss.collision_impulses},
-                               {"impact_zones", ss.impact_zones},
-                               {"impact_zone_nodes", ss.zone_nodes},
-                               {"failed_steps", ss.failed_steps},
-                               {"seconds", ss.seconds}};
+      nlohmann::json& js = j["contacts"]["self"];
+      js = {{"thickness", self->thickness()}, {"friction", self->friction()}};
+      for (const SelfContactStatistic& c : kSelfContactStatistics) {
+        if (c.count) {
+          js[c.key] = ss.*c.count;
+        } else {
+          js[c.key] = ss.*c.value;
+        }
+      }
     }
   }
   if (sc.integrator.guard) {
