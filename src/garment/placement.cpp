@@ -277,6 +277,8 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     Cylinder cyl;
     double shift = 0;  ///< added to the file's axial coordinate
     std::optional<Cone> cone;  ///< a skirt's flared panels go on this cone instead
+    /// A hood's panels keep their place in the file against the torso, moved by this.
+    std::optional<Vec3> file_offset;
   };
   std::map<BodyPart, PartGeometry> parts;
   for (int p = 0; p < np; ++p) parts[fp[p].part].panels.push_back(p);
@@ -360,6 +362,12 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
       set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
       g.shift = crown.y() + 0.1 - h_hi;
       fit_to_body(c, body.positions, crown.y() + 0.1 - span, crown.y() + 0.1, 0.2);
+      // With a torso: the hood's panels flat where the file puts them beside the torso's
+      // neckline, the file moved as the torso's middle and top were.
+      if (parts.count(BodyPart::torso) && !parts[BodyPart::torso].cone) {
+        const PartGeometry& t = parts[BodyPart::torso];
+        g.file_offset = Vec3(t.cyl.origin.x() - t.file_origin.x(), t.shift, t.cyl.origin.z() - t.file_origin.z());
+      }
     } else {
       const Vec3 hip = joint(rig, side > 0 ? "LeftUpLeg" : "RightUpLeg");
       c.origin = Vec3(hip.x(), 0, hip.z());
@@ -446,7 +454,7 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     };
     int layer = 0;
     for (const Extent& o : placed_extents) {
-      if (!beside(o) || g.cone) continue;  // a skirt's panels lie side by side on its cone
+      if (!beside(o) || g.cone || g.file_offset) continue;  // a skirt's panels lie side by side on its cone
       for (double wrap : {-1.0, 0.0, 1.0})
         if (std::min(o.s_hi + wrap, e.s_hi) - std::max(o.s_lo + wrap, e.s_lo) > 0.01 / g.cyl.girth()) ++layer;
     }
@@ -455,7 +463,7 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     double nudge = 0;
     const double side_gap = kSideGap_m / g.cyl.girth();
     for (const Extent& o : placed_extents) {
-      if (!beside(o) || o.layer != e.layer || g.cone) continue;
+      if (!beside(o) || o.layer != e.layer || g.cone || g.file_offset) continue;
       for (double wrap : {-1.0, 0.0, 1.0}) {
         const double overlap = std::min(o.s_hi + wrap, e.s_hi + nudge) - std::max(o.s_lo + wrap, e.s_lo + nudge);
         if (overlap <= -side_gap || overlap > 0.01 / g.cyl.girth()) continue;
@@ -491,8 +499,9 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
       const Vec3 x = file_point(p, pm.vertices_m[v]);
       const double s = (x - f.centroid).dot(tau), h = (x - f.centroid).dot(ap) + f.centroid.dot(g.file_axis);
       out.mesh.positions.row(first + v) =
-          (g.cone ? g.cone->roll(theta_c, s, panel_top - (x - f.centroid).dot(ap))
-                  : c.point(h + shift, c.phi_at(s_centre + s)))
+          (g.file_offset ? Vec3(x + *g.file_offset)
+           : g.cone      ? g.cone->roll(theta_c, s, panel_top - (x - f.centroid).dot(ap))
+                         : c.point(h + shift, c.phi_at(s_centre + s)))
               .transpose();
       Vec2 u = material[v];
       if (mirror) u.x() = -u.x();

@@ -20,14 +20,14 @@ const std::set<std::string> kSewing = {
     "coat/coat.json",
     "garment_pattern_generator/dress.json",
     "garment_pattern_generator/jacket.json",
+    "garment_pattern_generator/jacket_hood.json",
     "garment_pattern_generator/skirt_4_panels.json",
     "garment_pattern_generator/tee.json",
     "garmentcode/dress_pencil_specification.json",
     "garmentcode/shirt_mean_specification.json",
 };
 const std::set<std::string> kNotYet = {
-    "garment_pattern_generator/jacket_hood.json",  // the hood
-    "garmentcode/hoody_mean_specification.json",   // the hood
+    "garmentcode/hoody_mean_specification.json",   // a neckline stitch to the hood stays open
     "garmentcode/js_mean_all_specification.json",  // the legs' cylinders cross at the crotch
 };
 
@@ -65,6 +65,7 @@ TEST(ShippedGarments, EveryShippedPatternIsOneThatSewsOrOneNamedAsNotYet) {
 TEST_F(ShippedGarment, CoatSews) { sews("coat/coat.json"); }
 TEST_F(ShippedGarment, DressSews) { sews("garment_pattern_generator/dress.json"); }
 TEST_F(ShippedGarment, JacketSews) { sews("garment_pattern_generator/jacket.json"); }
+TEST_F(ShippedGarment, JacketHoodSews) { sews("garment_pattern_generator/jacket_hood.json"); }
 TEST_F(ShippedGarment, SkirtFourPanelsSews) { sews("garment_pattern_generator/skirt_4_panels.json"); }
 TEST_F(ShippedGarment, TeeSews) { sews("garment_pattern_generator/tee.json"); }
 TEST_F(ShippedGarment, DressPencilSews) { sews("garmentcode/dress_pencil_specification.json"); }
