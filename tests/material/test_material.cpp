@@ -384,7 +384,7 @@ TEST(MaterialPreset, ShippedPresetsAreSane) {
     SCOPED_TRACE(name);
     const Material m = material_preset(name);
     // The estimated woven presets keep to docs/method.md section 5's ranges; the jersey of the
-    // paper's swing test is a soft knit far below them (tests/fabric/jersey_test.cpp checks it).
+    // paper's swing test is a soft knit far below them (tests/fabric/test_jersey.cpp checks it).
     const bool woven = name != "jersey" && material_preset_kind(name) == "estimated";
     // The measured presets are linear (Luible's linear inputs); tests above check their numbers.
     const bool tabulated = material_preset_kind(name) == "estimated";
