@@ -322,6 +322,8 @@ class Integrator {
   /// directions); save(slot) is called before a block is changed.
   template <class Save>
   void filter_matrix(BlockMatrix& matrix, const Save& save) const;
+  /// The same, keeping nothing (a matrix that is rebuilt before its next use).
+  void filter_matrix(BlockMatrix& matrix) const;
   /// Appends the nodes not held that the step with Data::dv would end inside a collider's
   /// thickness (at Data::x_end) to the contacts; returns the count before.
   size_t join_end_contacts(const State& s, double dt, double alpha, double beta, double dt_b);
