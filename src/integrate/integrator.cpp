@@ -296,8 +296,37 @@ double Integrator::kinetic_energy(const VecX& v) const {
   return 0.5 * c_.mass3.dot(v.cwiseAbs2());
 }
 
+// A semi-implicit step (docs/method.md 1-2) as its stages: assembly, the warm start, the
+// contacts at the step's start, the solve with its contacts (the active set's passes, or the
+// bounded solve), Newton iterations where asked, the step taken, then the contacts' velocities
+// and the fail-safes.
 void Integrator::linear_step(State& s, double dt, double alpha, double beta, double dt_b,
                              StepStatistics& stats) {
+  assemble_linear_step(s, dt, alpha, beta, dt_b, stats);
+  const auto t1 = Clock::now();
+  // The contacts' detection and response within the solve's passes count as theirs, not the
+  // solve's: the split of a step's time adds up to it.
+  const double contact_seconds_before = stats.detection_seconds + stats.response_seconds;
+  warm_start(s, alpha, beta, dt_b);
+  detect_contacts(s, dt, alpha, stats);
+  solve_with_contacts(s, dt, alpha, beta, dt_b, stats);
+  stats.solve_seconds += seconds_since(t1) - (stats.detection_seconds + stats.response_seconds - contact_seconds_before);
+  const int newton_iterations =
+      newton_limit() > 0 && alpha > 0.0 ? newton_iterate(s, dt, alpha, beta, dt_b, stats) : 0;
+  if (!d_.handlers.empty()) d_.x_start = s.x;
+  take_step(s, dt, alpha, beta, dt_b, newton_iterations);
+  if (!d_.handlers.empty()) {
+    const auto tr = Clock::now();
+    contact_velocities(s, dt, dt_b);
+    stats.response_seconds += seconds_since(tr);
+    finish_contacts(s, s.t, dt, stats);
+  }
+  s.t += dt;
+  d_.history_t = s.t;
+}
+
+void Integrator::assemble_linear_step(const State& s, double dt, double alpha, double beta, double dt_b,
+                                      StepStatistics& stats) {
   const auto t0 = Clock::now();
   if (!d_.handlers.empty()) {
     d_.start_kinetic = kinetic_energy(s.v);
@@ -321,11 +350,10 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   if (alpha > 0.0) d_.rhs += alpha * dt_b * d_.step.stiffness_times_w;
   for (int i = 0; i < n; ++i) d_.step.matrix.block[P.diagonal_slot(i)].diagonal().array() += m[i];
   stats.assembly_seconds += seconds_since(t0);
+}
 
-  const auto t1 = Clock::now();
-  // The contacts' detection and response within the solve's passes count as theirs, not the
-  // solve's: the split of a step's time adds up to it.
-  const double contact_seconds_before = stats.detection_seconds + stats.response_seconds;
+void Integrator::warm_start(const State& s, double alpha, double beta, double dt_b) {
+  const int n = system_.num_nodes();
   // Warm start: the combination of the last steps' solutions whose right-hand sides best fit
   // this one (SolutionHistory), else the previous change in velocity.
   if (alpha != d_.history_alpha || beta != d_.history_beta || dt_b != d_.history_dt_b ||
@@ -338,6 +366,10 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   if (!d_.history.guess(d_.rhs, d_.dv)) {
     if (s.dv_prev.size() == 3 * n) d_.dv = s.dv_prev; else d_.dv = VecX::Zero(3 * n);
   }
+}
+
+void Integrator::detect_contacts(const State& s, double dt, double alpha, StepStatistics& stats) {
+  const int n = system_.num_nodes();
   // Contacts (semi-implicit steps that depend on dv): detected at the step's start, held by
   // the solve as constraints.
   d_.contacts.clear();
@@ -366,7 +398,11 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
       d_.contact_stuck[k] = d_.contacts[k].kinematic || (d_.stuck[d_.contacts[k].node] && d_.contacts[k].friction > 0);
     std::fill(d_.stuck.begin(), d_.stuck.end(), 0);
   }
+}
 
+void Integrator::solve_with_contacts(const State& s, double dt, double alpha, double beta, double dt_b,
+                                     StepStatistics& stats) {
+  const BlockPattern& P = system_.pattern();
   const PcgSettings ps = pcg_settings();
   if (c_.preconditioner == Preconditioner::kMultigrid && !d_.pcg.multigrid.matches(P, system_.fixed(), ps.multigrid)) {
     // Built here rather than inside the solve, to keep the matrix it was built from.
@@ -405,60 +441,7 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
       }
     }
     if (d_.handlers.empty() || alpha == 0.0 || pass + 1 >= kMaxContactPasses) break;
-    // Contacts that pull are let go (a node stays held when it was let go before in this step
-    // and came back, or starts inside the collider); nodes that would end inside join.
-    const auto td = Clock::now();
-    if (pass == 0) {
-      d_.released_now.assign(n, 0);
-      d_.keep_held.assign(n, 0);
-    }
-    bool changed = false;
-    size_t kept = 0;
-    const VecX& mass = system_.node_mass();
-    for (size_t k = 0; k < d_.contacts.size(); ++k) {
-      NodeContact& c = d_.contacts[k];
-      const Vec3& J = d_.contact_impulse[k];
-      const double normal_impulse = c.normal.dot(J);
-      // A stuck contact whose impulse left the friction cone slides: solved again with the
-      // active set; with bounds, it slides from here on without a second solve (its node
-      // moved with the surface over this step, and leaves it at the sliding velocity
-      // Coulomb's limit gives: contact_velocities).
-      if (d_.contact_stuck[k] == 1 && !c.kinematic &&
-          (J - c.normal * normal_impulse - c.normal2 * c.normal2.dot(J)).norm() >
-              c.friction * std::max(normal_impulse, 0.0)) {
-        d_.contact_stuck[k] = bounded ? kSlipped : 0;
-        if (!bounded) changed = true;
-      }
-      // A second direction that pulls is let go alone.
-      if (c.has_normal2() && c.normal2.dot(J) < -kReleaseSpeed * mass[c.node] && !d_.keep_held[c.node]) {
-        c.normal2 = Vec3::Zero();
-        changed = true;
-      }
-      if (bounded && d_.contact_stuck[k] == 1 && normal_impulse < -kReleaseSpeed * mass[c.node] && !c.penetrating &&
-          !c.kinematic) {
-        // Held stuck and pulling, with bounds: let go after this step (contact_velocities takes
-        // the pull back), not solved again.
-        d_.contact_stuck[k] = kSlipped;
-      }
-      if (normal_impulse < -kReleaseSpeed * mass[c.node] && !c.penetrating && !c.kinematic && !d_.keep_held[c.node] &&
-          d_.contact_stuck[k] != kSlipped) {
-        d_.released_now[c.node] = 1;
-        ++stats.released_contacts;
-        changed = true;
-        continue;
-      }
-      d_.contact_stuck[kept] = d_.contact_stuck[k];
-      d_.contacts[kept++] = c;
-    }
-    d_.contacts.resize(kept);
-    d_.contact_stuck.resize(kept);
-    const size_t before = join_end_contacts(s, dt, alpha, beta, dt_b);
-    d_.contact_stuck.resize(d_.contacts.size(), 0);  // those that join slide
-    for (size_t k = before; k < d_.contacts.size(); ++k)
-      if (d_.released_now[d_.contacts[k].node]) d_.keep_held[d_.contacts[k].node] = 1;
-    stats.detection_seconds += seconds_since(td);
-    if (d_.contacts.size() != before) changed = true;
-    if (!changed) break;
+    if (!update_active_set(s, dt, alpha, beta, dt_b, pass, bounded, stats)) break;
     ++stats.contact_passes;
   }
   if (bounded_last) release_inactive_bounds(stats);
@@ -468,11 +451,68 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
     stats.max_contacts = std::max(stats.max_contacts, static_cast<long>(d_.contacts.size()));
     if (r.converged) d_.history.record(d_.rhs, system_.fixed(), d_.dv);
   }
-  stats.solve_seconds += seconds_since(t1) - (stats.detection_seconds + stats.response_seconds - contact_seconds_before);
-  const int newton_iterations =
-      newton_limit() > 0 && alpha > 0.0 ? newton_iterate(s, dt, alpha, beta, dt_b, stats) : 0;
-  if (!d_.handlers.empty()) d_.x_start = s.x;
+}
 
+bool Integrator::update_active_set(const State& s, double dt, double alpha, double beta, double dt_b, int pass,
+                                   bool bounded, StepStatistics& stats) {
+  const int n = system_.num_nodes();
+  // Contacts that pull are let go (a node stays held when it was let go before in this step
+  // and came back, or starts inside the collider); nodes that would end inside join.
+  const auto td = Clock::now();
+  if (pass == 0) {
+    d_.released_now.assign(n, 0);
+    d_.keep_held.assign(n, 0);
+  }
+  bool changed = false;
+  size_t kept = 0;
+  const VecX& mass = system_.node_mass();
+  for (size_t k = 0; k < d_.contacts.size(); ++k) {
+    NodeContact& c = d_.contacts[k];
+    const Vec3& J = d_.contact_impulse[k];
+    const double normal_impulse = c.normal.dot(J);
+    // A stuck contact whose impulse left the friction cone slides: solved again with the
+    // active set; with bounds, it slides from here on without a second solve (its node
+    // moved with the surface over this step, and leaves it at the sliding velocity
+    // Coulomb's limit gives: contact_velocities).
+    if (d_.contact_stuck[k] == 1 && !c.kinematic &&
+        (J - c.normal * normal_impulse - c.normal2 * c.normal2.dot(J)).norm() >
+            c.friction * std::max(normal_impulse, 0.0)) {
+      d_.contact_stuck[k] = bounded ? kSlipped : 0;
+      if (!bounded) changed = true;
+    }
+    // A second direction that pulls is let go alone.
+    if (c.has_normal2() && c.normal2.dot(J) < -kReleaseSpeed * mass[c.node] && !d_.keep_held[c.node]) {
+      c.normal2 = Vec3::Zero();
+      changed = true;
+    }
+    if (bounded && d_.contact_stuck[k] == 1 && normal_impulse < -kReleaseSpeed * mass[c.node] && !c.penetrating &&
+        !c.kinematic) {
+      // Held stuck and pulling, with bounds: let go after this step (contact_velocities takes
+      // the pull back), not solved again.
+      d_.contact_stuck[k] = kSlipped;
+    }
+    if (normal_impulse < -kReleaseSpeed * mass[c.node] && !c.penetrating && !c.kinematic && !d_.keep_held[c.node] &&
+        d_.contact_stuck[k] != kSlipped) {
+      d_.released_now[c.node] = 1;
+      ++stats.released_contacts;
+      changed = true;
+      continue;
+    }
+    d_.contact_stuck[kept] = d_.contact_stuck[k];
+    d_.contacts[kept++] = c;
+  }
+  d_.contacts.resize(kept);
+  d_.contact_stuck.resize(kept);
+  const size_t before = join_end_contacts(s, dt, alpha, beta, dt_b);
+  d_.contact_stuck.resize(d_.contacts.size(), 0);  // those that join slide
+  for (size_t k = before; k < d_.contacts.size(); ++k)
+    if (d_.released_now[d_.contacts[k].node]) d_.keep_held[d_.contacts[k].node] = 1;
+  stats.detection_seconds += seconds_since(td);
+  if (d_.contacts.size() != before) changed = true;
+  return changed;
+}
+
+void Integrator::take_step(State& s, double dt, double alpha, double beta, double dt_b, int newton_iterations) {
   // dx = beta dx_p + dt_b (v + alpha dv), built in dx_prev's storage (no allocation per step);
   // d_.mean_velocity holds the mean velocity dx/dt.
   if (beta != 0.0) {
@@ -497,14 +537,6 @@ void Integrator::linear_step(State& s, double dt, double alpha, double beta, dou
   s.v += d_.dv;
   s.dv_prev = d_.dv;
   s.has_history = true;
-  if (!d_.handlers.empty()) {
-    const auto tr = Clock::now();
-    contact_velocities(s, dt, dt_b);
-    stats.response_seconds += seconds_since(tr);
-    finish_contacts(s, s.t, dt, stats);
-  }
-  s.t += dt;
-  d_.history_t = s.t;
 }
 
 }  // namespace weft

@@ -293,7 +293,26 @@ class Integrator {
   /// The system's elastic and gravitational energy at x, the last answer kept with its
   /// positions (Data::energy_x; forgotten at the start of every advance).
   void potential_energy(const VecX& x, double& elastic, double& gravity);
+  /// A semi-implicit step of the alpha family or BDF-2 (beta, dt_b; docs/method.md 1-2), as its
+  /// stages below.
   void linear_step(State& s, double dt, double alpha, double beta, double dt_b, StepStatistics& stats);
+  /// The step's matrix M - alpha dt_b D - alpha^2 dt_b^2 K and right-hand side (Data::step, rhs).
+  void assemble_linear_step(const State& s, double dt, double alpha, double beta, double dt_b,
+                            StepStatistics& stats);
+  /// Data::dv's first guess: the solution history's, else the last change of velocity.
+  void warm_start(const State& s, double alpha, double beta, double dt_b);
+  /// The contacts at the step's start (Data::contacts), and which of them start stuck.
+  void detect_contacts(const State& s, double dt, double alpha, StepStatistics& stats);
+  /// Data::dv: the solve holding the contacts, as an active set (solved again while contacts
+  /// change, kMaxContactPasses at most) or as bounds.
+  void solve_with_contacts(const State& s, double dt, double alpha, double beta, double dt_b,
+                           StepStatistics& stats);
+  /// After a pass: contacts that pull let go, slips, nodes that would end inside joined;
+  /// whether the set changed (and the step must be solved again).
+  bool update_active_set(const State& s, double dt, double alpha, double beta, double dt_b, int pass,
+                         bool bounded, StepStatistics& stats);
+  /// x, v and the history moved by the solved step, and its viscous work booked.
+  void take_step(State& s, double dt, double alpha, double beta, double dt_b, int newton_iterations);
   /// Newton iterations a linear step takes now (the settings', or the guard's last resort's).
   int newton_limit() const { return std::max(c_.settings.newton_iterations, d_.newton_now); }
   /// Newton iterations on the step's equations from the linearised solution in Data::dv
