@@ -203,8 +203,11 @@ def test_a_failed_run_makes_the_exit_status_7_with_every_row_written(tmp_path):
 
 
 def finished_runs(out):
+    # A run is finished once its folder is in place; a hidden .<id>.<pid>.tmp folder is one being
+    # written (an interrupt may leave it), which results.csv rightly does not count.
     runs = out / "runs"
-    return {n: (runs / n / "run.json").stat().st_mtime_ns for n in os.listdir(runs) if (runs / n / "run.json").exists()}
+    return {n: (runs / n / "run.json").stat().st_mtime_ns for n in os.listdir(runs)
+            if not n.startswith(".") and (runs / n / "run.json").exists()}
 
 
 def test_an_interrupted_sweep_resumed_runs_only_the_missing_runs(tmp_path):
