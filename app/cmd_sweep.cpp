@@ -33,6 +33,7 @@ struct SweepArgs {
   std::string sweep, out, scheduler, check_scenes;
   int workers = 0;
   bool quiet = false;
+  bool rerun_other_builds = false;
 };
 
 // The folder holding the driver's package weft_sweep/: $WEFT_PYTHON_DIR, else beside an
@@ -98,6 +99,7 @@ int sweep(const SweepArgs& a) {
   if (!a.scheduler.empty()) args.insert(args.end(), {"--scheduler", a.scheduler});
   if (a.workers > 0) args.insert(args.end(), {"--workers", std::to_string(a.workers)});
   if (a.quiet) args.push_back("--quiet");
+  if (a.rerun_other_builds) args.push_back("--rerun-other-builds");
   std::vector<char*> argv;
   for (auto& s : args) argv.push_back(s.data());
   argv.push_back(nullptr);
@@ -121,6 +123,9 @@ weft::app::RegisterCommand reg{{"", "sweep", "Run many variations of a scene on 
                    "Workers of the local cluster, each running one run at a time (default: the cores)")
         ->check(CLI::Range(1, 4096));
     sub.add_flag("--quiet,-q", a->quiet, "No progress line (failures and the final count are still printed)");
+    sub.add_flag("--rerun-other-builds", a->rerun_other_builds,
+                 "Run again the runs in DIR that another weft build made (results.csv's weft_version); by default "
+                 "they are kept and counted on standard error");
     sub.add_option("--check-scenes", a->check_scenes, "(the driver's own) check the scenes listed in FILE")
         ->group("");
     sub.footer(
@@ -130,7 +135,8 @@ weft::app::RegisterCommand reg{{"", "sweep", "Run many variations of a scene on 
         "DIR/runs/<id>/ (summary.json, energy.csv, run.json, and what \"keep\" asks for), one row each in\n"
         "DIR/results.csv. With \"experiment\": \"drape\" in place of the scene, each run is `weft experiment drape`\n"
         "with the options set and varied, and its figures (drape coefficient, nodes, ...) are the row's.\n"
-        "A worker lost mid-run has its run retried on another; runs already in DIR are skipped.\n"
+        "A worker lost mid-run has its run retried on another; runs already in DIR are skipped (those of another\n"
+        "weft build too, counted on standard error, unless --rerun-other-builds).\n"
         "The driver is Python (python/weft_sweep, found through $WEFT_PYTHON_DIR, PREFIX/share/weft/python or\n"
         "the source tree) run by " WEFT_PYTHON_EXECUTABLE " ($WEFT_PYTHON), with python3-distributed and python3-pandas.\n"
         "Exit status: 0 every run ended ok, 1 internal error or Python/Dask missing, 2 bad sweep file (nothing run),\n"

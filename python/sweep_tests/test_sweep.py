@@ -3,8 +3,11 @@
 # failed run as a row, an interrupted sweep resumed, and a worker killed by SIGKILL mid-run on a
 # scheduler and workers started as separate processes (as on a cluster); drape experiment sweeps
 # whose figures are `weft experiment drape`'s, named axes, and tools/perturb.py's sweep with the
-# fail-safes' work in results.csv.
+# fail-safes' work in results.csv; temporary folders left by killed sweeps removed, and the weft
+# build behind each run.
+import contextlib
 import csv
+import hashlib
 import json
 import os
 import signal
@@ -12,6 +15,7 @@ import socket
 import subprocess
 import sys
 import time
+import types
 
 import pytest
 
@@ -25,13 +29,29 @@ distributed = pytest.importorskip("distributed")
 pd = pytest.importorskip("pandas")
 
 
-def weft_sweep(tmp_path, spec, out, *args, timeout=120):
+def weft_sweep(tmp_path, spec, out, *args, timeout=120, env=None):
     """Writes `spec` as SWEEP.json and runs `weft sweep` on it; returns (exit status, stderr)."""
     path = tmp_path / "sweep.json"
     path.write_text(json.dumps(spec))
     r = subprocess.run([WEFT_EXE, "sweep", path, "--out", out, *map(str, args)], capture_output=True, text=True,
-                       timeout=timeout)
+                       timeout=timeout, env=env)
     return r.returncode, r.stderr
+
+
+def own_tmp(tmp_path):
+    """(folder, environment) for a sweep whose temporary folders (the driver's and its local
+    workers') go to a folder of the test's own."""
+    tmp = tmp_path / "tmp"
+    tmp.mkdir(exist_ok=True)
+    return tmp, dict(os.environ, TMPDIR=str(tmp))
+
+
+def sweep_temps(tmp):
+    return sorted(n for n in os.listdir(tmp) if n.startswith("weft-sweep-"))
+
+
+def hidden(out):
+    return sorted(n for n in os.listdir(out / "runs") if n.startswith("."))
 
 
 def open_text(path):
@@ -215,8 +235,9 @@ def test_an_interrupted_sweep_resumed_runs_only_the_missing_runs(tmp_path):
     path = tmp_path / "sweep.json"
     path.write_text(json.dumps(spec))
     out = tmp_path / "out"
+    tmp, env = own_tmp(tmp_path)
     command = [WEFT_EXE, "sweep", str(path), "--out", str(out), "--workers", "2"]
-    driver = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
+    driver = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, env=env)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and len(finished_runs(out) if (out / "runs").exists() else {}) < 2:
         time.sleep(0.05)
@@ -224,14 +245,19 @@ def test_an_interrupted_sweep_resumed_runs_only_the_missing_runs(tmp_path):
     err = driver.communicate(timeout=60)[1]
     assert driver.returncode == 130, err
     assert "interrupted" in err
+    # The driver removed its temporary folders: no run half-written, no run's folder of its
+    # workers (stopped with the cluster in mid-run).
+    assert hidden(out) == [] and sweep_temps(tmp) == [], err
     before = finished_runs(out)
     assert 2 <= len(before) < 8, err
     assert len(results(out)) == len(before)
-    r = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    r = subprocess.run(command, capture_output=True, text=True, timeout=120, env=env)
     assert r.returncode == 0, r.stderr
     assert f"8 runs, {8 - len(before)} to run ({len(before)} already in" in r.stderr
+    assert "removed" not in r.stderr  # nothing was left to remove
     after = finished_runs(out)
     assert len(after) == 8
+    assert hidden(out) == [] and sweep_temps(tmp) == [], r.stderr
     assert {n: after[n] for n in before} == before  # the finished runs were not run again
     rows = results(out)
     assert [r["id"] for r in rows] == [f"{k:04d}" for k in range(8)] and {r["status"] for r in rows} == {"ok"}
@@ -241,6 +267,80 @@ def test_an_interrupted_sweep_resumed_runs_only_the_missing_runs(tmp_path):
     r = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert r.returncode == 0 and "8 runs, 1 to run (7 already in" in r.stderr, r.stderr
     assert float(results(out)[3]["cloth.material.viscosity"]) == 3.5e-4
+
+
+def dead_pid():
+    """The id of a process that has ended (and was reaped)."""
+    p = subprocess.Popen(["true"])
+    p.wait()
+    return p.pid
+
+
+def test_folders_a_killed_sweep_left_are_removed_on_resume_and_counted_only_if_their_process_is_dead(tmp_path):
+    spec = swing_sweep(**{"integrator.dt": [0.01, 0.02]})
+    out = tmp_path / "out"
+    tmp, env = own_tmp(tmp_path)
+    status, err = weft_sweep(tmp_path, spec, out, "--workers", 2, env=env)
+    assert status == 0, err
+    assert hidden(out) == [] and sweep_temps(tmp) == [], err  # a sweep leaves none of its own
+    # As a driver and a worker killed by SIGKILL leave them: a run half-written, and a run's
+    # temporary folder with its owner's file. Those of a live process, and a folder whose owner
+    # is not known, are kept.
+    dead, me = dead_pid(), os.getpid()
+    for name in (f".0001.{dead}.tmp", f".0000.{me}.tmp"):
+        (out / "runs" / name).mkdir()
+        (out / "runs" / name / "summary.json").write_text("{")
+    with open(f"/proc/{me}/stat") as f:
+        my_start = int(f.read().rsplit(")", 1)[1].split()[19])
+    for name, owner in (("weft-sweep-0001-dead", {"pid": dead, "start": None}),
+                        ("weft-sweep-0001-live", {"pid": me, "start": my_start}),
+                        ("weft-sweep-0001-reused", {"pid": me, "start": my_start - 1}),  # the pid given anew
+                        ("weft-sweep-0001-unknown", None)):
+        (tmp / name / "run").mkdir(parents=True)
+        if owner:
+            (tmp / name / "weft-sweep-owner.json").write_text(json.dumps(owner | {"host": socket.gethostname()}))
+    status, err = weft_sweep(tmp_path, spec, out, "--workers", 2, env=env)
+    assert status == 0, err
+    assert (f"weft sweep: removed 1 unfinished run folders in {out / 'runs'} and 2 temporary folders in {tmp} that "
+            "sweeps stopped or killed left\n") in err
+    assert hidden(out) == [f".0000.{me}.tmp"]
+    assert sweep_temps(tmp) == ["weft-sweep-0001-live", "weft-sweep-0001-unknown"]
+    assert "all 2 runs are already in" in err
+
+
+def build_of(weft):
+    """`weft --version` and the first 12 hex digits of the file's SHA-256."""
+    version = subprocess.run([weft, "--version"], capture_output=True, text=True, check=True).stdout.strip()
+    with open(weft, "rb") as f:
+        return f"{version} sha256:{hashlib.sha256(f.read()).hexdigest()[:12]}"
+
+
+def test_runs_of_another_weft_build_are_kept_and_counted_and_run_again_when_asked(tmp_path):
+    spec = swing_sweep(**{"integrator.dt": [0.01, 0.02, 0.005]})
+    out = tmp_path / "out"
+    status, err = weft_sweep(tmp_path, spec, out, "--workers", 2)
+    assert status == 0, err
+    this = build_of(WEFT_EXE)
+    assert [r["weft_version"] for r in results(out)] == [this] * 3
+    assert json.loads((out / "runs" / "0001" / "run.json").read_text())["weft_version"] == this
+    # Run 0001 as if an older build had made it.
+    path = out / "runs" / "0001" / "run.json"
+    record = json.loads(path.read_text())
+    older = "weft 0.0.9 sha256:0123456789ab"
+    record["weft_version"] = record["row"]["weft_version"] = older
+    path.write_text(json.dumps(record))
+    energy = (out / "runs" / "0001" / "energy.csv").stat().st_mtime_ns
+    status, err = weft_sweep(tmp_path, spec, out, "--workers", 2)
+    assert status == 0, err
+    assert (f"weft sweep: 1 of the runs in {out} were made by another weft build than this one ({this}; "
+            "results.csv's weft_version says which): kept (--rerun-other-builds") in err
+    assert [r["weft_version"] for r in results(out)] == [this, older, this]
+    assert (out / "runs" / "0001" / "energy.csv").stat().st_mtime_ns == energy
+    status, err = weft_sweep(tmp_path, spec, out, "--workers", 2, "--rerun-other-builds")
+    assert status == 0, err
+    assert "run again, as asked" in err and "3 runs, 1 to run (2 already in" in err
+    assert [r["weft_version"] for r in results(out)] == [this] * 3
+    assert (out / "runs" / "0001" / "energy.csv").stat().st_mtime_ns != energy
 
 
 # --- a worker killed mid-run, on a scheduler and workers started apart -------------------------
@@ -291,17 +391,18 @@ def alive(pid):
 @pytest.fixture
 def cluster(tmp_path):
     """A scheduler and two single-threaded workers (each under its nanny) on the loopback
-    address, as separate processes."""
+    address, as separate processes, the workers' temporary folders in tmp_path/tmp."""
     address = f"tcp://127.0.0.1:{free_port()}"
     python = sys.executable
+    tmp, env = own_tmp(tmp_path)
     procs = [subprocess.Popen([python, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port",
                                address.rsplit(":", 1)[1], "--no-dashboard"], stderr=subprocess.DEVNULL)]
     for _ in range(2):
         procs.append(subprocess.Popen([python, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
-                                       "--host", "127.0.0.1", "--no-dashboard"], stderr=subprocess.DEVNULL))
+                                       "--host", "127.0.0.1", "--no-dashboard"], stderr=subprocess.DEVNULL, env=env))
     with distributed.Client(address, timeout="30s") as c:
         c.wait_for_workers(2, timeout=60)
-    yield address, {p.pid for p in procs[1:]}
+    yield address, {p.pid for p in procs[1:]}, tmp
     for p in reversed(procs):
         p.terminate()
     for p in procs:
@@ -311,15 +412,37 @@ def cluster(tmp_path):
             p.kill()
 
 
+@contextlib.contextmanager
+def stderr_shown_on_failure(driver):
+    """On a failed assertion (or any error) in the block, the driver is stopped and what it wrote
+    on standard error (err.text, or what is left to read) goes with the failure."""
+    err = types.SimpleNamespace(text="")
+    try:
+        yield err
+    except BaseException as e:
+        if driver.poll() is None:
+            driver.kill()
+        try:
+            err.text = err.text or driver.communicate(timeout=10)[1]
+        except (subprocess.TimeoutExpired, ValueError, OSError):
+            pass
+        raise AssertionError(f"{type(e).__name__}: {e}\n--- weft sweep's standard error ---\n{err.text}") from e
+
+
 def test_a_worker_killed_mid_run_has_its_run_retried_and_every_row_present(tmp_path, cluster):
     spec = big_swing(1.0) | {"vary": {"integrator.method": ["implicit-midpoint", "backward-euler", "bdf2"],
                                       "integrator.dt": [0.01, 0.02]}}
     path = tmp_path / "sweep.json"
     path.write_text(json.dumps(spec))
     out = tmp_path / "out"
-    address, nannies = cluster
+    address, nannies, tmp = cluster
     driver = subprocess.Popen([WEFT_EXE, "sweep", str(path), "--out", str(out), "--scheduler", address],
                               stderr=subprocess.PIPE, text=True)
+    with stderr_shown_on_failure(driver) as err:
+        killed_worker_checks(driver, spec, tmp_path, out, nannies, tmp, err)
+
+
+def killed_worker_checks(driver, spec, tmp_path, out, nannies, tmp, err):
     deadline = time.monotonic() + 60
     victim = None
     while victim is None and time.monotonic() < deadline and driver.poll() is None:
@@ -331,8 +454,8 @@ def test_a_worker_killed_mid_run_has_its_run_retried_and_every_row_present(tmp_p
     assert victim is not None, "no run was seen running"
     run_pid, worker_pid, run_id = victim
     os.kill(worker_pid, signal.SIGKILL)
-    err = driver.communicate(timeout=120)[1]
-    assert driver.returncode == 0, err
+    err.text = driver.communicate(timeout=120)[1]
+    assert driver.returncode == 0
     rows = results(out)
     assert sorted(r["id"] for r in rows) == [f"{k:04d}" for k in range(6)]  # every row, none twice
     assert {r["status"] for r in rows} == {"ok"}
@@ -350,6 +473,8 @@ def test_a_worker_killed_mid_run_has_its_run_retried_and_every_row_present(tmp_p
                    check=True)
     assert (run / "energy.csv").read_bytes() == (alone / "energy.csv").read_bytes()
     assert len((run / "energy.csv").read_text().splitlines()) == frames(spec) + 1
+    # The killed worker's folder for its run was removed by a worker once it was seen dead.
+    assert sweep_temps(tmp) == []
 
 
 def test_a_random_axis_moves_by_at_most_its_size_the_same_for_a_seed_every_time():

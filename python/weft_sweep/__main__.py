@@ -14,10 +14,12 @@ def main(argv=None):
     p.add_argument("--scheduler")
     p.add_argument("--workers", type=int)
     p.add_argument("--quiet", action="store_true")
+    p.add_argument("--rerun-other-builds", action="store_true")
     a = p.parse_args(argv)
     try:
         sw = load(a.sweep)
-        rows, _ = execute(sw, a.out, scheduler=a.scheduler, workers=a.workers, weft=a.weft, quiet=a.quiet, fork=True)
+        rows, _ = execute(sw, a.out, scheduler=a.scheduler, workers=a.workers, weft=a.weft, quiet=a.quiet, fork=True,
+                          rerun_other_builds=a.rerun_other_builds)
     except SweepError as e:
         print(f"weft: error: {e}", file=sys.stderr)
         return 2

@@ -1,9 +1,10 @@
 """The sweep's driver: checks every run's scene, hands the runs to Dask, writes what comes back
 (docs/sweeps.md).
 
-Each run's outputs are written to OUT/runs/<id>/ under a temporary name and renamed into place,
-run.json last, so a folder runs/<id>/ with a run.json is a finished run; a later sweep into the
-same OUT skips those whose scene is unchanged (its hash in run.json).
+Each run's outputs are written to OUT/runs/<id>/ under a temporary name (.<id>.<pid>.tmp) and
+renamed into place, run.json last, so a folder runs/<id>/ with a run.json is a finished run; a
+later sweep into the same OUT skips those whose scene is unchanged (its hash in run.json), and
+names those that another weft build made (its weft_version in run.json).
 """
 import csv
 import io
@@ -16,6 +17,7 @@ import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
 
+from . import worker
 from .spec import EXPERIMENTS, SweepError
 
 OK_STATUSES = ("ok", "solver_capped")
@@ -55,10 +57,14 @@ def check_scenes(sw, weft):
     """Every run's scene through the library's own checks (`weft sweep --check-scenes`):
     raises SweepError naming the sweep's key and value behind the first refused one."""
     items = [{"scene": r.scene, "name": sw.scene_file, "base_dir": sw.scene_dir} for r in sw.runs]
-    with tempfile.NamedTemporaryFile("w", suffix=".json", prefix="weft-sweep-check-") as f:
-        json.dump(items, f)
-        f.flush()
-        proc = subprocess.run([weft, "sweep", "--check-scenes", f.name], capture_output=True, text=True)
+    tmp = worker.make_temp("weft-sweep-check-")
+    try:
+        path = os.path.join(tmp, "scenes.json")
+        with open(path, "w") as f:
+            json.dump(items, f)
+        proc = subprocess.run([weft, "sweep", "--check-scenes", path], capture_output=True, text=True)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
     if proc.returncode != 0:
         raise SweepError(f"{sw.name}: checking the runs' scenes failed: {proc.stderr.strip()}")
     refused = json.loads(proc.stdout)
@@ -99,10 +105,13 @@ def check_experiments(sw, weft):
     (exit status 2: refused). Raises SweepError naming the sweep's key and value behind the
     first refused run."""
     def probe(run):
-        with tempfile.TemporaryDirectory(prefix="weft-sweep-check-") as tmp:
+        tmp = worker.make_temp("weft-sweep-check-")
+        try:
             argv = experiment_argv(sw.experiment, _probe(run.scene)) + ["--out", os.path.join(tmp, "out"), "-q",
                                                                          "--no-pictures"]
             proc = subprocess.run([weft, "--threads", "1", *argv], capture_output=True, text=True, cwd=sw.base_dir)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
         lines = [l for l in proc.stderr.splitlines() if l.strip()]
         said = lines[0].removeprefix("weft: error: ") if lines else f"exit status {proc.returncode}"
         return said if proc.returncode == 2 else None
@@ -200,6 +209,7 @@ def row_of(run, result, summary, status, error):
             row[k] = s.get(k)
         row["run_seconds"] = round(result["seconds"], 3)
         row["host"] = result.get("host")
+        row["weft_version"] = result.get("weft_version")
         return row
     inter = s.get("intersections")
     row.update({
@@ -219,6 +229,7 @@ def row_of(run, result, summary, status, error):
                 "guard_parts_per_step": (s.get("guard") or {}).get("parts_per_step")})
     row["clear"] = None if summary is None else status == "ok" and row["intersections"] == 0
     row["host"] = result.get("host")
+    row["weft_version"] = result.get("weft_version")
     return row
 
 
@@ -231,18 +242,30 @@ class RunFolders:
             os.makedirs(self.root, exist_ok=True)
         except OSError as e:
             raise OutputError(f"cannot create {self.root}: {e.strerror}")
-        for name in os.listdir(self.root):  # leftovers of a driver stopped while writing
-            if name.startswith(".") and (name.endswith(".tmp") or name.endswith(".old")):
-                shutil.rmtree(os.path.join(self.root, name), ignore_errors=True)
+        self.stale_removed = self.remove_stale()
+
+    def remove_stale(self):
+        """Removes the folders .<id>.<pid>.tmp (and .old) that a driver killed while writing left
+        (its pid no longer running; those of a live driver writing into the same OUT are left);
+        returns how many."""
+        removed = 0
+        for name in os.listdir(self.root):
+            parts = name.split(".")
+            if len(parts) == 4 and parts[0] == "" and parts[3] in ("tmp", "old") and parts[2].isdigit() \
+                    and not worker.alive(int(parts[2])):
+                path = os.path.join(self.root, name)
+                shutil.rmtree(path, ignore_errors=True)
+                removed += not os.path.exists(path)
+        return removed
 
     def finished(self, run):
-        """run.json's row when runs/<id>/ holds this run (same scene hash), else None."""
+        """run.json's record when runs/<id>/ holds this run (same scene hash), else None."""
         try:
             with open(os.path.join(self.root, run.id, "run.json")) as f:
                 record = json.load(f)
         except (OSError, ValueError):
             return None
-        return record["row"] if record.get("hash") == run.hash else None
+        return record if record.get("hash") == run.hash else None
 
     def write(self, run, result, row):
         final = os.path.join(self.root, run.id)
@@ -265,7 +288,7 @@ class RunFolders:
                 with open(path, "wb") as f:
                     f.write(data)
             record = {"id": run.id, "hash": run.hash, "params": run.params, "row": row, "finished": time.time(),
-                      "worker_pid": result.get("pid")}
+                      "worker_pid": result.get("pid"), "weft_version": result.get("weft_version")}
             with open(os.path.join(tmp, "run.json"), "w") as f:
                 json.dump(record, f, indent=1)
                 f.write("\n")
@@ -274,8 +297,18 @@ class RunFolders:
             os.rename(tmp, final)
             shutil.rmtree(old, ignore_errors=True)
         except OSError as e:
+            self._undo(final, tmp, old)
             raise OutputError(f"could not write {e.filename or tmp}: {e.strerror}; the runs finished before are kept "
                               f"in {self.root}")
+        except BaseException:  # Ctrl-C while writing: the run is not in, and nothing half-written is left
+            self._undo(final, tmp, old)
+            raise
+
+    @staticmethod
+    def _undo(final, tmp, old):
+        if os.path.exists(old) and not os.path.exists(final):
+            os.rename(old, final)
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def write_csv(path, rows, columns=None):
@@ -290,8 +323,14 @@ def write_csv(path, rows, columns=None):
         with open(tmp, "w") as f:
             f.write(buf.getvalue())
         os.replace(tmp, path)
-    except OSError as e:
-        raise OutputError(f"could not write {path}: {e.strerror}")
+    except BaseException as e:
+        try:
+            os.remove(tmp)
+        except OSError:
+            pass
+        if isinstance(e, OSError):
+            raise OutputError(f"could not write {path}: {e.strerror}")
+        raise
 
 
 def write_tables(sw, out, rows):
@@ -397,29 +436,49 @@ QUIET_CLUSTER = {"distributed.worker.profile.enabled": False, "distributed.admin
                  "distributed.worker.memory.monitor-interval": "1s", "distributed.admin.system-monitor.interval": "2s"}
 
 
-def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet=False, stream=None, fork=False):
+def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet=False, stream=None, fork=False,
+            rerun_other_builds=False):
     """Runs the sweep `sw` into `out`; returns (rows sorted by id, runs started). fork: a local
-    cluster's workers are forks of this process (start_client)."""
+    cluster's workers are forks of this process (start_client). rerun_other_builds: the runs in
+    `out` that another weft build made are run again (by default they are kept and counted)."""
     weft = find_weft(weft)
     (check_experiments if sw.experiment else check_scenes)(sw, weft)
     distributed = import_dask()  # before DIR is made
+    try:
+        build = {"key": worker._file_key(weft), "id": worker.build_identity(weft)}
+    except OSError as e:
+        raise SweepError(f"cannot read the weft command {weft}: {e.strerror}")
     try:
         os.makedirs(out, exist_ok=True)
     except OSError as e:
         raise OutputError(f"cannot create {out}: {e.strerror}")
     folders = RunFolders(out)
-    done_rows, todo = [], []
+    stale = worker.remove_stale()
+    done_rows, todo, others = [], [], 0
     for r in sw.runs:
-        row = folders.finished(r)
-        (done_rows.append(row) if row is not None else todo.append(r))
+        record = folders.finished(r)
+        other = record is not None and record.get("weft_version") != build["id"]
+        others += other
+        if record is None or (other and rerun_other_builds):
+            todo.append(r)
+        else:
+            done_rows.append(record["row"])
     progress = Progress(len(sw.runs), len(done_rows), quiet, stream)
     progress.failed = sum(1 for r in done_rows if r["status"] not in OK_STATUSES)
+    removed = [f"{n} {what}" for n, what in ((folders.stale_removed, f"unfinished run folders in {folders.root}"),
+                                             (stale, f"temporary folders in {tempfile.gettempdir()}")) if n]
+    if removed:
+        progress.say(f"weft sweep: removed {' and '.join(removed)} that sweeps stopped or killed left")
+    if others:
+        how = ("run again, as asked" if rerun_other_builds else
+               "kept (--rerun-other-builds, or rerun_other_builds=True in Python, runs them again)")
+        progress.say(f"weft sweep: {others} of the runs in {out} were made by another weft build than this one "
+                     f"({build['id']}; results.csv's weft_version says which): {how}")
     rows = list(done_rows)
     if not todo:
         progress.say(f"weft sweep: all {len(sw.runs)} runs are already in {out}")
         return write_tables(sw, out, rows), 0
     import cloudpickle
-    from . import worker
     cloudpickle.register_pickle_by_value(worker)
     own = client is None
     cluster = None
@@ -444,7 +503,8 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
         for r in todo:
             argv, scene_text = task_command(sw, r, names)
             task = {"id": r.id, "hash": r.hash, "weft": weft, "threads": sw.threads, "timeout": sw.timeout,
-                    "keep": "all" if sw.experiment else sw.keep, "argv": argv, "scene_text": scene_text}
+                    "keep": "all" if sw.experiment else sw.keep, "argv": argv, "scene_text": scene_text,
+                    "build": build}
             f = client.submit(worker.run_one, task, files_future, key=f"weft-run-{r.id}-{r.hash}", priority=-r.index,
                               pure=False)
             futures[f] = r
@@ -472,7 +532,7 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
             progress.finish()
             # From the folders: a run whose folder was renamed into place just as Ctrl-C came
             # is in, though its row never reached `rows`.
-            rows = [row for row in map(folders.finished, sw.runs) if row is not None]
+            rows = [record["row"] for record in map(folders.finished, sw.runs) if record is not None]
             write_tables(sw, out, rows)
             progress.say(f"weft sweep: interrupted: {len(rows)} of {len(sw.runs)} runs are in {out}; the same "
                          "command runs the rest")
@@ -482,6 +542,8 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
             client.close()
             if cluster is not None:
                 cluster.close()
+                # A run's folder whose worker the close (or a Ctrl-C) ended before it cleaned up.
+                worker.remove_stale()
     progress.finish()
     failed = progress.failed
     progress.say(f"weft sweep: {len(sw.runs)} runs in {out}/results.csv ({len(todo)} run now, "

@@ -5,6 +5,8 @@ system needed).
 This module is sent to the workers by value (cloudpickle), so a worker needs only Python with
 Dask and the `weft` command, not weft's Python files. It imports nothing from weft_sweep.
 """
+import hashlib
+import json
 import os
 import shutil
 import socket
@@ -13,6 +15,99 @@ import tempfile
 import time
 
 STDERR_KEPT = 4000  # the last characters of a run's standard error kept in its task result
+OWNER = "weft-sweep-owner.json"  # in each temporary folder: the process that made it
+
+
+def _stat(pid):
+    """(state, start in clock ticks after boot) of process `pid` from /proc/PID/stat, None if
+    there is no such process (or no /proc)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return fields[0], int(fields[19])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def process_start(pid):
+    stat = _stat(pid)
+    return stat[1] if stat else None
+
+
+def alive(pid, start=None):
+    """Whether process `pid` is running (not a zombie and, given `start`, the one that started
+    then, not a later process given the same number)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        pass
+    stat = _stat(pid)
+    if stat is None:  # gone since, or no /proc to ask (then kill's answer)
+        return not os.path.exists("/proc/self/stat")
+    return stat[0] != "Z" and (start is None or stat[1] == start)
+
+
+def make_temp(prefix):
+    """A temporary folder holding OWNER: this process's id, start and host, by which
+    remove_stale() knows it for a sweep's own once this process is gone."""
+    folder = tempfile.mkdtemp(prefix=prefix)
+    with open(os.path.join(folder, OWNER), "w") as f:
+        json.dump({"pid": os.getpid(), "start": process_start(os.getpid()), "host": socket.gethostname()}, f)
+    return folder
+
+
+def remove_stale(tmp=None):
+    """Removes the folders weft-sweep-* in `tmp` (default: the temporary folder) that a sweep's
+    process on this host made (OWNER) and that outlived it (killed before it cleaned up);
+    returns how many. Folders without OWNER, or of a live process or another host, are left."""
+    tmp = tmp or tempfile.gettempdir()
+    host, removed = socket.gethostname(), 0
+    try:
+        names = [n for n in os.listdir(tmp) if n.startswith("weft-sweep-")]
+    except OSError:
+        return 0
+    for name in names:
+        folder = os.path.join(tmp, name)
+        try:
+            with open(os.path.join(folder, OWNER)) as f:
+                owner = json.load(f)
+            pid, start = int(owner["pid"]), owner.get("start")
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        if owner.get("host") == host and not alive(pid, start):
+            shutil.rmtree(folder, ignore_errors=True)
+            removed += not os.path.exists(folder)
+    return removed
+
+
+def build_identity(weft):
+    """The build of the weft command at `weft`: `weft --version` and the first 12 hex digits of
+    the file's SHA-256 ("weft 0.1.0 sha256:0123456789ab"); the version alone names no build."""
+    digest = hashlib.sha256()
+    with open(weft, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    proc = subprocess.run([weft, "--version"], capture_output=True, text=True)
+    version = proc.stdout.strip() or f"weft (--version: exit status {proc.returncode})"
+    return f"{version} sha256:{digest.hexdigest()[:12]}"
+
+
+def _file_key(path):
+    st = os.stat(path)
+    return [os.path.realpath(path), st.st_size, st.st_mtime_ns]
+
+
+def _build_of(weft, known):
+    """build_identity(weft), taken from `known` ({"key": _file_key, "id": identity}, the
+    driver's) when it names this very file unchanged; None if weft cannot be read."""
+    try:
+        if known and _file_key(weft) == known.get("key"):
+            return known["id"]
+        return build_identity(weft)
+    except OSError:
+        return None
 
 
 def _die_with_parent():
@@ -56,12 +151,15 @@ def run_one(task, files):
     """Runs `weft --threads T` with task["argv"] in a temporary folder holding `files` ({name:
     bytes}) in files/ and task["scene_text"] (if any) as scene.json ("{scene}" and "{out}" in the
     arguments are their paths); returns a dict: id, hash, exit_code, stderr, seconds, host,
-    outputs {relative path: bytes}, error (when weft could not be started)."""
+    outputs {relative path: bytes}, error (when weft could not be started), weft_version (the
+    build run, task["build"]'s when the same file) and stale_removed (remove_stale's count)."""
     result = {"id": task["id"], "hash": task["hash"], "host": socket.gethostname(), "pid": os.getpid(),
               "exit_code": None, "stderr": "", "error": "", "outputs": {}, "timed_out": False}
     weft = os.environ.get("WEFT_EXE") or task["weft"]
+    result["weft_version"] = _build_of(weft, task.get("build"))
+    result["stale_removed"] = remove_stale()  # folders of this host's runs whose worker was killed
     start = time.monotonic()
-    folder = tempfile.mkdtemp(prefix=f"weft-sweep-{task['id']}-")
+    folder = make_temp(f"weft-sweep-{task['id']}-")
     try:
         for name, data in files.items():
             path = os.path.join(folder, "files", name)
