@@ -6,6 +6,12 @@ swing, less the time those runs take on their workers. Prints a Markdown table, 
 sweep's CPU time (its processes' and their children's, user + system) and the load average
 before and after it: on a busy machine the CPU time says what the wall time cannot.
 
+Each speed-up is split in two factors: how busy the sweep kept its workers (the runs' time on
+the workers over the wall time: at most 1 for one worker, 2 for two; the driver's and Dask's
+share), and how much longer each run took with two at once (the machine's: two processes
+sharing caches, memory bandwidth, or cores that other work holds). speed-up = (busy with 2 /
+busy with 1) / (runs' time with 2 / runs' time with 1).
+
     tools/sweep_bench.py --weft build/weft --out out/sweep-bench
 """
 import argparse
@@ -14,6 +20,7 @@ import json
 import os
 import resource
 import shutil
+import statistics
 import subprocess
 import time
 
@@ -72,19 +79,25 @@ def main():
     perturb["set"] = {"duration": a.duration}
     lines = [f"{machine()}; load averages (1/5/15 min) before -> after each sweep", "",
              "| measure | value |", "|---|---|"]
-    walls = {}
-    ratios = []
+    walls, busy, run_times = {}, {}, {}
+    ratios, busy_ratios = [], []
     for repeat in range(a.repeats):  # one and two workers alternately, each pair a speed-up
         for workers in (1, 2):
             wall, rows, cpu, loads = sweep(weft, perturb, os.path.join(a.out, f"perturb-{workers}"), workers)
             assert all(r["status"] == "ok" for r in rows), rows
             walls[workers] = wall
             runs = sum(float(r["run_seconds"]) for r in rows)
+            busy[workers], run_times[workers] = runs / wall, runs
             lines.append(f"| perturbation sweep ({len(rows)} runs of {a.duration:g} s), {workers} worker(s) | {wall:.1f} "
-                         f"s wall, {len(rows) / wall * 3600:.0f} runs/hour; runs on the workers {runs:.1f} s in all; "
-                         f"CPU {cpu:.1f} s; load {loads} |")
+                         f"s wall, {len(rows) / wall * 3600:.0f} runs/hour; runs on the workers {runs:.1f} s in all "
+                         f"(workers busy {busy[workers]:.2f} of {workers}); CPU {cpu:.1f} s; load {loads} |")
         ratios.append(walls[1] / walls[2])
-        lines.append(f"| speed-up, 2 workers over 1 | {ratios[-1]:.2f} |")
+        busy_ratios.append(busy[2] / busy[1])
+        lines.append(f"| speed-up, 2 workers over 1 | {ratios[-1]:.2f} = {busy_ratios[-1]:.2f} (workers kept busy) / "
+                     f"{run_times[2] / run_times[1]:.2f} (each run's time with two at once) |")
+    if a.repeats > 1:
+        lines.append(f"| median speed-up of {a.repeats} | {statistics.median(ratios):.2f}; workers kept busy "
+                     f"{statistics.median(busy_ratios):.2f} times as much |")
     # The same runs one after another without Dask, as `weft --threads 1 run` of each run's scene.
     runs_dir = os.path.join(a.out, "perturb-1", "runs")
     before, cpu = load(), cpu_seconds()
