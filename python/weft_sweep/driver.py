@@ -11,9 +11,11 @@ import io
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 
@@ -420,10 +422,18 @@ def start_client(scheduler, workers, fork=False):
         except (OSError, ValueError) as e:
             raise SweepError(f"command line: --scheduler {scheduler}: no scheduler answered there ({e})")
     method = "fork" if fork else dask.config.get("distributed.worker.multiprocessing-method")
-    with dask.config.set({"distributed.worker.multiprocessing-method": method, **QUIET_CLUSTER}):
-        cluster = distributed.LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                                           processes=True, dashboard_address=":0", silence_logs=logging.ERROR)
-        return distributed.Client(cluster), cluster
+    # Forked workers ignore SIGINT: a Ctrl-C on the terminal reaches the whole process group, and
+    # the driver stops them itself (each would otherwise print its KeyboardInterrupt's traceback).
+    ignore = fork and threading.current_thread() is threading.main_thread()
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if ignore else None
+    try:
+        with dask.config.set({"distributed.worker.multiprocessing-method": method, **QUIET_CLUSTER}):
+            cluster = distributed.LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                                               processes=True, dashboard_address=":0", silence_logs=logging.ERROR)
+    finally:
+        if ignore:
+            signal.signal(signal.SIGINT, old)
+    return distributed.Client(cluster), cluster
 
 
 # A local cluster's housekeeping, slowed: each worker samples its threads' stacks every 10 ms
