@@ -208,19 +208,19 @@ std::string stability_advice(const weft::Scene& sc) {
   items.push_back(buf);
   // An unguarded step with a guarded form: the guard keeps its method's motion wherever the
   // step does not put energy in (docs/guarded-midpoint.md).
-  if (!sc.integrator.guard && sc.integrator.method == Method::AlphaFamily && sc.integrator.alpha == 0.5) {
+  if (!sc.integrator.guard && sc.integrator.method == Method::kAlphaFamily && sc.integrator.alpha == 0.5) {
     items.push_back("the guarded step (--method implicit-midpoint)");
-  } else if (!sc.integrator.guard && sc.integrator.method == Method::Bdf2 && sc.integrator.alpha > 0 &&
+  } else if (!sc.integrator.guard && sc.integrator.method == Method::kBdf2 && sc.integrator.alpha > 0 &&
              sc.integrator.alpha < 1) {
     std::snprintf(buf, sizeof buf, "the guarded step (--method bdf2-alpha-guarded --alpha %g)", sc.integrator.alpha);
     items.push_back(buf);
   }
-  if (!(sc.integrator.method == Method::AlphaFamily && sc.integrator.alpha == 1.0))
+  if (!(sc.integrator.method == Method::kAlphaFamily && sc.integrator.alpha == 1.0))
     items.push_back("a more implicit method (--method backward-euler)");
   // A semi-implicit step linearised once: on a fabric that stiffens, Newton iterations follow
   // the curve within the step (docs/results.md, "Stiffening fabric").
-  const bool semi_implicit = (sc.integrator.method == Method::AlphaFamily && sc.integrator.alpha > 0) ||
-                             sc.integrator.method == Method::Bdf2;
+  const bool semi_implicit = (sc.integrator.method == Method::kAlphaFamily && sc.integrator.alpha > 0) ||
+                             sc.integrator.method == Method::kBdf2;
   if (semi_implicit && sc.integrator.newton_iterations < 4)
     items.push_back("Newton iterations within each step, for a fabric that stiffens (e.g. --newton 4)");
   const double zeta = sc.effective_damping_ratio();

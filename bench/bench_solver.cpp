@@ -51,7 +51,7 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 void Solve(benchmark::State& bs, Preconditioner pc) {
   const int n = static_cast<int>(bs.range(0));
   const test::ClothStepProblem& p = problem(n);
-  const auto& fixed = p.sim->core().system().fixed();
+  const auto& fixed = p.sim->core().system().pinned();
   PcgSettings settings;
   settings.relative_tolerance = 1e-6;
   settings.preconditioner = pc;
@@ -102,7 +102,7 @@ template <class T>
 void SsorLowerSolve(benchmark::State& bs) {
   const test::ClothStepProblem& p = problem(static_cast<int>(bs.range(0)));
   SsorOperatorT<T> S;
-  S.assign(p.step.matrix, p.sim->core().system().fixed(), 1.4);
+  S.assign(p.step.matrix, p.sim->core().system().pinned(), 1.4);
   typename SsorOperatorT<T>::Vector v4, y4(S.vector_size());
   S.pad(p.rhs, v4);
   for (auto _ : bs) {
@@ -116,7 +116,7 @@ void SsorLowerSolve(benchmark::State& bs) {
 void StepPart(benchmark::State& bs) {
   const int n = static_cast<int>(bs.range(0)), part = static_cast<int>(bs.range(1));
   const test::ClothStepProblem& p = problem(n);
-  const auto& fixed = p.sim->core().system().fixed();
+  const auto& fixed = p.sim->core().system().pinned();
   const std::vector<int>* order = p.sim->core().system().solver_order();
   int free_nodes = 0;
   for (char f : fixed) free_nodes += !f;

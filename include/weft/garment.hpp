@@ -6,7 +6,7 @@
 namespace weft {
 
 /// The body parts panels are wrapped around.
-enum class BodyPart { torso, left_arm, right_arm, left_leg, right_leg, head };
+enum class BodyPart { kTorso, kLeftArm, kRightArm, kLeftLeg, kRightLeg, kHead };
 /// "torso", "left_arm", ...; throws InputError naming `where` for another name.
 BodyPart parse_body_part(const std::string& name, const std::string& where);
 std::string body_part_name(BodyPart part);

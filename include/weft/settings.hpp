@@ -16,7 +16,7 @@ enum class Preconditioner {
   kSsor,
 };
 
-enum class Method { ForwardEuler, AlphaFamily, Bdf2, Rk4, Rk45 };
+enum class Method { kForwardEuler, kAlphaFamily, kBdf2, kRk4, kRk45 };
 
 /// Free nodes from which the automatic choice is multigrid rather than SSOR: below, SSOR's
 /// iterations (two triangular solves each) win over the V-cycle's and the per-step coarse
@@ -32,7 +32,7 @@ constexpr int kMultigridMinFreeNodes = 30000;
 enum class ContactSolve { kActiveSet, kBounds };
 
 struct IntegratorSettings {
-  Method method = Method::AlphaFamily;
+  Method method = Method::kAlphaFamily;
   double alpha = 0.5;               ///< implicitness (alpha family and BDF-2)
   double dt = 0.02;                 ///< step (s); for RK45 the largest step
   double cg_tolerance = 1e-6;       ///< relative residual of the linear solve

@@ -46,8 +46,8 @@ bool alpha_family_is_stable(double alpha, double kappa, double lambda);
 
 /// Which step map a stability map is computed for.
 struct StabilityScheme {
-  enum class Kind { AlphaFamily, ProgressiveBdf2 };
-  Kind kind = Kind::AlphaFamily;
+  enum class Kind { kAlphaFamily, kProgressiveBdf2 };
+  Kind kind = Kind::kAlphaFamily;
   double alpha = 0.5;  ///< in [0, 1]
 
   /// Spectral radius of this scheme's step map at (kappa, lambda).

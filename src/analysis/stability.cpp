@@ -83,7 +83,7 @@ bool alpha_family_is_stable(double alpha, double kappa, double lambda) {
 }
 
 double StabilityScheme::spectral_radius(double kappa, double lambda) const {
-  return kind == Kind::AlphaFamily ? alpha_family_spectral_radius(alpha, kappa, lambda)
+  return kind == Kind::kAlphaFamily ? alpha_family_spectral_radius(alpha, kappa, lambda)
                                    : bdf2_spectral_radius(alpha, kappa, lambda);
 }
 
@@ -112,13 +112,13 @@ StabilityScheme stability_scheme_by_name(const std::string& method, double alpha
     throw InputError("--alpha " + format_number(alpha) + ": expected a number in [0, 1]");
 
   using Kind = StabilityScheme::Kind;
-  if (method == "forward-euler") return {Kind::AlphaFamily, 0.0};
-  if (method == "implicit-midpoint") return {Kind::AlphaFamily, 0.5};
-  if (method == "backward-euler") return {Kind::AlphaFamily, 1.0};
-  if (method == "alpha") return {Kind::AlphaFamily, alpha};
-  if (method == "bdf2") return {Kind::ProgressiveBdf2, 1.0};
+  if (method == "forward-euler") return {Kind::kAlphaFamily, 0.0};
+  if (method == "implicit-midpoint") return {Kind::kAlphaFamily, 0.5};
+  if (method == "backward-euler") return {Kind::kAlphaFamily, 1.0};
+  if (method == "alpha") return {Kind::kAlphaFamily, alpha};
+  if (method == "bdf2") return {Kind::kProgressiveBdf2, 1.0};
   // bdf2-alpha: the paper's low-dissipation variant by default (docs/method.md 2).
-  return {Kind::ProgressiveBdf2, alpha_given ? alpha : 1.0 / std::sqrt(3.0)};
+  return {Kind::kProgressiveBdf2, alpha_given ? alpha : 1.0 / std::sqrt(3.0)};
 }
 
 StabilityMap compute_stability_map(const StabilityScheme& scheme, double kappa_max,

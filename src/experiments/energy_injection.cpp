@@ -27,7 +27,7 @@ Vec3 unit_normal(const std::array<Vec3, 3>& p) {
 }  // namespace
 
 InjectionAnalysis analyse_energy_injection(const Scene& configured, const std::string& label) {
-  if (configured.integrator.method != Method::AlphaFamily || configured.integrator.guard)
+  if (configured.integrator.method != Method::kAlphaFamily || configured.integrator.guard)
     throw InputError("energy injection analysis of '" + label +
                      "': needs an unguarded alpha-family method (the step's forces are known only for those)");
   InjectionAnalysis a;

@@ -128,7 +128,7 @@ std::vector<StabilityMethod> parse_stability_methods(const std::string& list, co
     m.name = item.substr(0, colon);
     const MethodInfo* info = find_method(m.name);
     if (!info) bad("is not a known method");
-    if (info->method == Method::Rk4 || info->method == Method::Rk45) bad("is not a fixed-step semi-implicit method");
+    if (info->method == Method::kRk4 || info->method == Method::kRk45) bad("is not a fixed-step semi-implicit method");
     std::string alpha_text;
     if (colon != std::string::npos) {
       alpha_text = item.substr(colon + 1);

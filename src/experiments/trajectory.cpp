@@ -18,7 +18,7 @@ Scene configure_scene(const Scene& scene, const MethodConfiguration& c, double d
   set_method(s, c.method, c.alpha, where);
   s.integrator.dt = dt;
   s.damping_ratio = c.damping_ratio;
-  if (s.integrator.method == Method::Rk45) s.integrator.error_tolerance = rk45_tolerance;
+  if (s.integrator.method == Method::kRk45) s.integrator.error_tolerance = rk45_tolerance;
   if (cg_tolerance > 0) s.integrator.cg_tolerance = cg_tolerance;
   validate_timing(s, where);
   return s;

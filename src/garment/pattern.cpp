@@ -117,7 +117,7 @@ void set_arc(EdgeCurve& c, const json& params, double metres_per_unit, const Pla
   const Vec2 left = Vec2(-chord.y(), chord.x()) / chord.norm();
   // A right-bulging minor arc has its centre on the left of the chord; a major arc, across.
   const double side = (right != large) ? 1.0 : -1.0;
-  c.kind = CurveKind::arc;
+  c.kind = CurveKind::kArc;
   c.center = 0.5 * (c.start + c.end) + side * apothem_m * left;
   c.radius_m = radius_m;
   const Vec2 r0 = c.start - c.center;
@@ -136,7 +136,7 @@ EdgeCurve edge_curve(const json* curvature, const Vec2& start_m, const Vec2& end
   const Place here = place.at("curvature");
   const json& v = *curvature;
   if (v.is_array()) {
-    c.kind = CurveKind::quadratic;
+    c.kind = CurveKind::kQuadratic;
     c.control[0] = control_point(v, start_m, end_m, units, here);
     return c;
   }
@@ -151,7 +151,7 @@ EdgeCurve edge_curve(const json* curvature, const Vec2& start_m, const Vec2& end
     if (!params.is_array() || params.size() != n)
       at_params.fail(std::string("expected ") + (n == 1 ? "[[x, y]]" : "[[x, y], [x, y]]") + " for a " + type +
                      " curve, got " + describe(params));
-    c.kind = n == 1 ? CurveKind::quadratic : CurveKind::cubic;
+    c.kind = n == 1 ? CurveKind::kQuadratic : CurveKind::kCubic;
     for (size_t k = 0; k < n; ++k)
       c.control[k] = control_point(params[k], start_m, end_m, units, at_params);
     return c;
@@ -211,7 +211,7 @@ Vec2 meeting_point(const std::vector<Vec2>& poly, const std::array<int, 2>& segm
 bool check_outline(const Panel& panel, const Place& place) {
   std::vector<int> segments;
   for (const PanelEdge& e : panel.edges) {
-    const int n = e.curve.kind == CurveKind::straight
+    const int n = e.curve.kind == CurveKind::kStraight
                       ? 1
                       : std::clamp(segment_count(e.curve, kCheckSegment_m), kMinCheckSegments, kMaxCheckSegments);
     segments.push_back(n);

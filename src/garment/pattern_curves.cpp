@@ -14,7 +14,7 @@ namespace {
 /// Derivative dB/dt of a Bezier edge.
 Vec2 bezier_derivative(const EdgeCurve& c, double t) {
   const double u = 1 - t;
-  if (c.kind == CurveKind::quadratic) return 2 * u * (c.control[0] - c.start) + 2 * t * (c.end - c.control[0]);
+  if (c.kind == CurveKind::kQuadratic) return 2 * u * (c.control[0] - c.start) + 2 * t * (c.end - c.control[0]);
   return 3 * u * u * (c.control[0] - c.start) + 6 * u * t * (c.control[1] - c.control[0]) +
          3 * t * t * (c.end - c.control[1]);
 }
@@ -46,7 +46,7 @@ double adaptive_length(const EdgeCurve& c, double a, double b, double whole, dou
 
 /// The control polygon's length: an upper bound on the curve's, used to scale tolerances.
 double control_polygon_length(const EdgeCurve& c) {
-  if (c.kind == CurveKind::quadratic) return (c.control[0] - c.start).norm() + (c.end - c.control[0]).norm();
+  if (c.kind == CurveKind::kQuadratic) return (c.control[0] - c.start).norm() + (c.end - c.control[0]).norm();
   return (c.control[0] - c.start).norm() + (c.control[1] - c.control[0]).norm() + (c.end - c.control[1]).norm();
 }
 
@@ -137,13 +137,13 @@ StitchPoints sample_stitch_with(const Pattern& pattern, const Stitch& stitch, in
 Vec2 curve_point(const EdgeCurve& c, double t) {
   const double u = 1 - t;
   switch (c.kind) {
-    case CurveKind::straight:
+    case CurveKind::kStraight:
       return u * c.start + t * c.end;
-    case CurveKind::quadratic:
+    case CurveKind::kQuadratic:
       return u * u * c.start + 2 * u * t * c.control[0] + t * t * c.end;
-    case CurveKind::cubic:
+    case CurveKind::kCubic:
       return u * u * u * c.start + 3 * u * u * t * c.control[0] + 3 * u * t * t * c.control[1] + t * t * t * c.end;
-    case CurveKind::arc: {
+    case CurveKind::kArc: {
       const double angle = c.start_angle_rad + t * c.sweep_rad;
       return c.center + c.radius_m * Vec2(std::cos(angle), std::sin(angle));
     }
@@ -153,12 +153,12 @@ Vec2 curve_point(const EdgeCurve& c, double t) {
 
 double curve_length_m(const EdgeCurve& c) {
   switch (c.kind) {
-    case CurveKind::straight:
+    case CurveKind::kStraight:
       return (c.end - c.start).norm();
-    case CurveKind::arc:
+    case CurveKind::kArc:
       return c.radius_m * std::abs(c.sweep_rad);
-    case CurveKind::quadratic:
-    case CurveKind::cubic:
+    case CurveKind::kQuadratic:
+    case CurveKind::kCubic:
       return bezier_length(c, 0, 1);
   }
   return 0;
@@ -174,7 +174,7 @@ std::vector<Vec2> sample_curve(const EdgeCurve& c, int segments) {
   std::vector<Vec2> pts;
   pts.reserve(static_cast<size_t>(segments) + 1);
   pts.push_back(c.start);
-  if (c.kind == CurveKind::quadratic || c.kind == CurveKind::cubic) {
+  if (c.kind == CurveKind::kQuadratic || c.kind == CurveKind::kCubic) {
     for (double t : bezier_equal_length_parameters(c, segments)) pts.push_back(curve_point(c, t));
   } else {
     // Straight edges and arcs: arc length is proportional to the parameter.

@@ -98,11 +98,11 @@ std::string lower(std::string s) {
 BodyPart guess_part(const std::string& name, double file_x) {
   const std::string n = lower(name);
   const bool left = file_x > 0;  // the wearer's left is +x (the body faces +z)
-  if (contains(n, "sleeve")) return left ? BodyPart::left_arm : BodyPart::right_arm;
+  if (contains(n, "sleeve")) return left ? BodyPart::kLeftArm : BodyPart::kRightArm;
   if (contains(n, "pant") || contains(n, "leg") || contains(n, "trouser"))
-    return left ? BodyPart::left_leg : BodyPart::right_leg;
-  if (contains(n, "hood")) return BodyPart::head;
-  return BodyPart::torso;
+    return left ? BodyPart::kLeftLeg : BodyPart::kRightLeg;
+  if (contains(n, "hood")) return BodyPart::kHead;
+  return BodyPart::kTorso;
 }
 
 Vec3 joint(const Rig& rig, const char* bone, bool tail = false) {
@@ -195,8 +195,8 @@ Cone skirt_cone(const std::vector<std::vector<Vec2>>& panels, double span, const
 }  // namespace
 
 BodyPart parse_body_part(const std::string& name, const std::string& where) {
-  for (BodyPart p : {BodyPart::torso, BodyPart::left_arm, BodyPart::right_arm, BodyPart::left_leg,
-                     BodyPart::right_leg, BodyPart::head})
+  for (BodyPart p : {BodyPart::kTorso, BodyPart::kLeftArm, BodyPart::kRightArm, BodyPart::kLeftLeg,
+                     BodyPart::kRightLeg, BodyPart::kHead})
     if (body_part_name(p) == name) return p;
   throw InputError(where + ": unknown body part \"" + name +
                    "\" (expected torso, left_arm, right_arm, left_leg, right_leg or head)");
@@ -204,12 +204,12 @@ BodyPart parse_body_part(const std::string& name, const std::string& where) {
 
 std::string body_part_name(BodyPart part) {
   switch (part) {
-    case BodyPart::torso: return "torso";
-    case BodyPart::left_arm: return "left_arm";
-    case BodyPart::right_arm: return "right_arm";
-    case BodyPart::left_leg: return "left_leg";
-    case BodyPart::right_leg: return "right_leg";
-    case BodyPart::head: return "head";
+    case BodyPart::kTorso: return "torso";
+    case BodyPart::kLeftArm: return "left_arm";
+    case BodyPart::kRightArm: return "right_arm";
+    case BodyPart::kLeftLeg: return "left_leg";
+    case BodyPart::kRightLeg: return "right_leg";
+    case BodyPart::kHead: return "head";
   }
   return "torso";
 }
@@ -283,8 +283,8 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
   std::map<BodyPart, PartGeometry> parts;
   for (int p = 0; p < np; ++p) parts[fp[p].part].panels.push_back(p);
   for (auto& [part, g] : parts) {
-    const bool arm = part == BodyPart::left_arm || part == BodyPart::right_arm;
-    const double side = (part == BodyPart::left_arm || part == BodyPart::left_leg) ? 1.0 : -1.0;
+    const bool arm = part == BodyPart::kLeftArm || part == BodyPart::kRightArm;
+    const double side = (part == BodyPart::kLeftArm || part == BodyPart::kLeftLeg) ? 1.0 : -1.0;
     // The file's axis: up for the torso, legs and head; along an arm, each sleeve panel's x
     // axis (pattern generators draw sleeves with the arm along x), pointing away from the body.
     if (arm) {
@@ -326,7 +326,7 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     // The body's cylinder and where the panels sit along it.
     Cylinder& c = g.cyl;
     const double span = h_hi - h_lo;
-    if (part == BodyPart::torso && is_skirt(pattern, g.panels)) {
+    if (part == BodyPart::kTorso && is_skirt(pattern, g.panels)) {
       // A skirt: its top at the waist, on a cone as flared as its panels.
       c.origin = Vec3(0, 0, 0);
       set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
@@ -334,7 +334,7 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
       g.shift = waist - h_hi;
       fit_to_body(c, body.positions, waist - span, waist, 0.35);
       g.cone = skirt_cone(flat, span, c.origin, waist, body.positions, clearance, options.girth_allowance);
-    } else if (part == BodyPart::torso) {
+    } else if (part == BodyPart::kTorso) {
       // Vertical; the panels' top at the base of the neck, the fit taken below the armpits.
       c.origin = Vec3(0, 0, 0);
       set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
@@ -348,7 +348,7 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
       c.origin = shoulder;
       set_frame(c, wrist - shoulder, Vec3::UnitZ());
       // The sleeve starts where the torso's cylinder meets the arm.
-      const Cylinder& torso = parts.count(BodyPart::torso) ? parts[BodyPart::torso].cyl : c;
+      const Cylinder& torso = parts.count(BodyPart::kTorso) ? parts[BodyPart::kTorso].cyl : c;
       double start = 0;
       if (&torso != &c) {
         const double half_width = std::abs((Vec3::UnitX()).dot(torso.e2)) * torso.r2 + torso.origin.x() * side;
@@ -356,7 +356,7 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
       }
       g.shift = start - h_lo;
       fit_to_body(c, body.positions, start, start + span, 0.12);
-    } else if (part == BodyPart::head) {
+    } else if (part == BodyPart::kHead) {
       const Vec3 base = joint(rig, "Head"), crown = joint(rig, "Head", true);
       c.origin = Vec3(base.x(), 0, base.z());
       set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
@@ -364,8 +364,8 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
       fit_to_body(c, body.positions, crown.y() + 0.1 - span, crown.y() + 0.1, 0.2);
       // With a torso: the hood's panels flat where the file puts them beside the torso's
       // neckline, the file moved as the torso's middle and top were.
-      if (parts.count(BodyPart::torso) && !parts[BodyPart::torso].cone) {
-        const PartGeometry& t = parts[BodyPart::torso];
+      if (parts.count(BodyPart::kTorso) && !parts[BodyPart::kTorso].cone) {
+        const PartGeometry& t = parts[BodyPart::kTorso];
         g.file_offset = Vec3(t.cyl.origin.x() - t.file_origin.x(), t.shift, t.cyl.origin.z() - t.file_origin.z());
       }
     } else {

@@ -19,7 +19,7 @@ void Integrator::finish_contacts(State& s, double t0, double dt, StepStatistics&
   bool overshot = false;
   const bool held = std::any_of(d_.contacts.begin(), d_.contacts.end(), [](const NodeContact& c) { return !c.kinematic; });
   if (held && d_.energy_scale > 0 && c_.settings.halve_overshooting_solves && !c_.settings.guard &&
-      (c_.settings.method == Method::AlphaFamily || c_.settings.method == Method::Bdf2) && c_.settings.alpha > 0.0) {
+      (c_.settings.method == Method::kAlphaFamily || c_.settings.method == Method::kBdf2) && c_.settings.alpha > 0.0) {
     double elastic, gravity;
     potential_energy(s.x, elastic, gravity);
     const double start = d_.start_kinetic + d_.step.elastic_energy + d_.step.gravity_energy;

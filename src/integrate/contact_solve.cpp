@@ -168,7 +168,7 @@ PcgResult Integrator::bounded_pass(const State& s, double dt, double alpha, doub
                                    StepStatistics& stats) {
   const auto tr = Clock::now();
   const size_t count = d_.contacts.size();
-  d_.bound_held = system_.fixed();
+  d_.bound_held = system_.pinned();
   for (size_t i = 0; i < d_.bound_held.size(); ++i)
     if (d_.bound_held[i]) node(d_.dv, static_cast<int>(i)).setZero();
   d_.bounds.clear();

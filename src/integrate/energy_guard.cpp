@@ -159,7 +159,7 @@ bool Integrator::puts_energy_in(const State& s) {
   // the scale in one step it is the solve's fight with them, which the midpoint would keep
   // (BDF-2 dissipates it: its guard leaves the fail-safes' work out).
   const double fail_safe = s.fail_safe_work - d_.guard_start.fail_safe_work;
-  if (c_.settings.method == Method::AlphaFamily && fail_safe > kGuardFailSafeShare * scale) gain += fail_safe;
+  if (c_.settings.method == Method::kAlphaFamily && fail_safe > kGuardFailSafeShare * scale) gain += fail_safe;
   d_.guard_gain = gain;
   d_.guard_scale = scale;
   // A non-finite end is a step that put energy in too.

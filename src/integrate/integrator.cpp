@@ -11,24 +11,24 @@ namespace weft {
 
 const std::vector<MethodInfo>& method_table() {
   static const std::vector<MethodInfo> table = {
-      {"forward-euler", Method::ForwardEuler, 0.0, 0.0, "explicit Euler (alpha family, alpha = 0)"},
-      {"implicit-midpoint", Method::AlphaFamily, 0.5, 0.5,
+      {"forward-euler", Method::kForwardEuler, 0.0, 0.0, "explicit Euler (alpha family, alpha = 0)"},
+      {"implicit-midpoint", Method::kAlphaFamily, 0.5, 0.5,
        "alpha family, alpha = 1/2 (second order), with the energy guard: a step that would put energy in "
        "is taken again as two halves, then with a larger alpha",
        true},
-      {"implicit-midpoint-plain", Method::AlphaFamily, 0.5, 0.5,
+      {"implicit-midpoint-plain", Method::kAlphaFamily, 0.5, 0.5,
        "alpha family, alpha = 1/2 (second order), without the energy guard (the paper's step)"},
-      {"backward-euler", Method::AlphaFamily, 1.0, 1.0, "alpha family, alpha = 1 (first order, dissipative)"},
-      {"alpha", Method::AlphaFamily, std::nullopt, 0.5, "alpha family with the given --alpha in [0, 1]"},
-      {"bdf2", Method::Bdf2, 1.0, 1.0, "progressive BDF-2, alpha = 1 (standard BDF-2)"},
-      {"bdf2-alpha", Method::Bdf2, std::nullopt, 1.0 / std::sqrt(3.0),
+      {"backward-euler", Method::kAlphaFamily, 1.0, 1.0, "alpha family, alpha = 1 (first order, dissipative)"},
+      {"alpha", Method::kAlphaFamily, std::nullopt, 0.5, "alpha family with the given --alpha in [0, 1]"},
+      {"bdf2", Method::kBdf2, 1.0, 1.0, "progressive BDF-2, alpha = 1 (standard BDF-2)"},
+      {"bdf2-alpha", Method::kBdf2, std::nullopt, 1.0 / std::sqrt(3.0),
        "progressive BDF-2 with the given alpha (default 1/sqrt(3))"},
-      {"bdf2-alpha-guarded", Method::Bdf2, std::nullopt, 1.0 / std::sqrt(3.0),
+      {"bdf2-alpha-guarded", Method::kBdf2, std::nullopt, 1.0 / std::sqrt(3.0),
        "progressive BDF-2 with the given alpha (default 1/sqrt(3)) and the energy guard: a step that would "
        "put energy in is taken again with a larger alpha, up to standard BDF-2, then as a backward Euler step",
        true},
-      {"rk4", Method::Rk4, std::nullopt, 0.0, "classical explicit Runge-Kutta, fourth order"},
-      {"rk45", Method::Rk45, std::nullopt, 0.0,
+      {"rk4", Method::kRk4, std::nullopt, 0.0, "classical explicit Runge-Kutta, fourth order"},
+      {"rk45", Method::kRk45, std::nullopt, 0.0,
        "adaptive explicit Dormand-Prince 5(4) with local error tolerance (reference)"},
   };
   return table;
@@ -53,14 +53,14 @@ Integrator::Constants Integrator::make_constants(const System& system, Integrato
   c.mass3.resize(3 * n);
   for (int i = 0; i < n; ++i) c.mass3.segment<3>(3 * i).setConstant(system.node_mass()[i]);
   int free_nodes = 0;
-  for (char f : system.fixed()) free_nodes += f ? 0 : 1;
+  for (char f : system.pinned()) free_nodes += f ? 0 : 1;
   c.preconditioner = choose_preconditioner(settings, free_nodes);
   c.guard_alphas = {settings.alpha};
   for (double a : kGuardAlphas)
     if (a > settings.alpha) c.guard_alphas.push_back(a);
   // BDF-2's guard climbs to alpha = 1 (standard BDF-2), then to backward Euler; a BDF-2 at
   // alpha = 1 already goes straight to backward Euler.
-  if (settings.method == Method::Bdf2 && c.guard_alphas.back() < 1.0) c.guard_alphas.push_back(1.0);
+  if (settings.method == Method::kBdf2 && c.guard_alphas.back() < 1.0) c.guard_alphas.push_back(1.0);
   return c;
 }
 
@@ -85,7 +85,7 @@ Integrator::Integrator(System& system, const Constants& constants, Data& data)
 double Integrator::ssor_relaxation() const {
   if (c_.settings.ssor_relaxation > 0) return c_.settings.ssor_relaxation;
   int free_nodes = 0;
-  for (char f : system_.fixed()) free_nodes += f ? 0 : 1;
+  for (char f : system_.pinned()) free_nodes += f ? 0 : 1;
   return ssor_relaxation_for(free_nodes);
 }
 
@@ -132,14 +132,14 @@ void Integrator::restored() {
     BlockMatrix m;
     m.reset(P);
     m.block = d_.multigrid_setup_blocks;
-    d_.pcg.multigrid.setup(m, system_.fixed(), pcg_settings().multigrid);
+    d_.pcg.multigrid.setup(m, system_.pinned(), pcg_settings().multigrid);
   }
   if (!d_.pulling.empty() && d_.pulling.size() != static_cast<size_t>(system_.num_nodes()))
     throw std::invalid_argument("the contact flags do not fit this system");
   if (!d_.stuck.empty() && d_.stuck.size() != static_cast<size_t>(system_.num_nodes()))
     throw std::invalid_argument("the contact flags do not fit this system");
   // BDF-2's guard has one rung past its alphas (backward Euler).
-  const int rungs = static_cast<int>(c_.guard_alphas.size()) + (c_.settings.method == Method::Bdf2 ? 1 : 0);
+  const int rungs = static_cast<int>(c_.guard_alphas.size()) + (c_.settings.method == Method::kBdf2 ? 1 : 0);
   if (d_.guard_rung < 0 || d_.guard_rung >= rungs || d_.guard_calm_steps < 0)
     throw std::invalid_argument("the guard's alpha does not fit these settings");
   if (d_.guard_depth < 0 || d_.guard_depth > kGuardMaxSplits || d_.guard_depth_calm_steps < 0)
@@ -153,7 +153,7 @@ double Integrator::guard_alpha() const {
 void Integrator::advance(State& s, double t_end, StepStatistics& stats) {
   const double dt = c_.settings.dt;
   d_.energy_x.resize(0);  // the system may have changed between calls
-  if (c_.settings.method != Method::Rk45) {
+  if (c_.settings.method != Method::kRk45) {
     const long steps = std::lround((t_end - s.t) / dt);
     // The steps run on their own clock, the sum of their sizes, whatever the calls' end times
     // (State::step_clock); a time set from outside (far from the clock) restarts it.
@@ -219,10 +219,10 @@ void Integrator::step(State& s, double dt, StepStatistics& stats) {
 void Integrator::single_step(State& s, double dt, StepStatistics& stats) {
   const double alpha = c_.settings.alpha;
   switch (c_.settings.method) {
-    case Method::ForwardEuler:
+    case Method::kForwardEuler:
       linear_step(s, dt, 0.0, 0.0, dt, stats);
       break;
-    case Method::AlphaFamily:
+    case Method::kAlphaFamily:
       if (c_.settings.guard) {
         guarded_parts(s, dt, stats);
       } else if (alpha == 1.0 && c_.settings.backward_euler_newton && newton_limit() < kBackwardEulerNewton) {
@@ -231,17 +231,17 @@ void Integrator::single_step(State& s, double dt, StepStatistics& stats) {
         linear_step(s, dt, alpha, 0.0, dt, stats);
       }
       break;
-    case Method::Bdf2:
+    case Method::kBdf2:
       if (c_.settings.guard) {
         guarded_bdf2_step(s, dt, stats);
       } else {
         bdf2_step(s, dt, alpha, stats);
       }
       break;
-    case Method::Rk4:
+    case Method::kRk4:
       rk4_step(s, dt, stats);
       break;
-    case Method::Rk45: {
+    case Method::kRk45: {
       double err;
       if (!rk45_try(s, dt, err, stats)) ++stats.rejected_steps;
       break;
@@ -404,9 +404,9 @@ void Integrator::solve_with_contacts(const State& s, double dt, double alpha, do
                                      StepStatistics& stats) {
   const BlockPattern& P = system_.pattern();
   const PcgSettings ps = pcg_settings();
-  if (c_.preconditioner == Preconditioner::kMultigrid && !d_.pcg.multigrid.matches(P, system_.fixed(), ps.multigrid)) {
+  if (c_.preconditioner == Preconditioner::kMultigrid && !d_.pcg.multigrid.matches(P, system_.pinned(), ps.multigrid)) {
     // Built here rather than inside the solve, to keep the matrix it was built from.
-    d_.pcg.multigrid.setup(d_.step.matrix, system_.fixed(), ps.multigrid);
+    d_.pcg.multigrid.setup(d_.step.matrix, system_.pinned(), ps.multigrid);
     d_.multigrid_setup_blocks = d_.step.matrix.block;
   }
   // With contacts, an active set: the solve holds the detected contacts; nodes it would leave
@@ -426,12 +426,12 @@ void Integrator::solve_with_contacts(const State& s, double dt, double alpha, do
         constrain(s, dt, alpha, beta, dt_b);
         stats.response_seconds += seconds_since(tr);
       }
-      r = solve_pcg(d_.step.matrix, d_.rhs, system_.fixed(), ps, d_.dv, d_.pcg);
+      r = solve_pcg(d_.step.matrix, d_.rhs, system_.pinned(), ps, d_.dv, d_.pcg);
       stats.cg_iterations += r.iterations;
       ++stats.cg_solves;
       if (!r.converged) ++stats.cg_failures;
       if (d_.contacts.empty() && pass == 0) {
-        if (r.converged) d_.history.record(d_.rhs, system_.fixed(), d_.dv);
+        if (r.converged) d_.history.record(d_.rhs, system_.pinned(), d_.dv);
       }
       if (!d_.contacts.empty()) {
         const auto tr = Clock::now();
@@ -449,7 +449,7 @@ void Integrator::solve_with_contacts(const State& s, double dt, double alpha, do
     stats.contacts += static_cast<long>(d_.contacts.size());
     ++stats.contact_solves;
     stats.max_contacts = std::max(stats.max_contacts, static_cast<long>(d_.contacts.size()));
-    if (r.converged) d_.history.record(d_.rhs, system_.fixed(), d_.dv);
+    if (r.converged) d_.history.record(d_.rhs, system_.pinned(), d_.dv);
   }
 }
 

@@ -17,7 +17,7 @@ double Integrator::newton_residual(const State& s, double alpha, double beta, do
   system_.evaluate(d_.newton_x, d_.newton_v, false, d_.eval);
   r = dt_b * d_.eval.force - c_.mass3.cwiseProduct(dv);
   if (beta != 0.0) r += beta * c_.mass3.cwiseProduct(s.dv_prev);
-  const auto& fixed = system_.fixed();
+  const auto& fixed = system_.pinned();
   for (size_t i = 0; i < fixed.size(); ++i)
     if (fixed[i]) r.segment<3>(3 * i).setZero();
   if (d_.contacts.empty()) return std::sqrt(r.cwiseAbs2().cwiseQuotient(c_.mass3).sum());
@@ -87,7 +87,7 @@ int Integrator::newton_iterate(const State& s, double dt, double alpha, double b
       }
       d_.newton_delta.setZero(3 * n);
       const PcgResult r =
-          solve_pcg(d_.newton_step.matrix, *rhs, system_.fixed(), pcg_settings(), d_.newton_delta, d_.pcg);
+          solve_pcg(d_.newton_step.matrix, *rhs, system_.pinned(), pcg_settings(), d_.newton_delta, d_.pcg);
       stats.cg_iterations += r.iterations;
       ++stats.cg_solves;
       if (!r.converged) ++stats.cg_failures;

@@ -25,8 +25,8 @@ namespace fs = std::filesystem;
 double default_damping_ratio(Method method, double alpha) {
   // Implicit Midpoint (and the alpha family below 1) and the BDF-2 variants are damped by
   // default; backward Euler, forward Euler and the Runge-Kutta references are not.
-  if (method == Method::Bdf2) return 0.05;
-  if (method == Method::AlphaFamily && alpha < 1.0) return 0.05;
+  if (method == Method::kBdf2) return 0.05;
+  if (method == Method::kAlphaFamily && alpha < 1.0) return 0.05;
   return 0.0;
 }
 
@@ -54,7 +54,7 @@ void set_method(Scene& scene, const std::string& name, std::optional<double> alp
   }
   if (!(scene.integrator.alpha >= 0.0 && scene.integrator.alpha <= 1.0))
     throw InputError(where + ": alpha must be in [0, 1], got " + nlohmann::json(scene.integrator.alpha).dump());
-  if (info->method == Method::Bdf2 && !(scene.integrator.alpha > 0.0))
+  if (info->method == Method::kBdf2 && !(scene.integrator.alpha > 0.0))
     throw InputError(where + ": BDF-2 needs alpha > 0, got 0");
 }
 
@@ -69,7 +69,7 @@ void validate_timing(const Scene& s, const std::string& where) {
     throw InputError(where + ": tolerance must be in (0, 1), got " + nlohmann::json(s.integrator.cg_tolerance).dump());
   if (!(s.integrator.error_tolerance > 0 && s.integrator.error_tolerance < 1))
     throw InputError(where + ": tolerance must be in (0, 1), got " + nlohmann::json(s.integrator.error_tolerance).dump());
-  if (s.integrator.method != Method::Rk45) {
+  if (s.integrator.method != Method::kRk45) {
     const double ratio = s.frame_interval / s.integrator.dt;
     if (ratio < 1 - 1e-9 || std::abs(ratio - std::round(ratio)) > 1e-6 * ratio)
       throw InputError(where + ": frame_interval " + nlohmann::json(s.frame_interval).dump() +
@@ -101,7 +101,7 @@ void apply_overrides(Scene& scene, const SceneOverrides& o, const std::string& w
   if (o.dt) scene.integrator.dt = *o.dt;
   if (o.duration) scene.duration = *o.duration;
   if (o.tolerance)
-    (scene.integrator.method == Method::Rk45 ? scene.integrator.error_tolerance : scene.integrator.cg_tolerance) = *o.tolerance;
+    (scene.integrator.method == Method::kRk45 ? scene.integrator.error_tolerance : scene.integrator.cg_tolerance) = *o.tolerance;
   if (o.damping_ratio) scene.damping_ratio = *o.damping_ratio;
   if (o.newton) {
     if (!(*o.newton >= 0 && *o.newton <= 100 && *o.newton == std::floor(*o.newton)))
@@ -422,7 +422,7 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
   s.integrator.dt = in.number_in("dt", 0, 1e3, true);
   if (in.has("tolerance")) {
     const double tol = in.number_in("tolerance", 0, 1, true);
-    (s.integrator.method == Method::Rk45 ? s.integrator.error_tolerance : s.integrator.cg_tolerance) = tol;
+    (s.integrator.method == Method::kRk45 ? s.integrator.error_tolerance : s.integrator.cg_tolerance) = tol;
   }
   if (in.has("max_iterations")) {
     s.integrator.cg_max_iterations = static_cast<int>(in.integer_in("max_iterations", 1, 1'000'000));

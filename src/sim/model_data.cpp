@@ -161,7 +161,7 @@ std::unique_ptr<SimulationModel> build_model(const Scene& scene, const SetupProg
   }
   // RK45 steps adaptively: report its stiffness factors at the scene's (largest) step.
   DampingSettings damping{scene.effective_damping_ratio()};
-  if (scene.integrator.method == Method::Rk45) damping.reference_dt = scene.integrator.dt;
+  if (scene.integrator.method == Method::kRk45) damping.reference_dt = scene.integrator.dt;
   stage("element system", kSetupShareMesh + kSetupShareModel);
   M.system = ClothSystem::make_constants(*M.cloth, damping);
   stage("integrator", kSetupShareMesh + kSetupShareModel + kSetupShareSystem);
@@ -196,7 +196,7 @@ std::unique_ptr<SimulationModel> build_model(const Scene& scene, const SetupProg
   }
   // Clamped vertices follow their clamps whatever touches them: the colliders' and the
   // cloth's contact handling take them as pinned.
-  M.held = M.cloth->fixed;
+  M.held = M.cloth->pinned;
   for (const std::vector<int>& group : M.clamp_groups)
     for (int i : group) M.held[i] = 1;
   if (!scene.cloth.seams.empty()) {
@@ -276,7 +276,7 @@ std::unique_ptr<SimulationData> make_data(const SimulationModel& M) {
   s.x = cloth.initial_positions();
   s.v = VecX::Zero(s.x.size());
   for (int i = 0; i < cloth.num_vertices(); ++i)
-    if (!cloth.fixed[i]) node(s.v, i) = scene.cloth.initial_velocity;
+    if (!cloth.pinned[i]) node(s.v, i) = scene.cloth.initial_velocity;
   for (size_t k = 0; k < M.clamp_groups.size(); ++k)
     for (int i : M.clamp_groups[k]) {
       node(s.x, i) = D.clamps->position(k, i, 0);
@@ -337,7 +337,7 @@ void advance(const SimulationModel& M, SimulationData& D, double t, bool stop_on
       return true;
     });
   }
-  if (!stop_on_runaway || M.scene.integrator.method == Method::Rk45) {
+  if (!stop_on_runaway || M.scene.integrator.method == Method::kRk45) {
     integrator.advance(s, t, D.statistics);
     return;
   }
@@ -555,7 +555,7 @@ std::uint64_t fingerprint(const SimulationModel& M) {
   const VecX x0 = M.cloth->initial_positions();
   w.vec(x0);
   w.vec(M.cloth->mass);
-  w.raw(M.cloth->fixed.data(), M.cloth->fixed.size());
+  w.raw(M.cloth->pinned.data(), M.cloth->pinned.size());
   w.u64(M.cloth->mesh.triangles.size());
   w.u64(M.cloth->bending.size());
   w.u64(static_cast<std::uint64_t>(M.cloth->pattern.num_blocks()));

@@ -39,7 +39,7 @@ double SimulationCore::arrival_time(double arrival, const std::string& what) con
   if (!(arrival > now) || !std::isfinite(arrival))
     throw InputError(what + ": the arrival time " + std::to_string(arrival) + " s must be after the current time " +
                      std::to_string(now) + " s");
-  if (m_->scene.integrator.method == Method::Rk45) return arrival;
+  if (m_->scene.integrator.method == Method::kRk45) return arrival;
   return now + std::max(1L, std::lround((arrival - now) / dt)) * dt;
 }
 
@@ -54,7 +54,7 @@ void SimulationCore::move_pins(const std::vector<int>& nodes, const std::vector<
     if (i < 0 || i >= cloth.num_vertices())
       throw InputError(what + ": vertex " + std::to_string(i) + " does not exist (the cloth has " +
                        std::to_string(cloth.num_vertices()) + " vertices)");
-    if (!cloth.fixed[i]) throw InputError(what + ": vertex " + std::to_string(i) + " is not pinned");
+    if (!cloth.pinned[i]) throw InputError(what + ": vertex " + std::to_string(i) + " is not pinned");
     if (!targets[k].allFinite())
       throw InputError(what + ": the target of vertex " + std::to_string(i) + " is not finite");
   }
@@ -286,7 +286,7 @@ nlohmann::json summary_json(const Simulation& sim, const RunResult& r) {
   }
   // Unguarded backward Euler takes a step that put energy in again with Newton iterations
   // (IntegratorSettings::backward_euler_newton).
-  const bool automatic = sc.integrator.method == Method::AlphaFamily && sc.integrator.alpha == 1.0 &&
+  const bool automatic = sc.integrator.method == Method::kAlphaFamily && sc.integrator.alpha == 1.0 &&
                          !sc.integrator.guard && sc.integrator.backward_euler_newton &&
                          sc.integrator.newton_iterations < kBackwardEulerNewton;
   if (sc.integrator.newton_iterations > 0 || automatic) {
@@ -419,7 +419,7 @@ const VecX& Simulation::velocities() const { return core_->state().v; }
 VecX& Simulation::positions() { return core_->state().x; }
 VecX& Simulation::velocities() { return core_->state().v; }
 const VecX& Simulation::masses() const { return core_->model().mass; }
-const std::vector<char>& Simulation::pinned() const { return core_->model().fixed; }
+const std::vector<char>& Simulation::pinned() const { return core_->model().pinned; }
 VecX Simulation::added_viscosity_per_vertex() const { return core_->system().added_viscosity_per_vertex(); }
 const StepStatistics& Simulation::step_statistics() const { return core_->statistics(); }
 const DampingStatistics& Simulation::damping_statistics() const { return core_->system().statistics(); }

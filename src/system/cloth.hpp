@@ -27,7 +27,7 @@ struct ClothModel {
   Vec3 gravity{0, -9.81, 0};  ///< m/s^2
   VecX mass;                 ///< lumped mass per vertex (kg)
   VecX inverse_mass;         ///< 0 on pinned vertices
-  std::vector<char> fixed;   ///< pinned vertices
+  std::vector<char> pinned;  ///< pinned vertices (pins only; clamps are held, ModelData::held)
   std::vector<MembraneGeometry> membranes;     ///< one per mesh triangle
   std::vector<LinearBendingStencil> bending;   ///< bending elements (plate or hinge)
   BlockPattern pattern;
@@ -167,7 +167,7 @@ class ClothSystem : public System {
 
   int num_nodes() const override { return model_.num_vertices(); }
   const VecX& node_mass() const override { return model_.mass; }
-  const std::vector<char>& fixed() const override { return model_.fixed; }
+  const std::vector<char>& pinned() const override { return model_.pinned; }
   const BlockPattern& pattern() const override { return model_.pattern; }
   const std::vector<int>* solver_order() const override { return &model_.solver_order; }
   void begin_step(const VecX& x, const VecX& v, double dt) override;

@@ -85,15 +85,15 @@ ClothModel build_cloth_model(TriMesh mesh, const TriangleMaterials& materials, c
   }
   for (int i = 0; i < n; ++i)
     if (!(m.mass[i] > 0)) throw InputError("vertex " + std::to_string(i) + " belongs to no triangle");
-  m.fixed.assign(n, 0);
+  m.pinned.assign(n, 0);
   for (int p : pins) {
     if (p < 0 || p >= n)
       throw InputError("pin refers to vertex " + std::to_string(p) + ", the mesh has " + std::to_string(n) + " vertices");
-    m.fixed[p] = 1;
+    m.pinned[p] = 1;
   }
   m.inverse_mass = m.mass.cwiseInverse();
   for (int i = 0; i < n; ++i)
-    if (m.fixed[i]) m.inverse_mass[i] = 0.0;
+    if (m.pinned[i]) m.inverse_mass[i] = 0.0;
 
   if (bending == BendingModel::kHinge) {
     for (const auto& s : interior_edge_flat_stencils(mesh)) {

@@ -39,7 +39,7 @@ class System {
   /// Lumped mass per node (kg), n entries.
   virtual const VecX& node_mass() const = 0;
   /// Per-node constraint filter: 1 = the node does not move (pinned).
-  virtual const std::vector<char>& fixed() const = 0;
+  virtual const std::vector<char>& pinned() const = 0;
   virtual const BlockPattern& pattern() const = 0;
   /// The order in which Gauss-Seidel-type solvers should take the nodes (a permutation,
   /// neighbours close together); null for the nodes' own numbering.

@@ -274,7 +274,7 @@ TEST(StabilityMap, SchemeNames) {
   using Kind = weft::StabilityScheme::Kind;
   EXPECT_EQ(weft::stability_scheme_by_name("backward-euler", NAN).alpha, 1.0);
   EXPECT_EQ(weft::stability_scheme_by_name("implicit-midpoint", NAN).alpha, 0.5);
-  EXPECT_EQ(weft::stability_scheme_by_name("bdf2", NAN).kind, Kind::ProgressiveBdf2);
+  EXPECT_EQ(weft::stability_scheme_by_name("bdf2", NAN).kind, Kind::kProgressiveBdf2);
   EXPECT_NEAR(weft::stability_scheme_by_name("bdf2-alpha", NAN).alpha, kInvSqrt3, 1e-15);
   EXPECT_EQ(weft::stability_scheme_by_name("alpha", 0.3).alpha, 0.3);
   EXPECT_THROW(weft::stability_scheme_by_name("alpha", NAN), weft::InputError);

@@ -111,7 +111,7 @@ TEST(CollisionScenes, SheetOnTheWalkingBodyEndsEveryFrameClearOfTheBody) {
 // through, every frame clear of the body.
 TEST(CollisionScenes, SheetOnTheBodyShiftedAMillimetreGetsThroughTheArmsComingDown) {
   Scene scene = load_scene(std::string(WEFT_SOURCE_DIR) + "/scenes/body-drape.json");
-  ASSERT_EQ(scene.integrator.method, Method::Bdf2);
+  ASSERT_EQ(scene.integrator.method, Method::kBdf2);
   ASSERT_TRUE(scene.integrator.guard);
   scene.cloth.translation.x() += 0.001;
   scene.duration = 1.6;
@@ -129,7 +129,7 @@ TEST(CollisionScenes, SelfCollisionDoesNotStretchAClothRestingOnASphere) {
   double elastic[2] = {0, 0};
   for (int self = 0; self < 2; ++self) {
     Scene scene = load_scene(std::string(WEFT_SOURCE_DIR) + "/scenes/sphere-drop.json");
-    ASSERT_EQ(scene.integrator.method, Method::Bdf2);
+    ASSERT_EQ(scene.integrator.method, Method::kBdf2);
     scene.cloth.grid->vertices_u = scene.cloth.grid->vertices_v = 49;
     scene.cloth.self_collision = self == 1;
     scene.duration = 1.2;

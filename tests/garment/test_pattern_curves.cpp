@@ -11,7 +11,7 @@ namespace {
 
 EdgeCurve quadratic(const Vec2& p0, const Vec2& p1, const Vec2& p2) {
   EdgeCurve c;
-  c.kind = CurveKind::quadratic;
+  c.kind = CurveKind::kQuadratic;
   c.start = p0;
   c.control[0] = p1;
   c.end = p2;
@@ -20,7 +20,7 @@ EdgeCurve quadratic(const Vec2& p0, const Vec2& p1, const Vec2& p2) {
 
 EdgeCurve cubic(const Vec2& p0, const Vec2& p1, const Vec2& p2, const Vec2& p3) {
   EdgeCurve c;
-  c.kind = CurveKind::cubic;
+  c.kind = CurveKind::kCubic;
   c.start = p0;
   c.control = {p1, p2};
   c.end = p3;
@@ -29,7 +29,7 @@ EdgeCurve cubic(const Vec2& p0, const Vec2& p1, const Vec2& p2, const Vec2& p3) 
 
 EdgeCurve arc(const Vec2& center, double radius_m, double start_angle_rad, double sweep_rad) {
   EdgeCurve c;
-  c.kind = CurveKind::arc;
+  c.kind = CurveKind::kArc;
   c.center = center;
   c.radius_m = radius_m;
   c.start_angle_rad = start_angle_rad;
@@ -143,7 +143,7 @@ TEST(PatternCurves, BezierSamplesAreAtEqualArcLength) {
   };
   for (const EdgeCurve& c : cases) {
     // The speed |B'| at the two ends differs by more than 5x: equal parameter steps are uneven.
-    const Vec2 last_control = c.kind == CurveKind::cubic ? c.control[1] : c.control[0];
+    const Vec2 last_control = c.kind == CurveKind::kCubic ? c.control[1] : c.control[0];
     ASSERT_GT((c.end - last_control).norm() / (c.control[0] - c.start).norm(), 5.0);
 
     const double length = curve_length_m(c);

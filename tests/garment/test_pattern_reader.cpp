@@ -47,7 +47,7 @@ TEST(PatternReader, RelativeControlPointIsAlongAndLeftOfTheEdge) {
   panel["edges"][2]["curvature"] = {0.25, 0.2};
   const Pattern p = parse(pattern_file({{"front", panel}}));
   const EdgeCurve& c = p.panels[0].edges[2].curve;
-  ASSERT_EQ(c.kind, CurveKind::quadratic);
+  ASSERT_EQ(c.kind, CurveKind::kQuadratic);
   EXPECT_NEAR((c.control[0] - Vec2(0.75, 0.8)).norm(), 0, 1e-15);
 
   // GarmentCode's object forms: quadratic and cubic with the same relative coordinates.
@@ -56,7 +56,7 @@ TEST(PatternReader, RelativeControlPointIsAlongAndLeftOfTheEdge) {
               1e-15);
   panel["edges"][2]["curvature"] = {{"type", "cubic"}, {"params", {{0.25, 0.2}, {0.5, -0.1}}}};
   const EdgeCurve cu = parse(pattern_file({{"front", panel}})).panels[0].edges[2].curve;
-  ASSERT_EQ(cu.kind, CurveKind::cubic);
+  ASSERT_EQ(cu.kind, CurveKind::kCubic);
   EXPECT_NEAR((cu.control[0] - Vec2(0.75, 0.8)).norm(), 0, 1e-15);
   EXPECT_NEAR((cu.control[1] - Vec2(0.5, 1.1)).norm(), 0, 1e-15);
 }
@@ -80,7 +80,7 @@ TEST(PatternReader, CircleArcsFollowRadiusAndFlags) {
     json panel = square_panel();
     panel["edges"][0]["curvature"] = {{"type", "circle"}, {"params", {k.radius, k.large, k.right}}};
     const EdgeCurve c = parse(pattern_file({{"front", panel}})).panels[0].edges[0].curve;
-    ASSERT_EQ(c.kind, CurveKind::arc);
+    ASSERT_EQ(c.kind, CurveKind::kArc);
     EXPECT_NEAR(c.sweep_rad, k.sweep, 1e-12);
     EXPECT_NEAR(curve_length_m(c), k.radius * std::abs(k.sweep), 1e-12);
     EXPECT_NEAR((curve_point(c, 0) - Vec2(0, 0)).norm(), 0, 1e-12);

@@ -96,7 +96,7 @@ TEST(PatternSamples, NecklineArcsCurveIntoTheirPanels) {
       std::vector<Vec2> corners;
       for (const PanelEdge& e : panel.edges) corners.push_back(panel.vertices_m[static_cast<size_t>(e.start_vertex)]);
       for (size_t e = 0; e < panel.edges.size(); ++e) {
-        if (panel.edges[e].curve.kind != CurveKind::arc) continue;
+        if (panel.edges[e].curve.kind != CurveKind::kArc) continue;
         ++arcs;
         EXPECT_TRUE(inside_polygon(corners, curve_point(panel.edges[e].curve, 0.5))) << file << " " << panel.name << " edge " << e;
       }

@@ -124,7 +124,7 @@ TEST_F(Placement, PanelsAreRolledOnWithoutStretchingAndClearOfTheBody) {
   // part's axis, on average).
   for (size_t p = 0; p < pattern_->panels.size(); ++p) {
     const std::string& name = pattern_->panels[p].name;
-    const BodyPart want = name[0] == 'l' ? BodyPart::left_arm : name[0] == 'r' ? BodyPart::right_arm : BodyPart::torso;
+    const BodyPart want = name[0] == 'l' ? BodyPart::kLeftArm : name[0] == 'r' ? BodyPart::kRightArm : BodyPart::kTorso;
     EXPECT_EQ(placed.panel_part[p], want) << name;
   }
   Vec3 front = Vec3::Zero();
@@ -170,7 +170,7 @@ TEST_F(Placement, WeldingMergesEveryStitchIntoOneOrientedMesh) {
 
 TEST_F(Placement, AnOverrideNamingNoPanelIsRefused) {
   PlacementOptions o;
-  o.overrides["collar"].part = BodyPart::head;
+  o.overrides["collar"].part = BodyPart::kHead;
   try {
     place_garment(*pattern_, *mesh_, *body_, o);
     FAIL() << "no error";
@@ -179,7 +179,7 @@ TEST_F(Placement, AnOverrideNamingNoPanelIsRefused) {
         << e.what();
   }
   EXPECT_THROW(parse_body_part("tail", "x"), InputError);
-  EXPECT_EQ(parse_body_part("left_arm", "x"), BodyPart::left_arm);
+  EXPECT_EQ(parse_body_part("left_arm", "x"), BodyPart::kLeftArm);
 }
 
 }  // namespace

@@ -96,8 +96,8 @@ TEST(EnergyAccount, AlphaFamilyStepsAccountTheWorkOfTheViscousForcesTheyApplied)
     double alpha;
     const char* name;
   };
-  for (const Case& c : {Case{Method::ForwardEuler, 0.0, "forward Euler"}, Case{Method::AlphaFamily, 0.5, "Implicit Midpoint"},
-                        Case{Method::AlphaFamily, 1.0, "backward Euler"}, Case{Method::AlphaFamily, 0.7, "alpha 0.7"}}) {
+  for (const Case& c : {Case{Method::kForwardEuler, 0.0, "forward Euler"}, Case{Method::kAlphaFamily, 0.5, "Implicit Midpoint"},
+                        Case{Method::kAlphaFamily, 1.0, "backward Euler"}, Case{Method::kAlphaFamily, 0.7, "alpha 0.7"}}) {
     SpringSystem sys(chain_mass(), kChain, kGravity);
     const double dt = 0.01;
     Integrator integ(sys, tight(c.method, c.alpha, dt));
@@ -140,7 +140,7 @@ TEST(EnergyAccount, Rk4BalanceClosesAtTheMethodsOrder) {
   // system x' = v, v' = a, D' = -P), so the balance closes to the method's global order: four.
   // Halving the step must shrink the gap by about 16 once the step is small against the
   // fastest period (here about 0.3 s); 8 leaves room for the higher-order terms.
-  const double coarse = closure_gap(Method::Rk4, 0.0025), fine = closure_gap(Method::Rk4, 0.00125);
+  const double coarse = closure_gap(Method::kRk4, 0.0025), fine = closure_gap(Method::kRk4, 0.00125);
   RecordProperty("gap_coarse", sci(coarse));
   RecordProperty("gap_fine", sci(fine));
   EXPECT_GT(coarse / fine, 8.0) << coarse << " then " << fine;
@@ -161,7 +161,7 @@ struct Rk45Step {
 Rk45Step rk45_step(System& sys, const State& start, double h) {
   for (double tol = 1e-1; tol > 1e-15; tol /= 10) {
     IntegratorSettings st;
-    st.method = Method::Rk45;
+    st.method = Method::kRk45;
     st.dt = 10 * h;  // so that the next step is not capped by dt
     st.error_tolerance = tol;
     Integrator integ(sys, st);

@@ -361,7 +361,7 @@ namespace {
 
 IntegratorSettings bdf2_alpha(double dt, bool guard) {
   IntegratorSettings st = midpoint(dt, guard);
-  st.method = Method::Bdf2;
+  st.method = Method::kBdf2;
   st.alpha = 1.0 / std::sqrt(3.0);
   return st;
 }

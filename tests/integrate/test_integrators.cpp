@@ -46,7 +46,7 @@ TEST(OneSpring, AlphaFamilyStepMatrixEqualsPapersH) {
     Eigen::Matrix2d Hnum;
     for (int c = 0; c < 2; ++c) {
       State s = initial(c == 0 ? 1.0 : 0.0, c == 1 ? 1.0 / dt : 0.0);
-      Integrator integ(sys, settings_for(Method::AlphaFamily, alpha, dt));
+      Integrator integ(sys, settings_for(Method::kAlphaFamily, alpha, dt));
       StepStatistics st;
       integ.step(s, dt, st);
       Hnum(0, c) = s.x[0];
@@ -100,12 +100,12 @@ TEST(ConvergenceOrder, MatchesTheory) {
     double alpha, dt0, order;
   };
   const Case cases[] = {
-      {"forward Euler", Method::ForwardEuler, 0.0, 1.0 / 1000, 1},
-      {"backward Euler", Method::AlphaFamily, 1.0, 1.0 / 1000, 1},
-      {"Implicit Midpoint", Method::AlphaFamily, 0.5, 1.0 / 100, 2},
-      {"BDF-2", Method::Bdf2, 1.0, 1.0 / 100, 2},
-      {"BDF-2 alpha = 1/sqrt(3)", Method::Bdf2, 1.0 / std::sqrt(3.0), 1.0 / 100, 2},
-      {"RK4", Method::Rk4, 0.0, 1.0 / 20, 4},
+      {"forward Euler", Method::kForwardEuler, 0.0, 1.0 / 1000, 1},
+      {"backward Euler", Method::kAlphaFamily, 1.0, 1.0 / 1000, 1},
+      {"Implicit Midpoint", Method::kAlphaFamily, 0.5, 1.0 / 100, 2},
+      {"BDF-2", Method::kBdf2, 1.0, 1.0 / 100, 2},
+      {"BDF-2 alpha = 1/sqrt(3)", Method::kBdf2, 1.0 / std::sqrt(3.0), 1.0 / 100, 2},
+      {"RK4", Method::kRk4, 0.0, 1.0 / 20, 4},
   };
   for (const auto& c : cases) {
     const double p = measured_order(c.method, c.alpha, c.dt0);
@@ -141,7 +141,7 @@ TEST(Energy, ImplicitMidpointKeepsEnergyOfUndampedLinearSystemBackwardEulerLoses
   const double e0 = energy(s0);
   for (double alpha : {0.5, 1.0}) {
     weft::test::SpringSystem sys(mass, springs);
-    auto st = settings_for(Method::AlphaFamily, alpha, 0.05);  // kappa up to ~0.4 per mass
+    auto st = settings_for(Method::kAlphaFamily, alpha, 0.05);  // kappa up to ~0.4 per mass
     st.cg_tolerance = 1e-12;
     Integrator integ(sys, st);
     State s = s0;
@@ -181,7 +181,7 @@ TEST(WarmStart, HistorySpanningTheRightHandSidesMakesTheSolvesNearlyFree) {
   const int histories[2] = {4, 0};
   for (int h = 0; h < 2; ++h) {
     weft::test::SpringSystem sys(mass, springs);
-    auto st = settings_for(Method::AlphaFamily, 0.5, 0.05);
+    auto st = settings_for(Method::kAlphaFamily, 0.5, 0.05);
     st.cg_tolerance = 1e-8;
     st.warm_start_history = histories[h];
     st.ssor_single_precision = false;

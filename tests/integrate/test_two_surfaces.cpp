@@ -51,7 +51,7 @@ NodeEnd in_the_corner(const Vec3& gravity, Method method, double alpha) {
 }
 
 const std::vector<std::pair<Method, double>> kMethods = {
-    {Method::AlphaFamily, 0.5}, {Method::AlphaFamily, 1.0}, {Method::Bdf2, 1.0}};
+    {Method::kAlphaFamily, 0.5}, {Method::kAlphaFamily, 1.0}, {Method::kBdf2, 1.0}};
 
 }  // namespace
 

@@ -201,7 +201,7 @@ TEST_F(SceneKeys, IntegratorKeysReachTheIntegrator) {
   const IntegratorSettings& st = sim.core().integrator().settings();
   EXPECT_EQ(sim.scene().description, "keys");
   EXPECT_EQ(sim.core().model().gravity, Vec3(1.0, -3.0, 0.5));
-  EXPECT_EQ(st.method, Method::Bdf2);
+  EXPECT_EQ(st.method, Method::kBdf2);
   EXPECT_EQ(st.alpha, 0.7);
   EXPECT_EQ(st.dt, 0.005);
   EXPECT_EQ(st.cg_tolerance, 1e-7);
@@ -210,7 +210,7 @@ TEST_F(SceneKeys, IntegratorKeysReachTheIntegrator) {
   // RK45's tolerance is its local error tolerance, not the linear solve's (it has none).
   j["integrator"] = {{"method", "rk45"}, {"dt", 0.01}, {"tolerance", 1e-5}};
   const Scene rk45 = parse(j);
-  EXPECT_EQ(rk45.integrator.method, Method::Rk45);
+  EXPECT_EQ(rk45.integrator.method, Method::kRk45);
   EXPECT_EQ(rk45.integrator.error_tolerance, 1e-5);
   EXPECT_EQ(rk45.integrator.cg_tolerance, IntegratorSettings().cg_tolerance);
 }

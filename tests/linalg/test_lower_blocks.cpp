@@ -19,7 +19,7 @@ using test::zero_fixed;
 TEST(LowerBlocks, ProductEqualsFilteredFullProduct) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(17, 0.02, p);
-  std::vector<char> fixed = p.fixed();
+  std::vector<char> fixed = p.pinned();
   fixed[100] = 1;
   LowerBlocks L;
   L.assign(p.matrix(), fixed);
@@ -41,7 +41,7 @@ TEST(LowerBlocks, ProductEqualsFilteredFullProduct) {
 TEST(LowerBlocks, ScalarLayoutFollowsTheMatrix) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(9, 0.0, p);
-  const auto& fixed = p.fixed();
+  const auto& fixed = p.pinned();
   LowerBlocks whole;
   whole.build(*p.matrix().pattern, fixed, nullptr);
   EXPECT_EQ(whole.num_scalar(), 0);
@@ -73,7 +73,7 @@ TEST(LowerBlocks, ScalarLayoutFollowsTheMatrix) {
 TEST(LowerBlocks, SweepsAreBlockGaussSeidel) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(9, 0.02, p);
-  const auto& fixed = p.fixed();
+  const auto& fixed = p.pinned();
   const int n = 81;
   LowerBlocks L;
   L.assign(p.matrix(), fixed);

@@ -28,7 +28,7 @@ int count_free(const std::vector<char>& fixed) {
 TEST(Multigrid, VCycleIsSymmetricPositiveDefinite) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(33, 0.02, p);
-  const auto& fixed = p.fixed();
+  const auto& fixed = p.pinned();
   ASSERT_EQ(count_free(fixed), 33 * 33 - 2);
   for (int variant = 0; variant < 4; ++variant) {
     MultigridSettings s;
@@ -68,7 +68,7 @@ TEST(Multigrid, PcgMatchesBlockJacobiSolution) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(33, 0.02, p);
   const BlockMatrix& A = p.matrix();
-  std::vector<char> fixed = p.fixed();
+  std::vector<char> fixed = p.pinned();
   PcgWorkspace ws_bj, ws_mg;
   for (int round = 0; round < 2; ++round) {
     if (round == 1) fixed[500] = 1;  // pin an interior node as well
@@ -116,10 +116,10 @@ TEST(Multigrid, IterationsGrowFarLessThanBlockJacobi) {
     PcgSettings s;
     PcgWorkspace ws;
     VecX x = VecX::Zero(p.rhs.size());
-    const PcgResult bj = solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x, ws);
+    const PcgResult bj = solve_pcg(p.matrix(), p.rhs, p.pinned(), s, x, ws);
     s.preconditioner = Preconditioner::kMultigrid;
     x.setZero();
-    const PcgResult mg = solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x, ws);
+    const PcgResult mg = solve_pcg(p.matrix(), p.rhs, p.pinned(), s, x, ws);
     ASSERT_TRUE(bj.converged);
     ASSERT_TRUE(mg.converged);
     it_bj[k] = bj.iterations;
@@ -136,7 +136,7 @@ TEST(Multigrid, IterationsGrowFarLessThanBlockJacobi) {
 TEST(Multigrid, GalerkinOperatorEqualsDenseProduct) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(8, 0.02, p);
-  const auto& fixed = p.fixed();
+  const auto& fixed = p.pinned();
   for (int variant = 0; variant < 3; ++variant) {
     MultigridSettings s;
     s.coarsest_nodes = 2;
@@ -170,7 +170,7 @@ TEST(Multigrid, GalerkinOperatorEqualsDenseProduct) {
 TEST(Multigrid, CompactProductEqualsFilteredFullProduct) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(17, 0.02, p);
-  std::vector<char> fixed = p.fixed();
+  std::vector<char> fixed = p.pinned();
   fixed[100] = 1;  // an interior pin as well
   AggregationMultigrid mg;
   mg.setup(p.matrix(), fixed);
@@ -204,12 +204,12 @@ TEST(Multigrid, SmallSystemIsSolvedExactly) {
   ASSERT_LE(36, s.multigrid.coarsest_nodes);
   PcgWorkspace ws;
   VecX x = VecX::Zero(p.rhs.size());
-  const PcgResult r = solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x, ws);
+  const PcgResult r = solve_pcg(p.matrix(), p.rhs, p.pinned(), s, x, ws);
   EXPECT_EQ(ws.multigrid.num_levels(), 1);
   EXPECT_TRUE(r.converged);
   EXPECT_EQ(r.iterations, 1);
-  for (size_t i = 0; i < p.fixed().size(); ++i)
-    if (p.fixed()[i]) EXPECT_EQ(x.segment<3>(3 * i).norm(), 0.0);
+  for (size_t i = 0; i < p.pinned().size(); ++i)
+    if (p.pinned()[i]) EXPECT_EQ(x.segment<3>(3 * i).norm(), 0.0);
 }
 
 }  // namespace

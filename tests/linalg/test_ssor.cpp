@@ -89,7 +89,7 @@ TEST(Ssor, OrderTakesStretchesOfTheNumberingSideBySide) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(9, 0.0, p);
   SsorOperator S;
-  S.assign(p.matrix(), p.fixed(), 1.0);
+  S.assign(p.matrix(), p.pinned(), 1.0);
   const auto& order = S.order();
   ASSERT_EQ(order.size(), 81u);
   std::vector<int> sorted = order;
@@ -115,12 +115,12 @@ TEST(Ssor, OrderTakesStretchesOfTheBaseOrderSideBySide) {
   std::vector<int> base(81);
   for (int i = 0; i < 81; ++i) base[i] = 80 - i;
   SsorOperator S, T;
-  S.assign(p.matrix(), p.fixed(), 1.0);
-  T.assign(p.matrix(), p.fixed(), 1.0, &base);
+  S.assign(p.matrix(), p.pinned(), 1.0);
+  T.assign(p.matrix(), p.pinned(), 1.0, &base);
   for (int q = 0; q < 81; ++q) EXPECT_EQ(T.order()[q], base[S.order()[q]]) << q;
   base[3] = base[4];
   try {
-    T.assign(p.matrix(), p.fixed(), 1.0, &base);
+    T.assign(p.matrix(), p.pinned(), 1.0, &base);
     ADD_FAILURE() << "a repeated node was accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()), "SSOR node order is not a permutation of the 81 nodes");
@@ -188,7 +188,7 @@ void expect_operators_match_dense(int n, int pinned, bool sequential, double tol
   SCOPED_TRACE(std::to_string(n) + "x" + std::to_string(n));
   test::ClothStepProblem p;
   test::make_cloth_step_problem(n, 0.02, p);
-  std::vector<char> fixed = p.fixed();
+  std::vector<char> fixed = p.pinned();
   if (pinned >= 0) fixed[pinned] = 1;
   std::vector<int> base;  // on the 2x2 cloth, the two free nodes a stretch apart
   if (n == 2) {
@@ -261,23 +261,23 @@ TEST(Ssor, OperatorsMatchDenseOnAnIrregularMesh) {
   std::filesystem::remove(scene.cloth.obj_path);  // read when the simulation was built
   const std::vector<int>* order = p.sim->core().system().solver_order();
   ASSERT_NE(order, nullptr);
-  expect_operators_match_dense_on<double>(p, p.fixed(), order, false, 1e-12);
-  expect_operators_match_dense_on<float>(p, p.fixed(), order, false, 2e-5);
+  expect_operators_match_dense_on<double>(p, p.pinned(), order, false, 1e-12);
+  expect_operators_match_dense_on<float>(p, p.pinned(), order, false, 2e-5);
   VecX b = p.rhs;
-  zero_fixed(p.fixed(), b);
+  zero_fixed(p.pinned(), b);
   PcgSettings s;
   s.preconditioner = Preconditioner::kSsor;
   s.node_order = order;
   PcgWorkspace ws_double, ws_single;
   VecX x_double = p.guess, x_single = p.guess;
-  ASSERT_TRUE(solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x_double, ws_double).converged);
+  ASSERT_TRUE(solve_pcg(p.matrix(), p.rhs, p.pinned(), s, x_double, ws_double).converged);
   s.ssor_single_precision = true;
-  ASSERT_TRUE(solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x_single, ws_single).converged);
+  ASSERT_TRUE(solve_pcg(p.matrix(), p.rhs, p.pinned(), s, x_single, ws_single).converged);
   EXPECT_EQ(ws_single.ssor_single_fallbacks, 0);
   VecX res;
   p.matrix().multiply(x_single, res);
   res -= b;
-  zero_fixed(p.fixed(), res);
+  zero_fixed(p.pinned(), res);
   EXPECT_LE(res.norm(), s.relative_tolerance * b.norm());
   EXPECT_LE((x_single - x_double).norm(), 1e3 * s.relative_tolerance * x_double.norm());
 }
@@ -301,7 +301,7 @@ double relative_product_error(const SsorOperator& S, const BlockMatrix& A, const
 TEST(Ssor, LayoutFollowsTheMatrix) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(9, 0.02, p);
-  const auto& fixed = p.fixed();
+  const auto& fixed = p.pinned();
   SsorOperator S;
   S.assign(p.matrix(), fixed, 1.2);
   const long scalars = S.num_scalar();
@@ -321,7 +321,7 @@ TEST(Ssor, LayoutFollowsTheMatrix) {
 TEST(Ssor, ConstantBlocksAreReadAgainWhenTheirVersionChanges) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(9, 0.02, p);
-  const auto& fixed = p.fixed();
+  const auto& fixed = p.pinned();
   ASSERT_NE(p.matrix().constant_slots, nullptr);
   SsorOperator S;
   S.assign(p.matrix(), fixed, 1.2);
@@ -368,7 +368,7 @@ TEST(Ssor, ConstantBlocksAreReadAgainWhenTheirVersionChanges) {
 TEST(Ssor, SingularDiagonalBlockFallsBackToItsDiagonal) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(9, 0.02, p);
-  const auto& fixed = p.fixed();
+  const auto& fixed = p.pinned();
   BlockMatrix A = p.matrix();
   const int node = 40;
   ASSERT_FALSE(fixed[node]);
@@ -407,7 +407,7 @@ TEST(Ssor, SingularDiagonalBlockFallsBackToItsDiagonal) {
 TEST(Ssor, EisenstatIteratesEqualExplicitPreconditioner) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(9, 0.02, p);
-  const auto& fixed = p.fixed();
+  const auto& fixed = p.pinned();
   const double omega = 1.4;
   SsorOperator S;
   S.assign(p.matrix(), fixed, omega);
@@ -457,7 +457,7 @@ TEST(Ssor, SolvesToTheTrueResidualInFewerIterationsThanBlockJacobi) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(33, 0.02, p);
   const BlockMatrix& A = p.matrix();
-  std::vector<char> fixed = p.fixed();
+  std::vector<char> fixed = p.pinned();
   PcgWorkspace ws, ws_bj;
   for (int round = 0; round < 2; ++round) {
     if (round == 1) fixed[500] = 1;
@@ -495,7 +495,7 @@ TEST(Ssor, SinglePrecisionSolvesToTheTrueResidual) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(33, 0.02, p);
   const BlockMatrix& A = p.matrix();
-  std::vector<char> fixed = p.fixed();
+  std::vector<char> fixed = p.pinned();
   fixed[500] = 1;
   VecX b = p.rhs;
   zero_fixed(fixed, b);
@@ -535,7 +535,7 @@ TEST(Ssor, SinglePrecisionFallsBackToDoubleWithinTheIterationCap) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(33, 0.02, p);
   const BlockMatrix& A = p.matrix();
-  const std::vector<char>& fixed = p.fixed();
+  const std::vector<char>& fixed = p.pinned();
   VecX b = p.rhs;
   zero_fixed(fixed, b);
   PcgSettings s;
@@ -582,7 +582,7 @@ TEST(Ssor, StopsOnTheTrueResidualWhateverRatioThePreviousSolveLeft) {
   test::ClothStepProblem p;
   test::make_cloth_step_problem(33, 0.02, p);
   const BlockMatrix& A = p.matrix();
-  const std::vector<char>& fixed = p.fixed();
+  const std::vector<char>& fixed = p.pinned();
   PcgSettings s;
   s.relative_tolerance = 1e-7;
   s.preconditioner = Preconditioner::kSsor;
@@ -625,7 +625,7 @@ TEST(Ssor, SinglePrecisionSolvesLeaveTheRatioOfTheirTrueResidual) {
   scene.cloth.material.shear = StressCurve::linear(1e4);
   test::make_cloth_step_problem(scene, 0.02, p);
   const BlockMatrix& A = p.matrix();
-  const std::vector<char>& fixed = p.fixed();
+  const std::vector<char>& fixed = p.pinned();
   PcgSettings s;
   s.relative_tolerance = 1e-6;
   s.preconditioner = Preconditioner::kSsor;
@@ -677,7 +677,7 @@ TEST(Ssor, RejectsRelaxationOutsideTheOpenInterval) {
     s.ssor_omega = omega;
     VecX x = p.guess;
     try {
-      solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x, ws);
+      solve_pcg(p.matrix(), p.rhs, p.pinned(), s, x, ws);
       ADD_FAILURE() << "omega " << omega << " accepted";
     } catch (const std::invalid_argument& e) {
       EXPECT_EQ(
@@ -694,7 +694,7 @@ TEST(Ssor, RejectsRelaxationOutsideTheOpenInterval) {
   }
   s.ssor_omega = 0.0;
   VecX x = p.guess;
-  EXPECT_TRUE(solve_pcg(p.matrix(), p.rhs, p.fixed(), s, x, ws).converged);
+  EXPECT_TRUE(solve_pcg(p.matrix(), p.rhs, p.pinned(), s, x, ws).converged);
 }
 
 }  // namespace

@@ -19,7 +19,7 @@ TEST(SsorRestart, StalledSinglePrecisionRestartsHandOverToDoubleWhateverTheScale
   test::ClothStepProblem p;
   test::make_cloth_step_problem(33, 0.02, p);
   const BlockMatrix& A = p.matrix();
-  const std::vector<char>& fixed = p.fixed();
+  const std::vector<char>& fixed = p.pinned();
   for (double scale : {1.0, 1e10, 1e20}) {
     PcgSettings s;
     s.relative_tolerance = 1e-17;

@@ -28,14 +28,14 @@ Scene sheet(const std::string& method, double dt) {
 /// Gives every free vertex the velocity u along z.
 void set_velocity(Simulation& sim, double u) {
   for (int i = 0; i < sim.core().model().num_vertices(); ++i)
-    if (!sim.core().model().fixed[i]) node(sim.core().state().v, i) = Vec3(0, 0, u);
+    if (!sim.core().model().pinned[i]) node(sim.core().state().v, i) = Vec3(0, 0, u);
 }
 
 /// The speed that gives the free vertices kinetic energy `e`.
 double speed_for(const Simulation& sim, double e) {
   double free_mass = 0;
   for (int i = 0; i < sim.core().model().num_vertices(); ++i)
-    if (!sim.core().model().fixed[i]) free_mass += sim.core().model().mass[i];
+    if (!sim.core().model().pinned[i]) free_mass += sim.core().model().mass[i];
   return std::sqrt(2 * e / free_mass);
 }
 
@@ -54,7 +54,7 @@ TEST(InstabilityRule, EnergyScaleIsInitialEnergyPlusWeightTimesSize) {
   Simulation sim(s);
   double free_mass = 0;
   for (int i = 0; i < sim.core().model().num_vertices(); ++i)
-    if (!sim.core().model().fixed[i]) free_mass += sim.core().model().mass[i];
+    if (!sim.core().model().pinned[i]) free_mass += sim.core().model().mass[i];
   const double kinetic = 0.5 * free_mass * 0.25;
   EXPECT_NEAR(sim.energy_scale(), weight * size + kinetic, 1e-9 * weight * size);
 }

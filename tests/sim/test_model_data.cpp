@@ -32,7 +32,7 @@ Scene contact_scene(const char* method) {
 VecX pushed(const SimulationModel& model, const VecX& v) {
   VecX out = v;
   for (int i = 0; i < model.num_vertices(); ++i)
-    if (!model.cloth->fixed[i]) out[3 * i] += 0.3 * std::sin(0.7 * i);
+    if (!model.cloth->pinned[i]) out[3 * i] += 0.3 * std::sin(0.7 * i);
   return out;
 }
 

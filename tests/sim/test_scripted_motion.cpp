@@ -46,7 +46,7 @@ TEST(ScriptedMotion, MovedPinsArriveOnTheirTargetsAndStop) {
     Simulation sim(scene);
     std::vector<int> pins;
     for (int i = 0; i < sim.core().model().num_vertices(); ++i)
-      if (sim.core().model().fixed[i]) pins.push_back(i);
+      if (sim.core().model().pinned[i]) pins.push_back(i);
     ASSERT_EQ(pins.size(), 2u);
     sim.advance_to(0.03);  // BDF-2 has a history by now
     const Vec3 start = node(sim.core().state().x, pins[0]), other = node(sim.core().state().x, pins[1]);
@@ -68,8 +68,8 @@ TEST(ScriptedMotion, MovedPinsArriveOnTheirTargetsAndStop) {
 // An arrival between steps is rounded to whole steps: the pin arrives at a step's end.
 TEST(ScriptedMotion, PinArrivalIsRoundedToWholeSteps) {
   Simulation sim(sheet("implicit-midpoint"));
-  const int pin = sim.core().model().fixed[0] ? 0 : 4;
-  ASSERT_TRUE(sim.core().model().fixed[pin]);
+  const int pin = sim.core().model().pinned[0] ? 0 : 4;
+  ASSERT_TRUE(sim.core().model().pinned[pin]);
   const Vec3 target = node(sim.core().state().x, pin) + Vec3(0, 0.03, 0);
   sim.move_pins({pin}, {target}, 0.0212);  // two steps
   sim.advance_to(0.02);
@@ -79,7 +79,7 @@ TEST(ScriptedMotion, PinArrivalIsRoundedToWholeSteps) {
 TEST(ScriptedMotion, MovingAVertexThatIsNotPinnedIsRefused) {
   Simulation sim(sheet("implicit-midpoint"));
   int free_vertex = 0;
-  while (sim.core().model().fixed[free_vertex]) ++free_vertex;
+  while (sim.core().model().pinned[free_vertex]) ++free_vertex;
   try {
     sim.move_pins({free_vertex}, {Vec3::Zero()}, 0.01);
     FAIL() << "no error";
@@ -87,7 +87,7 @@ TEST(ScriptedMotion, MovingAVertexThatIsNotPinnedIsRefused) {
     EXPECT_EQ(std::string(e.what()), "move_pins: vertex " + std::to_string(free_vertex) + " is not pinned");
   }
   int pin = 0;
-  while (!sim.core().model().fixed[pin]) ++pin;
+  while (!sim.core().model().pinned[pin]) ++pin;
   EXPECT_THROW(sim.move_pins({pin}, {Vec3::Zero()}, 0.0), InputError);  // arrival not after now
   EXPECT_THROW(sim.move_collider(0, Eigen::Isometry3d::Identity(), 0.01), InputError);  // no collider
 }

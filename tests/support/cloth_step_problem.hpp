@@ -17,7 +17,7 @@ struct ClothStepProblem {
   StepAssembly step;  ///< step.matrix is A
   VecX rhs;           ///< b
   VecX guess;         ///< the integrator's warm start (previous dv, or zero)
-  const std::vector<char>& fixed() const { return sim->core().system().fixed(); }
+  const std::vector<char>& pinned() const { return sim->core().system().pinned(); }
   const BlockMatrix& matrix() const { return step.matrix; }
 };
 

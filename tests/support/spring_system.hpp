@@ -27,8 +27,8 @@ class SpringSystem : public System {
   }
   int num_nodes() const override { return static_cast<int>(mass_.size()); }
   const VecX& node_mass() const override { return mass_; }
-  const std::vector<char>& fixed() const override { return fixed_; }
-  std::vector<char>& fixed() { return fixed_; }
+  const std::vector<char>& pinned() const override { return fixed_; }
+  std::vector<char>& pinned() { return fixed_; }
   const BlockPattern& pattern() const override { return pattern_; }
   void evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluation& out) override {
     if (out.force.size() != x.size() || out.stiffness.pattern != &pattern_) prepare(out);

@@ -15,11 +15,11 @@
 
 namespace weft {
 
-enum class CurveKind { straight, quadratic, cubic, arc };
+enum class CurveKind { kStraight, kQuadratic, kCubic, kArc };
 
 /// The geometry of one panel edge, from `start` to `end` (metres, panel plane).
 struct EdgeCurve {
-  CurveKind kind = CurveKind::straight;
+  CurveKind kind = CurveKind::kStraight;
   Vec2 start = Vec2::Zero();
   Vec2 end = Vec2::Zero();
   /// Bezier control points in panel coordinates: quadratic uses [0], cubic [0] and [1].
