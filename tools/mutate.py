@@ -218,7 +218,7 @@ MUTATIONS = [
       "      if (!s.touching) continue;", "      if (true) continue;",
       "a reused proximity keeps the first search's touching normals", "SelfContact.*"),
     M("still-layer-holds", "contacts", "src/collision/self_contact.cpp",
-      "if (c.still_surface && !c.kinematic && node(v, i).norm() <= kHeldRestSpeed) ++resting[side];",
+      "if (c.still_surface && !c.kinematic && node(v, i).norm() <= tunables_.held_rest_speed) ++resting[side];",
       "if (false) ++resting[side];",
       "no holds against a layer a still collider holds at rest", "SelfContact.*"),
     M("self-culling-contour", "contacts", "src/collision/self_culling.cpp",

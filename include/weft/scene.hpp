@@ -106,6 +106,7 @@ struct Scene {
   /// BDF-2 variants, 0 otherwise).
   std::optional<double> damping_ratio;
   ClothSpec cloth;
+  ContactSettings contacts;        ///< the contact handling's tunables (`contacts`)
   /// Colliders in file order (docs/scene-format.md); those of type "body" point into `bodies`.
   std::vector<ColliderSpec> colliders;
   /// The body colliders' descriptions: the walking mannequin (docs/body.md).

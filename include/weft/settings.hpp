@@ -31,6 +31,26 @@ constexpr int kMultigridMinFreeNodes = 30000;
 /// thickness) in one bounded solve, which lets go of the contacts that would pull by itself.
 enum class ContactSolve { kActiveSet, kBounds };
 
+/// The contact handling's tunables (scene key `contacts`, docs/scene-format.md). The defaults
+/// were chosen on the shipped contact scenes (docs/notes/tunables.md, collisions.md).
+struct ContactSettings {
+  /// Thicknesses within which a node predicted to end near a collider is held in the solve.
+  double hold_margin = 1.1;
+  /// Speed (m/s) below which a node held against a collider counts as immovable to the
+  /// cloth's own contacts.
+  double held_rest_speed = 0.1;
+  int self_passes = 4;        ///< passes of cloth-cloth impulses before impact zones take over
+  int self_zone_rounds = 8;   ///< rounds of rigid impact zones before the zones are stopped
+  /// Time (s, at least a step) over which a repulsion restores the missing thickness.
+  double self_repulsion_time = 0.05;
+  double self_hold_reach = 1.25;  ///< thicknesses out to which resting layers are held in the solve
+  /// Relative speed (m/s) below which layers beyond the thickness are held.
+  double self_hold_reach_speed = 0.5;
+  /// Energy scales the collision fail-safes' work may pile up before a run counts as unstable
+  /// (decides the run's status only, not its motion).
+  double fail_safe_energy_factor = 100;
+};
+
 struct IntegratorSettings {
   Method method = Method::kAlphaFamily;
   double alpha = 0.5;               ///< implicitness (alpha family and BDF-2)
@@ -81,6 +101,12 @@ struct IntegratorSettings {
   double newton_tolerance = 1e-3;
   /// How contacts enter the solve (scene key `integrator.contact_solve`).
   ContactSolve contact_solve = ContactSolve::kActiveSet;
+  /// How many times a step the contact handlers could not make valid is halved.
+  int max_step_halvings = 3;
+  /// The rise of the cloth's energy less the contacts' work, in energy scales, after which a
+  /// run stops stepping early (above the one scale at which it is unstable; scene key
+  /// `integrator.runaway_energy_factor`). Decides where a blown-up run stops, not its motion.
+  double runaway_energy_factor = 1000;
 };
 
 /// "auto", "block-jacobi", "ssor" or "multigrid"; nullopt for an unknown name.

@@ -13,8 +13,6 @@ namespace weft {
 
 namespace {
 
-/// Nodes predicted to end within this multiple of the thickness are held.
-constexpr double kHoldMargin = 1.1;
 // A face's nearest point with a barycentric weight above 1 less this is its vertex, which the
 // node's own contact holds (hold_faces_off_round).
 constexpr double kFaceHoldVertexWeight = 1e-6;
@@ -80,7 +78,7 @@ void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt,
       // the prediction), and a held node that pulls away is released by the integrator.
       const double gap = s.distance + approach;
       node_gap_[i] = gap;
-      if (gap >= kHoldMargin * thickness) continue;
+      if (gap >= tunables_.hold_margin * thickness) continue;
       if (slot[i] >= 0 && gap >= best_gap_[i]) continue;  // another collider is closer
       NodeContact contact;
       contact.node = i;
@@ -157,7 +155,7 @@ void ColliderContacts::hold_faces_off_round(const Collider& c, const VecX& v, do
     SurfacePoint sp;
     Vec3 w;
     c.closest_to_triangle(node(predicted_, t[0]), node(predicted_, t[1]), node(predicted_, t[2]), sp, w);
-    if (sp.distance >= kHoldMargin * thickness || w.maxCoeff() > 1 - kFaceHoldVertexWeight) continue;
+    if (sp.distance >= tunables_.hold_margin * thickness || w.maxCoeff() > 1 - kFaceHoldVertexWeight) continue;
     // Only a face dipping well below its vertices: a finer one, whose vertices' own holds keep
     // it clear of the fail-safe's trigger, is left to them.
     if (std::min({node_gap_[t[0]], node_gap_[t[1]], node_gap_[t[2]]}) - sp.distance < kFaceHoldDip * thickness) continue;
@@ -182,7 +180,7 @@ void ColliderContacts::hold_faces_over_vertices(const Collider& c, const VecX& x
   // fail-safe would otherwise lift such faces after every solve and the solve pull them back,
   // putting elastic energy in at each step.
   const double thickness = c.spec().thickness;
-  face_pokes(c, predicted_, kHoldMargin * thickness, pokes_);
+  face_pokes(c, predicted_, tunables_.hold_margin * thickness, pokes_);
   const Points& start = *c.start_vertices();
   const Points& end = *c.end_vertices();
   const int n = static_cast<int>(fixed_.size());

@@ -9,6 +9,7 @@
 #include "collision/aabb_tree.hpp"
 #include "integrate/contact.hpp"
 #include "weft/collider.hpp"
+#include "weft/settings.hpp"
 
 namespace weft {
 
@@ -112,8 +113,12 @@ class ColliderContacts : public ContactHandler {
   /// Per node: the normal of the collider surface it is held against or was moved off along
   /// (zero where touching() is not set).
   const std::vector<Vec3>& touching_normals() const { return touching_normal_; }
+  /// The tunables it reads (ContactSettings::hold_margin); the defaults until set.
+  void set_tunables(const ContactSettings& s) { tunables_ = s; }
+  const ContactSettings& tunables() const { return tunables_; }
 
  private:
+  ContactSettings tunables_;
   std::vector<Collider*> colliders_;
   const VecX& mass_;
   std::vector<char> fixed_;  ///< pinned (or clamped) nodes, which contacts leave alone

@@ -190,7 +190,7 @@ void SelfContacts::find_proximities(const VecX& x0) {
     return;
   }
   const double h = thickness_;
-  const double reach = kHoldReach * h;  // the repulsions take those within h
+  const double reach = tunables_.self_hold_reach * h;  // the repulsions take those within h
   for_each_candidate(
       x0, x0, 0.5 * reach, reach, false,
       [&](int v, int f, Stencil& s) {
@@ -288,7 +288,7 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
       const int side = j < split ? 0 : 1;
       ++held[side];
       const NodeContact& c = out[contact_slot_[i]];
-      if (c.still_surface && !c.kinematic && node(v, i).norm() <= kHeldRestSpeed) ++resting[side];
+      if (c.still_surface && !c.kinematic && node(v, i).norm() <= tunables_.held_rest_speed) ++resting[side];
     }
     if (held[0] == 0 && held[1] == 0) return -1;
     if (resting[0] == split && held[1] == 0) return 0;
@@ -302,7 +302,7 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
       const int resting = resting_side(s);
       // Beyond the thickness only layers at rest on each other: no collider holds a node of
       // the pair, or it holds one side at rest and none of the other.
-      if (s.gap >= s.distance && (resting == 2 || relative_velocity(s).norm() > kHoldReachSpeed)) continue;
+      if (s.gap >= s.distance && (resting == 2 || relative_velocity(s).norm() > tunables_.self_hold_reach_speed)) continue;
       // A side a collider holds at rest is the surface the other side's nodes are held against
       // (those carrying at least kEdgeHoldWeight of their side's point): a layer lying on a layer
       // that rests on a collider, along the vertex-face and edge-edge pairs between them.
@@ -349,7 +349,7 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
       second_side_[i] = static_cast<char>(side);
     }
   });
-  const double push = 1 / std::max(kRepulsionTime, dt);
+  const double push = 1 / std::max(tunables_.self_repulsion_time, dt);
   // The other side of a pair (the face, or the other edge: weights of magnitudes summing to one)
   // seen from a node on side `first` (the pair's first primitive) with the normal from that
   // side towards the node: its point's velocity, without approach along the normal. The node
@@ -650,7 +650,7 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
   if (held_ && held_->size() == static_cast<size_t>(n))
     for (int i = 0; i < n; ++i) {
       if (!(*held_)[i] || (layered_.size() == static_cast<size_t>(n) && layered_[i])) continue;
-      if (node(u_, i).norm() <= kHeldRestSpeed)
+      if (node(u_, i).norm() <= tunables_.held_rest_speed)
         step_inverse_mass_[i] = 0;
       else if (with_normals)
         step_held_normal_[i] = (*held_normal_)[i];
@@ -671,13 +671,13 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
   resting_normal_.assign(n, Vec3::Zero());
   if (held_in_solve)
     for (int i = 0; i < n; ++i)
-      if (closest_pair_[i] >= 0 && step_inverse_mass_[i] > 0 && node(u_, i).norm() <= kHeldRestSpeed)
+      if (closest_pair_[i] >= 0 && step_inverse_mass_[i] > 0 && node(u_, i).norm() <= tunables_.held_rest_speed)
         resting_normal_[i] = hold_normal_[i];
   find_proximities(x0);
   for (int sweep = 0; sweep < 3; ++sweep) {
     long applied = 0;
     for (const Stencil& s : pairs_)
-      if (s.gap < s.distance && apply(s, (s.distance - s.gap) / std::max(kRepulsionTime, dt), true, true)) ++applied;
+      if (s.gap < s.distance && apply(s, (s.distance - s.gap) / std::max(tunables_.self_repulsion_time, dt), true, true)) ++applied;
     stats_.repulsions += applied;
     if (applied == 0) break;
   }
@@ -691,7 +691,7 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
   // Friction between layers comes with the repulsions, on every pair within the thickness.
   std::fill(changed_.begin(), changed_.end(), 1);
   bool clear = false;
-  for (int pass = 0; pass < kSelfCollisionPasses && !clear; ++pass) {
+  for (int pass = 0; pass < tunables_.self_passes && !clear; ++pass) {
     clear = find_collisions(x0, dt, false) == 0;
     for (const Stencil& s : pairs_) {
       if (apply(s, (2 * s.distance - s.gap) / dt, false, false)) {
@@ -716,8 +716,8 @@ void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/,
     for (int round = 0; !clear; ++round) {
       for (const Stencil& s : pairs_)
         for (int k = 1; k < 4; ++k) merge(s.node[0], s.node[k]);
-      stopped = stopped || round >= kRigidZoneRounds;
-      rigidify_zones(x0, dt, round >= kRigidZoneRounds);
+      stopped = stopped || round >= tunables_.self_zone_rounds;
+      rigidify_zones(x0, dt, round >= tunables_.self_zone_rounds);
       clear = find_collisions(x0, dt, true) == 0;
     }
     std::vector<int> size(n, 0);

@@ -11,17 +11,17 @@
 #include "collision/aabb_tree.hpp"
 #include "collision/self_culling.hpp"
 #include "integrate/contact.hpp"
+#include "weft/settings.hpp"
 #include "weft/statistics.hpp"
 
 namespace weft {
 
-/// Passes of continuous detection and impulses before impact zones take over.
-constexpr int kSelfCollisionPasses = 4;
-/// Rounds of rigid impact zones (each one grows the zones by what is still found) before the
-/// zones are stopped instead (the last resort).
-constexpr int kRigidZoneRounds = 8;
-/// The speed (m/s) below which a node held against a collider counts as immovable.
-constexpr double kHeldRestSpeed = 0.1;
+// The defaults of the tunables SelfContacts reads (ContactSettings, scene key `contacts`),
+// under the names the tests' expectations use.
+constexpr double kHeldRestSpeed = ContactSettings{}.held_rest_speed;
+constexpr double kRepulsionTime = ContactSettings{}.self_repulsion_time;
+constexpr double kHoldReach = ContactSettings{}.self_hold_reach;
+constexpr double kHoldReachSpeed = ContactSettings{}.self_hold_reach_speed;
 /// The most an impulse may change a node's velocity, as a multiple of the change of the
 /// pair's relative velocity it makes (see SelfContacts::apply).
 constexpr double kMaxVelocityChangeRatio = 2;
@@ -30,26 +30,13 @@ constexpr double kCollisionDistanceFraction = 0.1;
 /// The most the fail-safe's impulses may move a node held against a collider into it in one
 /// step, as a fraction of the cloth's thickness (see SelfContacts::set_held_nodes).
 constexpr double kHeldInwardRoom = 0.25;
-/// The time (s) over which a repulsion restores the missing thickness (at least a step): layers
-/// are lifted back within a few dozen 5 ms steps without jumping, and the push's speed does
-/// not grow as the step shrinks.
-constexpr double kRepulsionTime = 0.05;
 
 /// An end of an edge in an edge-edge pair within the thickness is held in the solve when it
 /// carries at least this share of the edge's closest point (1 - s or s).
 constexpr double kEdgeHoldWeight = 0.25;
-/// Pairs are held in the solve out to this multiple of the thickness (at the step's start),
-/// the repulsions acting only within it: a vertex resting just outside the thickness is held
-/// where it is (not drawn in) instead of being left free for the solve to press into the layer
-/// beneath and the repulsions to push back out.
-constexpr double kHoldReach = 1.25;
 /// Holds of pairs beyond the thickness have friction out to this multiple of it (a vertex the
 /// solve put at the thickness ends a hair outside it as often as inside), none beyond.
 constexpr double kFrictionReach = 1.1;
-/// Pairs beyond the thickness are held only when their relative velocity at the step's start
-/// is below this (m/s) and no node of theirs is held by a collider: layers resting on each
-/// other, not layers wound or driven together (a twisted sheet, the walking body's pinch).
-constexpr double kHoldReachSpeed = 0.5;
 /// A node the cloth holds is held against a second pair where that pair's normal and its
 /// first's differ by an angle whose sine is at least this (30 degrees).
 constexpr double kSecondHoldSine = 0.5;
@@ -167,6 +154,9 @@ class SelfContacts : public ContactHandler {
 
   double thickness() const { return thickness_; }
   double friction() const { return friction_; }
+  /// The tunables it reads (ContactSettings' held_rest_speed and self_*); the defaults until set.
+  void set_tunables(const ContactSettings& s) { tunables_ = s; }
+  const ContactSettings& tunables() const { return tunables_; }
   const SelfContactStatistics& statistics() const { return stats_; }
   void set_statistics(const SelfContactStatistics& s) { stats_ = s; }
 
@@ -251,6 +241,7 @@ class SelfContacts : public ContactHandler {
   std::vector<std::array<int, 2>> edge_group_;
   void set_primitive_groups();
   double thickness_, friction_;
+  ContactSettings tunables_;
   AabbTree tree_;
   SelfContactStatistics stats_;
   SelfCulling culling_;

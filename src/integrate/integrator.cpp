@@ -202,7 +202,7 @@ void Integrator::step(State& s, double dt, StepStatistics& stats) {
   d_.last_step_ok = true;
   const long failures = stats.cg_failures;
   single_step(s, dt, stats);
-  if (d_.last_step_ok || d_.retry_depth >= kMaxStepHalvings) return;
+  if (d_.last_step_ok || d_.retry_depth >= c_.settings.max_step_halvings) return;
   stats.cg_failures = failures;  // the attempt taken again does not count
   s = start;  // copied into s's own storage (State: x and v keep theirs)
   d_.pulling = pulling;

@@ -78,8 +78,6 @@ constexpr int kMaxContactPasses = 2;
 /// Times Newton's iterations (IntegratorSettings::newton_iterations) check where the free
 /// nodes now end and add those that would end inside a collider's thickness to the contacts.
 constexpr int kNewtonContactRounds = 2;
-/// How many times a step the contact handlers could not make valid is halved.
-constexpr int kMaxStepHalvings = 3;
 /// A linearised solve (unguarded, holding contacts) whose end, before the fail-safes, holds
 /// more mechanical energy than its start by more than this fraction of the energy scale
 /// (beyond the viscous and contacts' work) overshot up a stiffening stress curve: wrung cloth

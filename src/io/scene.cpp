@@ -156,6 +156,22 @@ void parse_node_list(const Reader& p, const ClothSpec& c, std::vector<int>& vert
 
 RigidMotion parse_motion(const Reader& m);
 
+// The contact handling's tunables (`contacts`, docs/scene-format.md): each within the range
+// its guarantees hold in.
+void parse_contacts(const Reader& r, ContactSettings& c) {
+  r.allow_only({"hold_margin", "held_rest_speed", "self_passes", "self_zone_rounds", "self_repulsion_time",
+                "self_hold_reach", "self_hold_reach_speed", "fail_safe_energy_factor"});
+  if (r.has("hold_margin")) c.hold_margin = r.number_in("hold_margin", 1, 3, false);
+  if (r.has("held_rest_speed")) c.held_rest_speed = r.number_in("held_rest_speed", 0, 10, false);
+  if (r.has("self_passes")) c.self_passes = static_cast<int>(r.integer_in("self_passes", 0, 100));
+  if (r.has("self_zone_rounds")) c.self_zone_rounds = static_cast<int>(r.integer_in("self_zone_rounds", 0, 100));
+  if (r.has("self_repulsion_time")) c.self_repulsion_time = r.number_in("self_repulsion_time", 0, 10, true);
+  if (r.has("self_hold_reach")) c.self_hold_reach = r.number_in("self_hold_reach", 1, 3, false);
+  if (r.has("self_hold_reach_speed")) c.self_hold_reach_speed = r.number_in("self_hold_reach_speed", 0, 10, false);
+  if (r.has("fail_safe_energy_factor"))
+    c.fail_safe_energy_factor = r.number_in("fail_safe_energy_factor", 0, 1e6, true);
+}
+
 void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
   r.allow_only({"mesh", "placement", "material", "bending_model", "pins", "clamps", "initial_velocity", "thickness",
                 "friction", "self_collision"});
@@ -401,7 +417,7 @@ ColliderSpec parse_collider(const nlohmann::json& j, const std::string& file, co
 Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::string& base_dir) {
   Reader r(j, file, "");
   r.allow_only({"weft_scene", "description", "duration", "frame_interval", "gravity", "integrator", "damping",
-                "cloth", "colliders", "patterns", "output"});
+                "cloth", "contacts", "colliders", "patterns", "output"});
   Scene s;
   s.file = file;
   const long version = r.integer("weft_scene");
@@ -415,7 +431,8 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
 
   const Reader in = r.object("integrator");
   in.allow_only({"method", "alpha", "dt", "tolerance", "max_iterations", "preconditioner", "ssor_relaxation",
-                 "ssor_precision", "newton_iterations", "newton_tolerance", "automatic_newton", "contact_solve"});
+                 "ssor_precision", "newton_iterations", "newton_tolerance", "automatic_newton", "contact_solve",
+                 "max_step_halvings", "runaway_energy_factor"});
   std::optional<double> alpha;
   if (in.has("alpha")) alpha = in.number("alpha");
   set_method(s, in.string("method"), alpha, in.where("method"));
@@ -455,12 +472,17 @@ Scene parse_scene(const nlohmann::json& j, const std::string& file, const std::s
       in.fail("contact_solve", "unknown contact solve '" + name + "' (expected active-set or bounds)");
     s.integrator.contact_solve = name == "bounds" ? ContactSolve::kBounds : ContactSolve::kActiveSet;
   }
+  if (in.has("max_step_halvings"))
+    s.integrator.max_step_halvings = static_cast<int>(in.integer_in("max_step_halvings", 0, 10));
+  if (in.has("runaway_energy_factor"))
+    s.integrator.runaway_energy_factor = in.number_in("runaway_energy_factor", 1, 1e9, true);
   if (r.has("damping")) {
     const Reader d = r.object("damping");
     d.allow_only({"ratio"});
     s.damping_ratio = d.number_in("ratio", 0, 10, false);
   }
   parse_cloth(r.object("cloth"), base_dir, s.cloth);
+  if (r.has("contacts")) parse_contacts(r.object("contacts"), s.contacts);
   if (r.has("colliders")) {
     const auto& c = r.raw("colliders");
     if (!c.is_array()) r.fail("colliders", "expected an array, got " + json_util::describe(c));

@@ -284,6 +284,9 @@ std::unique_ptr<SimulationData> make_data(const SimulationModel& M) {
     }
   s.t = 0;
   set_energy_reference(M, D);
+  // The scene's contact tunables (`contacts`), before the first step.
+  if (D.contacts) D.contacts->set_tunables(scene.contacts);
+  if (D.self_contacts) D.self_contacts->set_tunables(scene.contacts);
   return data;
 }
 
@@ -344,7 +347,7 @@ void advance(const SimulationModel& M, SimulationData& D, double t, bool stop_on
   // A step at a time, looking at the energy after each: first the kinetic energy alone (one
   // pass over the velocities), and the whole balance only when that alone is past the limit
   // (a long free fall gains kinetic energy that its lost height balances).
-  const double limit = kRunawayEnergyFactor * D.energy_scale;
+  const double limit = M.scene.integrator.runaway_energy_factor * D.energy_scale;
   while (s.t < t - slack) {
     // The last step ends at t itself, as a single call to t would (the steps keep their own
     // clock either way).
@@ -573,6 +576,24 @@ std::uint64_t fingerprint(const SimulationModel& M) {
   }
   if (!is.backward_euler_newton) w.i64(-1);  // (likewise absent in the default)
   if (is.contact_solve != ContactSolve::kActiveSet) w.i64(-2 - static_cast<int>(is.contact_solve));  // (likewise)
+  if (is.max_step_halvings != IntegratorSettings{}.max_step_halvings) {  // (likewise)
+    w.i64(-5);
+    w.i64(is.max_step_halvings);
+  }
+  // The contact tunables that change the motion (not fail_safe_energy_factor), likewise
+  // absent at their defaults.
+  const ContactSettings& cs = M.scene.contacts;
+  const ContactSettings defaults;
+  const std::vector<double> contact_tunables = {cs.hold_margin, cs.held_rest_speed, double(cs.self_passes),
+                                                double(cs.self_zone_rounds), cs.self_repulsion_time,
+                                                cs.self_hold_reach, cs.self_hold_reach_speed};
+  const std::vector<double> contact_defaults = {
+      defaults.hold_margin,         defaults.held_rest_speed, double(defaults.self_passes), double(defaults.self_zone_rounds),
+      defaults.self_repulsion_time, defaults.self_hold_reach, defaults.self_hold_reach_speed};
+  if (contact_tunables != contact_defaults) {
+    w.i64(-6);
+    for (double d : contact_tunables) w.f64(d);
+  }
   w.f64(M.system.damping.damping_ratio);
   w.f64(M.system.damping.reference_dt);
   for (const Material& m : M.cloth->materials)

@@ -89,13 +89,10 @@ std::unique_ptr<SimulationModel> build_model(const Scene& scene, const SetupProg
 std::unique_ptr<SimulationData> make_data(const SimulationModel& model);
 /// Advances `data` to time t (s), stopping pins on their targets when they arrive. With
 /// `stop_on_runaway`, a fixed-step method stops early, after the step at which the cloth's
-/// energy less the contacts' work rose by over kRunawayEnergyFactor energy scales (a blow-up
+/// energy less the contacts' work rose by over IntegratorSettings::runaway_energy_factor energy scales (a blow-up
 /// whose later steps could each take far longer than a frame: the caller's check of the state
 /// then finds it unstable).
 void advance(const SimulationModel& model, SimulationData& data, double t, bool stop_on_runaway = false);
-/// The rise, in energy scales, at which advance(..., stop_on_runaway) stops early: far beyond
-/// the one scale at which a run is unstable, so a stop is never what makes a run unstable.
-inline constexpr double kRunawayEnergyFactor = 1000;
 /// Sets the velocity of pinned vertex i (and its BDF-2 history, as if it had moved so before).
 void set_pin_velocity(const SimulationModel& model, SimulationData& data, int i, const Vec3& v);
 /// Makes `data`'s state the reference of the energy accounting.

@@ -132,13 +132,6 @@ std::uint64_t SimulationCore::fingerprint() const { return weft::fingerprint(*m_
 void SimulationCore::save(BinaryWriter& out) const { save_data(*m_, *data_, out); }
 void SimulationCore::restore(BinaryReader& in) { restore_data(*m_, *data_, in); }
 
-namespace {
-/// How far the energy the collision fail-safes put in may pile up, in energy scales, before a
-/// run counts as unstable: the corrections of layered cloth put in many scales over a run that
-/// the steps take out again (docs/collisions.md), a runaway far more.
-constexpr double kFailSafeEnergyFactor = 100;
-}  // namespace
-
 RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResult* resumed) {
   const auto start = Clock::now();
   RunResult res;
@@ -154,6 +147,9 @@ RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResul
   const long frames = std::lround(std::floor(sc.duration / sc.frame_interval + 1e-9));
   // The reference state's energy: a resumed run compares with the energy its first part did.
   const double total0 = sim.initial_total_energy();
+  // The corrections of layered cloth put in many energy scales over a run that the steps take
+  // out again (docs/collisions.md), a runaway far more.
+  const double fail_safe_factor = sc.contacts.fail_safe_energy_factor;
   for (long f = static_cast<long>(res.energy.size()); f <= frames; ++f) {
     // A step whose energy ran away ends the frame early, and the check below stops the run
     // there: a cloth blowing up can make each later step's collision handling take minutes.
@@ -170,13 +166,13 @@ RunResult run_simulation(Simulation& sim, const RunCallbacks& cb, const RunResul
                     e.contact_work != 0 ? " less the contacts' work" : "", e.total() - e.contact_work - total0,
                     sim.energy_scale());
       problem = buf;
-    } else if (e.total() - (e.contact_work - e.fail_safe_work) - total0 > kFailSafeEnergyFactor * sim.energy_scale()) {
+    } else if (e.total() - (e.contact_work - e.fail_safe_work) - total0 > fail_safe_factor * sim.energy_scale()) {
       // The fail-safes' corrections put energy in that the next steps mostly take out again;
       // where it piles up instead, they are running away.
       char buf[240];
       std::snprintf(buf, sizeof buf,
-                    "the collision fail-safes put in %.3g J that stayed, over %.0f times the scene's energy scale of %.3g J",
-                    e.total() - (e.contact_work - e.fail_safe_work) - total0, kFailSafeEnergyFactor, sim.energy_scale());
+                    "the collision fail-safes put in %.3g J that stayed, over %.3g times the scene's energy scale of %.3g J",
+                    e.total() - (e.contact_work - e.fail_safe_work) - total0, fail_safe_factor, sim.energy_scale());
       problem = buf;
     }
     if (!problem.empty()) {

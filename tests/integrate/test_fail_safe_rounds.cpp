@@ -76,11 +76,14 @@ struct TwoNodes {
   SpringSystem sys{VecX::Constant(2, 1.0), {Spring{0, 1, 100.0, 1.0, 0.0}}};
   State s;
   StepStatistics st;
-  TwoNodes(std::vector<ContactHandler*> handlers, double height0 = 0.1) {
+  TwoNodes(std::vector<ContactHandler*> handlers, double height0 = 0.1,
+           int max_step_halvings = IntegratorSettings{}.max_step_halvings) {
     s.x = VecX::Zero(6);
     s.x << 0, height0, 0, 1, 0.1, 0;
     s.v = VecX::Zero(6);
-    Integrator in(sys, backward_euler());
+    IntegratorSettings settings = backward_euler();
+    settings.max_step_halvings = max_step_halvings;
+    Integrator in(sys, settings);
     for (ContactHandler* h : handlers) in.add_contact_handler(h);
     in.step(s, 0.01, st);
   }
@@ -116,10 +119,23 @@ TEST(FailSafeRounds, AStepAFailSafeKeepsUndoingIsReportedInvalidAndHalved) {
   // fail-safe: no crossing of the cloth with itself); the step is halved as often as it may be
   // and the last attempt stands.
   EXPECT_GT(st.failed_contact_steps, 0);
-  EXPECT_EQ(st.halved_steps, (1 << kMaxStepHalvings) - 1);
-  EXPECT_EQ(floor.calls, (kFailSafeRounds + 1) * ((2 << kMaxStepHalvings) - 1));
+  EXPECT_EQ(st.halved_steps, (1 << IntegratorSettings{}.max_step_halvings) - 1);
+  EXPECT_EQ(floor.calls, (kFailSafeRounds + 1) * ((2 << IntegratorSettings{}.max_step_halvings) - 1));
   EXPECT_EQ(pusher.calls, floor.calls);
   EXPECT_EQ(x[1], -0.01);
+}
+
+TEST(FailSafeRounds, AnInvalidStepIsHalvedAsOftenAsTheSettingAllows) {
+  // integrator.max_step_halvings: each attempt that stays invalid is taken again as two halves
+  // down to that depth, so a step always undone takes 2^h - 1 halvings and 2^(h+1) - 1 attempts.
+  for (const int h : {0, 1, 5}) {
+    SCOPED_TRACE(h);
+    Floor floor;
+    Pusher pusher(true);
+    const TwoNodes run({&floor, &pusher}, 0.1, h);
+    EXPECT_EQ(run.st.halved_steps, (1 << h) - 1);
+    EXPECT_EQ(floor.calls, (kFailSafeRounds + 1) * ((2 << h) - 1));
+  }
 }
 
 TEST(FailSafeRounds, OneFailSafeAloneRunsOnce) {

@@ -1,13 +1,20 @@
 // Scene keys that are accepted must have their documented effect (docs/scene-format.md):
 // initial_velocity, placement, uv_scale, the best-fit-plane pattern of an OBJ without
-// texture coordinates, and the ranges of pins and the damping ratio at their edges.
+// texture coordinates, the ranges of pins and the damping ratio at their edges, and the contact
+// tunables (ContactKeys).
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <string>
+#include <vector>
 
+#include "collision/colliders.hpp"
+#include "collision/self_contact.hpp"
+#include "sim/model_data.hpp"
+#include "sim/simulation_core.hpp"
 #include "support/command.hpp"
 #include "weft/error.hpp"
-#include "sim/simulation_core.hpp"
 
 using namespace weft;
 
@@ -284,4 +291,165 @@ TEST_F(SceneKeys, ContactSolveIsActiveSetOrBoundsAndReachesTheIntegratorAndTheFi
   EXPECT_NE(parse_error(j).find("key integrator.contact_solve: unknown contact solve 'mprgp' (expected active-set or bounds)"),
             std::string::npos)
       << parse_error(j);
+}
+
+// The contact tunables as scene keys (`contacts`, and the integrator's max_step_halvings and
+// runaway_energy_factor): each read at the edges of its range and refused beyond with a message
+// naming the key and the value, each reaching the handler or the check that reads it, and those
+// that change the motion in the checkpoint fingerprint.
+namespace {
+
+// A sheet over a sphere, self-collision on: both contact handlers are built.
+nlohmann::json contact_scene() {
+  return nlohmann::json::parse(R"({
+    "weft_scene": 1, "duration": 0.05, "frame_interval": 0.01,
+    "integrator": {"method": "implicit-midpoint", "dt": 0.01},
+    "cloth": {"mesh": {"grid": {"size": [0.4, 0.4], "vertices": [5, 5]}},
+              "placement": {"rotation_deg": [-90, 0, 0], "translation": [-0.2, 0.35, 0.2]}},
+    "colliders": [{"type": "sphere", "centre": [0, 0.1, 0], "radius": 0.2}]
+  })");
+}
+
+struct Key {
+  const char* group;  ///< "contacts" or "integrator"
+  const char* name;
+  nlohmann::json low, high;            ///< the range's edges (accepted; low too where closed)
+  bool open_low;
+  nlohmann::json below, above;         ///< just beyond them (refused)
+  const char* range;                   ///< as the message writes it
+  nlohmann::json changed;              ///< a value other than the default
+  std::function<double(const Scene&)> field;
+  bool motion;                         ///< changes the motion (so the fingerprint)
+};
+
+std::vector<Key> keys() {
+  return {
+      {"contacts", "hold_margin", 1, 3, false, 0.99, 3.01, "[1.0, 3.0]", 2.0,
+       [](const Scene& s) { return s.contacts.hold_margin; }, true},
+      {"contacts", "held_rest_speed", 0, 10, false, -0.01, 10.5, "[0.0, 10.0]", 0.3,
+       [](const Scene& s) { return s.contacts.held_rest_speed; }, true},
+      {"contacts", "self_passes", 0, 100, false, -1, 101, "[0, 100]", 2,
+       [](const Scene& s) { return s.contacts.self_passes; }, true},
+      {"contacts", "self_zone_rounds", 0, 100, false, -1, 101, "[0, 100]", 3,
+       [](const Scene& s) { return s.contacts.self_zone_rounds; }, true},
+      {"contacts", "self_repulsion_time", 0, 10, true, 0.0, 10.5, "(0.0, 10.0]", 0.2,
+       [](const Scene& s) { return s.contacts.self_repulsion_time; }, true},
+      {"contacts", "self_hold_reach", 1, 3, false, 0.99, 3.01, "[1.0, 3.0]", 1.5,
+       [](const Scene& s) { return s.contacts.self_hold_reach; }, true},
+      {"contacts", "self_hold_reach_speed", 0, 10, false, -0.01, 10.5, "[0.0, 10.0]", 0.1,
+       [](const Scene& s) { return s.contacts.self_hold_reach_speed; }, true},
+      {"contacts", "fail_safe_energy_factor", 0, 1e6, true, 0.0, 2e6, "(0.0, 1000000.0]", 10.0,
+       [](const Scene& s) { return s.contacts.fail_safe_energy_factor; }, false},
+      {"integrator", "max_step_halvings", 0, 10, false, -1, 11, "[0, 10]", 5,
+       [](const Scene& s) { return s.integrator.max_step_halvings; }, true},
+      {"integrator", "runaway_energy_factor", 1, 1e9, true, 1.0, 2e9, "(1.0, 1000000000.0]", 50.0,
+       [](const Scene& s) { return s.integrator.runaway_energy_factor; }, false},
+  };
+}
+
+}  // namespace
+
+TEST(ContactKeys, EachIsReadAtTheEdgesOfItsRangeAndRefusedBeyondThemNamingTheKeyAndValue) {
+  for (const Key& k : keys()) {
+    SCOPED_TRACE(k.name);
+    nlohmann::json j = contact_scene();
+    j[k.group][k.name] = k.high;
+    EXPECT_EQ(k.field(parse(j)), k.high.get<double>());
+    if (!k.open_low) {
+      j[k.group][k.name] = k.low;
+      EXPECT_EQ(k.field(parse(j)), k.low.get<double>());
+    }
+    for (const nlohmann::json& bad : {k.below, k.above}) {
+      j[k.group][k.name] = bad;
+      const std::string expected = std::string("scene.json: key ") + k.group + "." + k.name + ": value " + bad.dump() +
+                                   " is out of range " + k.range;
+      EXPECT_NE(parse_error(j).find(expected), std::string::npos) << parse_error(j) << "\nexpected: " << expected;
+    }
+  }
+  nlohmann::json j = contact_scene();
+  j["contacts"]["hold_margins"] = 1.1;
+  EXPECT_NE(parse_error(j).find("hold_margins"), std::string::npos) << parse_error(j);
+}
+
+TEST(ContactKeys, TheDefaultsAreTheSettingsDefaultsAndWrittenOutGiveTheSameFingerprint) {
+  const Scene plain = parse(contact_scene());
+  const ContactSettings d;
+  EXPECT_EQ(plain.contacts.hold_margin, d.hold_margin);
+  EXPECT_EQ(plain.contacts.self_passes, d.self_passes);
+  nlohmann::json j = contact_scene();
+  j["contacts"] = {{"hold_margin", d.hold_margin},
+                   {"held_rest_speed", d.held_rest_speed},
+                   {"self_passes", d.self_passes},
+                   {"self_zone_rounds", d.self_zone_rounds},
+                   {"self_repulsion_time", d.self_repulsion_time},
+                   {"self_hold_reach", d.self_hold_reach},
+                   {"self_hold_reach_speed", d.self_hold_reach_speed},
+                   {"fail_safe_energy_factor", d.fail_safe_energy_factor}};
+  j["integrator"]["max_step_halvings"] = IntegratorSettings{}.max_step_halvings;
+  j["integrator"]["runaway_energy_factor"] = IntegratorSettings{}.runaway_energy_factor;
+  EXPECT_EQ(Simulation(parse(j)).fingerprint(), Simulation(plain).fingerprint());
+}
+
+TEST(ContactKeys, EachReachesTheCodeThatReadsItAndThoseThatChangeTheMotionTheFingerprint) {
+  const Simulation plain(parse(contact_scene()));
+  for (const Key& k : keys()) {
+    SCOPED_TRACE(k.name);
+    nlohmann::json j = contact_scene();
+    j[k.group][k.name] = k.changed;
+    const Simulation sim(parse(j));
+    const double value = k.changed.get<double>();
+    const SimulationData& data = sim.core().simulation_data();
+    ASSERT_NE(data.contacts, nullptr);
+    ASSERT_NE(data.self_contacts, nullptr);
+    const ContactSettings& colliders = data.contacts->tunables();
+    const ContactSettings& self = data.self_contacts->tunables();
+    const std::string name = k.name;
+    // Read back from the handler, the integrator or the scene the run's checks read.
+    if (name == "hold_margin") EXPECT_EQ(colliders.hold_margin, value);
+    if (name == "held_rest_speed") EXPECT_EQ(self.held_rest_speed, value);
+    if (name == "self_passes") EXPECT_EQ(self.self_passes, value);
+    if (name == "self_zone_rounds") EXPECT_EQ(self.self_zone_rounds, value);
+    if (name == "self_repulsion_time") EXPECT_EQ(self.self_repulsion_time, value);
+    if (name == "self_hold_reach") EXPECT_EQ(self.self_hold_reach, value);
+    if (name == "self_hold_reach_speed") EXPECT_EQ(self.self_hold_reach_speed, value);
+    if (name == "fail_safe_energy_factor") EXPECT_EQ(sim.scene().contacts.fail_safe_energy_factor, value);
+    if (name == "max_step_halvings") EXPECT_EQ(sim.core().integrator().settings().max_step_halvings, value);
+    if (name == "runaway_energy_factor") EXPECT_EQ(sim.scene().integrator.runaway_energy_factor, value);
+    // A checkpoint made with one value resumes under another only where the motion is the same.
+    if (k.motion) {
+      EXPECT_NE(sim.fingerprint(), plain.fingerprint());
+    } else {
+      EXPECT_EQ(sim.fingerprint(), plain.fingerprint());
+    }
+  }
+}
+
+TEST(ContactKeys, ALongerRepulsionTimePushesLayersApartMoreSlowly) {
+  // Two parallel triangles 1 mm apart, within the 3 mm thickness: the upper one's nodes are
+  // held against the lower face and pushed out over the repulsion time, so the push per step
+  // (each step the missing thickness times dt over it) is inversely proportional to it.
+  const std::vector<std::array<int, 3>> triangles = {{0, 1, 2}, {3, 4, 5}};
+  VecX x(18);
+  const double up = 0.001;
+  const Vec3 corners[3] = {Vec3(0, 0, 0), Vec3(0.1, 0, 0), Vec3(0, 0, -0.1)};
+  for (int k = 0; k < 3; ++k) {
+    node(x, k) = corners[k];
+    node(x, 3 + k) = corners[k] * 0.3 + Vec3(0.01, up, -0.01);
+  }
+  const VecX mass = VecX::Constant(6, 1e-3);
+  const double dt = 0.005, thickness = 0.003;
+  const auto push = [&](double repulsion_time) {
+    SelfContacts self(triangles, x, mass, std::vector<char>(6, 0), thickness, 0.3);
+    ContactSettings t;
+    t.self_repulsion_time = repulsion_time;
+    self.set_tunables(t);
+    std::vector<NodeContact> out;
+    self.detect(x, VecX::Zero(18), 0, dt, out);
+    double largest = 0;
+    for (const NodeContact& c : out) largest = std::max(largest, std::abs(c.normal_displacement));
+    return largest;
+  };
+  const double quick = push(0.05), slow = push(0.2);
+  ASSERT_GT(quick, 0) << "the layers are held and pushed apart";
+  EXPECT_NEAR(slow, quick * 0.05 / 0.2, 1e-12 * quick);
 }

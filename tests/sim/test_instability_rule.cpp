@@ -116,9 +116,29 @@ TEST(InstabilityRule, ABlowUpEndsItsFrameAtTheStepItRanAway) {
   // end, where the steps would have taken it on.
   EXPECT_NE(r.message.find(" rose by "), std::string::npos) << r.message;
   const EnergyRow e = sim.energies();
-  EXPECT_GT(e.total() - sim.initial_total_energy(), kRunawayEnergyFactor * sim.energy_scale());
+  EXPECT_GT(e.total() - sim.initial_total_energy(), s.integrator.runaway_energy_factor * sim.energy_scale());
   // Stepped the same way without the stop, the state at that time is the same.
   Simulation plain(s);
   plain.advance_to(r.unstable_time);
   EXPECT_EQ(plain.core().state().x, sim.core().state().x);
+}
+
+TEST(InstabilityRule, ASmallerRunawayFactorStopsTheBlowUpNoLaterPastItsOwnRise) {
+  // The scene's integrator.runaway_energy_factor sets the rise at which the steps stop.
+  Scene s = sheet("forward-euler", 0.001);
+  s.cloth.material.weft = s.cloth.material.warp = StressCurve::linear(2000);
+  s.frame_interval = 0.1;
+  const auto stop = [&s](double factor, double& rise_in_scales) {
+    s.integrator.runaway_energy_factor = factor;
+    Simulation sim(s);
+    const RunResult r = run_simulation(sim);
+    EXPECT_EQ(r.status, "unstable");
+    rise_in_scales = (sim.energies().total() - sim.initial_total_energy()) / sim.energy_scale();
+    return r.unstable_time;
+  };
+  double rise_low = 0, rise_high = 0;
+  const double t_low = stop(10, rise_low), t_high = stop(1000, rise_high);
+  EXPECT_GT(rise_low, 10);
+  EXPECT_GT(rise_high, 1000);
+  EXPECT_LE(t_low, t_high);
 }
