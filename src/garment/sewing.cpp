@@ -1,14 +1,19 @@
 #include "weft/garment/sewing.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <memory>
 #include <numeric>
+#include <stdexcept>
 
+#include "collision/cloth_contacts.hpp"
+#include "collision/colliders.hpp"
+#include "integrate/integrator.hpp"
+#include "system/cloth.hpp"
 #include "weft/error.hpp"
 #include "weft/scene.hpp"
-#include "sim/simulation_core.hpp"
 
 namespace weft {
 namespace {
@@ -107,38 +112,72 @@ SewnGarment weld_seams(const PlacedGarment& placed, const Points& positions, con
   return out;
 }
 
+namespace {
+/// Backward Euler at the sewing's step, quasi-static: the velocities are reset after every
+/// interval, so neither the halving of solves that overshoot nor the automatic Newton
+/// iterations (each weighed against a motion's energy) apply. The energy guard is off, so the
+/// integrator needs no energy scale.
+IntegratorSettings sewing_integrator(const SewingOptions& options) {
+  const MethodInfo& method = *find_method("backward-euler");
+  IntegratorSettings settings;
+  settings.method = method.method;
+  settings.alpha = method.fixed_alpha.value_or(method.default_alpha);
+  settings.guard = method.guard;
+  settings.dt = options.dt_s;
+  settings.halve_overshooting_solves = false;
+  settings.backward_euler_newton = false;
+  return settings;
+}
+
+/// Throws std::invalid_argument for options the sewing cannot take (they come from code).
+void check_options(const SewingOptions& o) {
+  auto positive = [](double v) { return v > 0 && std::isfinite(v); };
+  if (!positive(o.dt_s) || !positive(o.interval_s) || !positive(o.max_time_s))
+    throw std::invalid_argument("sew_garment: the step, the interval and the sewing time must be positive");
+  const double steps = o.interval_s / o.dt_s;
+  if (steps < 1 - 1e-9 || std::abs(steps - std::round(steps)) > 1e-6 * steps)
+    throw std::invalid_argument("sew_garment: the interval must be a whole number of steps");
+}
+}  // namespace
+
 SewnGarment sew_garment(const PlacedGarment& placed, const BindBody& body, const SewingOptions& options,
                         const std::function<void(double, double)>& progress) {
-  Scene scene;
-  scene.description = "sewing";
-  scene.gravity = Vec3::Zero();
-  set_method(scene, "backward-euler", std::nullopt, "sewing");
-  scene.integrator.dt = options.dt_s;
-  scene.integrator.halve_overshooting_solves = false;  // quasi-static: velocities reset below
-  scene.integrator.backward_euler_newton = false;      // likewise: the seams' pull is not a motion's energy
-  scene.frame_interval = options.interval_s;
-  scene.duration = options.max_time_s;
-  scene.damping_ratio = 0.0;
-  scene.cloth.mesh = std::make_shared<const TriMesh>(placed.mesh);
-  scene.cloth.material = options.material;
-  if (!options.panel_materials.empty())
-    scene.cloth.triangle_materials = {options.panel_materials, placed.panel_of_triangle};
-  scene.cloth.self_collision = options.self_collision;
-  for (const auto& p : placed.seam_pairs) scene.cloth.seams.push_back({p[0], p[1], options.seam_stiffness_N_m});
-  scene.bodies.push_back(body.spec);
-  scene.bodies.back().bind_pose_hold = std::max(body.spec.bind_pose_hold, options.max_time_s + 1.0);  // still while sewing
-  ColliderSpec collider;
-  collider.shape = ColliderShape::kBody;
-  collider.name = "body";
-  collider.body = 0;
-  collider.thickness = options.body_thickness_m;
-  collider.friction = 0.0;  // seams slide over the body while they close
-  scene.colliders.push_back(collider);
-  validate_timing(scene, "sewing");
+  check_options(options);
+  // The cloth: the placed mesh, each panel in its fabric, its seam pairs zero-length springs;
+  // no gravity, no pins, no adaptive damping.
+  std::vector<Seam> seams;
+  for (const auto& p : placed.seam_pairs) seams.push_back({p[0], p[1], options.seam_stiffness_N_m});
+  const TriangleMaterials materials = options.panel_materials.empty()
+                                          ? TriangleMaterials{{options.material}, {}}
+                                          : TriangleMaterials{options.panel_materials, placed.panel_of_triangle};
+  const ClothModel cloth = build_cloth_model(placed.mesh, materials, Vec3::Zero(), {}, BendingModel::kHinge, seams);
+  ClothSystem system(cloth, DampingSettings{});
+  Integrator integrator(system, sewing_integrator(options));
+  // The body standing still in its bind pose, a closed mesh collider without friction (the
+  // seams slide over it while they close).
+  ColliderSpec spec;
+  spec.shape = ColliderShape::kBody;
+  spec.name = "body";
+  spec.thickness = options.body_thickness_m;
+  spec.friction = 0.0;
+  std::vector<std::unique_ptr<Collider>> colliders;
+  colliders.push_back(make_mesh_collider(
+      spec, body.triangles, [&body](double, Points& out) { out = body.positions; }, true));
+  // The contacts as a scene's cloth has them: its default thickness and friction between layers,
+  // the two sides of a seam one point.
+  const ClothSpec defaults;
+  const std::vector<char> held(cloth.num_vertices(), 0);  // nothing pinned
+  const ClothContacts contacts =
+      add_cloth_contacts(integrator, colliders, cloth.mass, held, cloth.mesh.triangles, cloth.initial_positions(),
+                         {options.self_collision, defaults.thickness, defaults.friction},
+                         seam_groups(cloth.num_vertices(), seams));
+  State state;
+  state.x = cloth.initial_positions();
+  state.v = VecX::Zero(state.x.size());
+  StepStatistics statistics;
 
   SewnGarment out;
   out.largest_gap_placed_m = largest_seam_gap(placed.mesh.positions, placed.seam_pairs);
-  Simulation sim(scene);
   double gap = out.largest_gap_placed_m;
   const int intervals = static_cast<int>(std::ceil(options.max_time_s / options.interval_s - 1e-9));
   // Stops when the gap is small, or when it has not shrunk by a tenth over the last 0.2 s.
@@ -146,17 +185,17 @@ SewnGarment sew_garment(const PlacedGarment& placed, const BindBody& body, const
   const size_t window = static_cast<size_t>(std::max(1.0, std::round(0.2 / options.interval_s)));
   for (int k = 1; k <= intervals && gap > options.gap_m; ++k) {
     if (history.size() > window && gap > 0.9 * history[history.size() - 1 - window]) break;
-    sim.advance_to(k * options.interval_s);
-    sim.core().state().v.setZero();  // quasi-static: the seams close without swinging
-    gap = largest_seam_gap(as_points(sim.core().state().x), placed.seam_pairs);
+    integrator.advance(state, k * options.interval_s, statistics);
+    state.v.setZero();  // quasi-static: the seams close without swinging
+    gap = largest_seam_gap(as_points(state.x), placed.seam_pairs);
     history.push_back(gap);
     out.sewing_time_s = k * options.interval_s;
     if (progress) progress(out.sewing_time_s, gap);
   }
-  out.steps = static_cast<int>(sim.core().statistics().steps);
+  out.steps = static_cast<int>(statistics.steps);
   out.largest_gap_m = gap;
   out.converged = gap <= options.gap_m;
-  out.sewn_positions = as_points(sim.core().state().x);
+  out.sewn_positions = as_points(state.x);
   out.weld_gap_m = options.weld_gap_m;
   for (size_t q = 0; q < placed.seam_pairs.size() && q < placed.seam_stitch.size(); ++q) {
     const size_t s = static_cast<size_t>(placed.seam_stitch[q]);

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "collision/clamps.hpp"
+#include "collision/cloth_contacts.hpp"
 #include "collision/colliders.hpp"
 #include "collision/self_contact.hpp"
 #include "sim/checkpoint.hpp"
@@ -199,18 +200,7 @@ std::unique_ptr<SimulationModel> build_model(const Scene& scene, const SetupProg
   M.held = M.cloth->pinned;
   for (const std::vector<int>& group : M.clamp_groups)
     for (int i : group) M.held[i] = 1;
-  if (!scene.cloth.seams.empty()) {
-    // The two sides of a seam are one point of the cloth to come: they do not push apart.
-    std::vector<int> group(M.num_vertices());
-    std::iota(group.begin(), group.end(), 0);
-    auto find = [&group](int i) {
-      while (group[i] != i) i = group[i] = group[group[i]];
-      return i;
-    };
-    for (const Seam& seam : scene.cloth.seams) group[std::max(find(seam.a), find(seam.b))] = std::min(find(seam.a), find(seam.b));
-    for (int i = 0; i < M.num_vertices(); ++i) group[i] = find(i);
-    M.seam_groups = std::move(group);
-  }
+  M.seam_groups = seam_groups(M.num_vertices(), scene.cloth.seams);
   M.driving_speed = driving_speed(M);
   stage("done", 1.0);
   return model;
@@ -255,20 +245,11 @@ std::unique_ptr<SimulationData> make_data(const SimulationModel& M) {
     for (const ClampSpec& c : scene.cloth.clamps) motions.push_back(c.motion);
     D.clamps = std::make_unique<Clamps>(M.clamp_groups, std::move(motions), cloth.initial_positions(), cloth.mass);
   }
-  if (!D.colliders.empty()) {
-    std::vector<Collider*> list;
-    for (const auto& c : D.colliders) list.push_back(c.get());
-    D.contacts = std::make_unique<ColliderContacts>(std::move(list), cloth.mass, M.held, cloth.mesh.triangles);
-    integrator.add_contact_handler(D.contacts.get());
-  }
-  // Cloth-cloth contact after the colliders': its fail-safe sees their corrections.
-  if (scene.cloth.self_collision) {
-    D.self_contacts = std::make_unique<SelfContacts>(cloth.mesh.triangles, cloth.initial_positions(), cloth.mass,
-                                                     M.held, scene.cloth.thickness, scene.cloth.friction);
-    if (D.contacts) D.self_contacts->set_held_nodes(&D.contacts->touching(), &D.contacts->touching_normals());
-    if (!M.seam_groups.empty()) D.self_contacts->set_vertex_groups(M.seam_groups);
-    integrator.add_contact_handler(D.self_contacts.get());
-  }
+  ClothContacts contacts = add_cloth_contacts(
+      integrator, D.colliders, cloth.mass, M.held, cloth.mesh.triangles, cloth.initial_positions(),
+      {scene.cloth.self_collision, scene.cloth.thickness, scene.cloth.friction}, M.seam_groups);
+  D.contacts = std::move(contacts.colliders);
+  D.self_contacts = std::move(contacts.self);
   // The clamps last: their contacts join the others', and they put their vertices on their
   // paths after every other correction.
   if (D.clamps) integrator.add_contact_handler(D.clamps.get());
