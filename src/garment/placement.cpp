@@ -237,20 +237,74 @@ double largest_seam_gap(const Points& positions, const std::vector<std::array<in
   return gap;
 }
 
-PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const BindBody& body,
-                            const PlacementOptions& options) {
-  const int np = static_cast<int>(pattern.panels.size());
+namespace {
+
+/// A panel as the pattern file places it.
+struct FilePanel {
+  Mat3 R;
+  Vec3 t, centroid, outward;
+  BodyPart part;
+};
+
+/// A point of a panel, as the file places the panel.
+Vec3 file_point(const FilePanel& f, const Vec2& v) { return Vec3(f.R * Vec3(v.x(), v.y(), 0) + f.t); }
+
+/// What a body part's panels go on.
+struct PartGeometry {
+  std::vector<int> panels;
+  Vec3 file_axis = Vec3::UnitY(), file_origin = Vec3::Zero();
+  Cylinder cyl;
+  double shift = 0;  ///< added to the file's axial coordinate
+  std::optional<Cone> cone;  ///< a skirt's flared panels go on this cone instead
+  /// A hood's panels keep their place in the file against the torso, moved by this.
+  std::optional<Vec3> file_offset;
+};
+
+/// A part's panels in flat coordinates (across each panel from its centroid, up along the
+/// part's axis), their widths summed and their extent along the file's axis.
+struct PartPanels {
+  std::vector<std::vector<Vec2>> flat;
+  double h_lo = 1e30, h_hi = -1e30, width = 0;
+};
+
+/// A panel placed around its part: its extent around the girth (fractions of it) and along
+/// the file's axis, and its layer.
+struct Extent {
+  BodyPart part;
+  double s_lo, s_hi, h_lo, h_hi;
+  int layer;
+};
+
+/// How a panel faces its part: its directions along the axis (ap) and across it (tau), the
+/// angle about the cylinder its middle faces, and its shift along the axis.
+struct PanelFrame {
+  Vec3 ap, tau;
+  double phi_n, shift;
+};
+
+// Panels of one part that would lie on each other (the overlapping fronts of a jacket) go
+// on layers further out, kLayer_m apart, each its own cylinder.
+constexpr double kLayer_m = 0.008;
+// Panels of one part and layer that meet edge on edge around the girth (the two fronts of
+// an open jacket, drawn touching in the file) are moved apart to leave this gap: their
+// edges would otherwise lie on one line, vertex on vertex, which sewing cannot part (two
+// coincident vertices have no direction to push apart) and which the garment keeps as
+// intersecting triangles.
+constexpr double kSideGap_m = 0.006;
+
+// Throws InputError for an override naming a panel the pattern lacks.
+void check_overrides(const Pattern& pattern, const PlacementOptions& options) {
   for (const auto& [name, o] : options.overrides) {
     bool found = false;
     for (const Panel& p : pattern.panels) found = found || p.name == name;
     if (!found) throw InputError(pattern.file + ": placement of panel '" + name + "': the pattern has no such panel");
   }
-  // Each panel as the file places it: 3D points, centroid, outward normal.
-  struct FilePanel {
-    Mat3 R;
-    Vec3 t, centroid, outward;
-    BodyPart part;
-  };
+}
+
+// Each panel as the file places it: its rotation and translation, centroid, outward normal, and
+// the part it goes around (from its name and side, or an override).
+std::vector<FilePanel> file_panels(const Pattern& pattern, const GarmentMesh& gm, const PlacementOptions& options) {
+  const int np = static_cast<int>(pattern.panels.size());
   std::vector<FilePanel> fp(np);
   for (int p = 0; p < np; ++p) {
     const Panel& panel = pattern.panels[p];
@@ -265,258 +319,285 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     auto o = options.overrides.find(panel.name);
     if (o != options.overrides.end() && o->second.part) f.part = *o->second.part;
   }
-  auto file_point = [&](int p, const Vec2& v) { return Vec3(fp[p].R * Vec3(v.x(), v.y(), 0) + fp[p].t); };
+  return fp;
+}
 
-  // The file's axis of each part: its direction, and a point on it (the middle of the part's
-  // panels across the axis).
-  const Rig& rig = body.rig;
-  const double clearance = options.clearance_m;
-  struct PartGeometry {
-    std::vector<int> panels;
-    Vec3 file_axis = Vec3::UnitY(), file_origin = Vec3::Zero();
-    Cylinder cyl;
-    double shift = 0;  ///< added to the file's axial coordinate
-    std::optional<Cone> cone;  ///< a skirt's flared panels go on this cone instead
-    /// A hood's panels keep their place in the file against the torso, moved by this.
-    std::optional<Vec3> file_offset;
-  };
-  std::map<BodyPart, PartGeometry> parts;
-  for (int p = 0; p < np; ++p) parts[fp[p].part].panels.push_back(p);
-  for (auto& [part, g] : parts) {
-    const bool arm = part == BodyPart::kLeftArm || part == BodyPart::kRightArm;
-    const double side = (part == BodyPart::kLeftArm || part == BodyPart::kLeftLeg) ? 1.0 : -1.0;
-    // The file's axis: up for the torso, legs and head; along an arm, each sleeve panel's x
-    // axis (pattern generators draw sleeves with the arm along x), pointing away from the body.
-    if (arm) {
-      Vec3 a = fp[g.panels[0]].R * Vec3::UnitX();
-      if (a.x() * side < 0) a = -a;
-      g.file_axis = a.normalized();
-    }
-    Vec3 lo = Vec3::Constant(1e30), hi = Vec3::Constant(-1e30), mean = Vec3::Zero();
-    for (int p : g.panels) {
-      mean += fp[p].centroid;
-      for (const Vec2& v : gm.panels[p].vertices_m) {
-        lo = lo.cwiseMin(file_point(p, v));
-        hi = hi.cwiseMax(file_point(p, v));
-      }
-    }
-    g.file_origin = arm ? Vec3(mean / g.panels.size()) : Vec3(0.5 * (lo + hi));
-    double h_lo = 1e30, h_hi = -1e30, width = 0;
-    std::vector<std::vector<Vec2>> flat;  // each panel's (across, up) coordinates
-    for (int p : g.panels) {
-      double s_lo = 1e30, s_hi = -1e30;
-      const Vec3 n = fp[p].outward;
-      const Vec3 ap = g.file_axis - g.file_axis.dot(n) * n;
-      if (ap.norm() < 0.2)
-        throw InputError(pattern.file + ": panel '" + pattern.panels[p].name + "' faces along the " +
-                         body_part_name(part) + "'s axis and cannot be wrapped around it (set its part or angle)");
-      const Vec3 tau = ap.normalized().cross(n);
-      flat.emplace_back();
-      for (const Vec2& v : gm.panels[p].vertices_m) {
-        const Vec3 x = file_point(p, v);
-        flat.back().emplace_back((x - fp[p].centroid).dot(tau),
-                                 (x - fp[p].centroid).dot(ap.normalized()) + fp[p].centroid.dot(g.file_axis));
-        s_lo = std::min(s_lo, (x - fp[p].centroid).dot(tau));
-        s_hi = std::max(s_hi, (x - fp[p].centroid).dot(tau));
-        h_lo = std::min(h_lo, x.dot(g.file_axis));
-        h_hi = std::max(h_hi, x.dot(g.file_axis));
-      }
-      width += s_hi - s_lo;
-    }
-    // The body's cylinder and where the panels sit along it.
-    Cylinder& c = g.cyl;
-    const double span = h_hi - h_lo;
-    if (part == BodyPart::kTorso && is_skirt(pattern, g.panels)) {
-      // A skirt: its top at the waist, on a cone as flared as its panels.
-      c.origin = Vec3(0, 0, 0);
-      set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
-      const double waist = joint(rig, "LowerBack", true).y();
-      g.shift = waist - h_hi;
-      fit_to_body(c, body.positions, waist - span, waist, 0.35);
-      g.cone = skirt_cone(flat, span, c.origin, waist, body.positions, clearance, options.girth_allowance);
-    } else if (part == BodyPart::kTorso) {
-      // Vertical; the panels' top at the base of the neck, the fit taken below the armpits.
-      c.origin = Vec3(0, 0, 0);
-      set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
-      const double top = joint(rig, "Neck1").y() + clearance;
-      const double armpit = joint(rig, "LeftArm").y() - 0.1;
-      g.shift = top - h_hi;
-      fit_to_body(c, body.positions, std::min(top - span, armpit - 0.05), armpit, 0.35);
-    } else if (arm) {
-      const Vec3 shoulder = joint(rig, side > 0 ? "LeftArm" : "RightArm");
-      const Vec3 wrist = joint(rig, side > 0 ? "LeftHand" : "RightHand");
-      c.origin = shoulder;
-      set_frame(c, wrist - shoulder, Vec3::UnitZ());
-      // The sleeve starts where the torso's cylinder meets the arm.
-      const Cylinder& torso = parts.count(BodyPart::kTorso) ? parts[BodyPart::kTorso].cyl : c;
-      double start = 0;
-      if (&torso != &c) {
-        const double half_width = std::abs((Vec3::UnitX()).dot(torso.e2)) * torso.r2 + torso.origin.x() * side;
-        start = std::max(0.0, (half_width - shoulder.x() * side) / std::abs(c.axis.x()));
-      }
-      g.shift = start - h_lo;
-      fit_to_body(c, body.positions, start, start + span, 0.12);
-    } else if (part == BodyPart::kHead) {
-      const Vec3 base = joint(rig, "Head"), crown = joint(rig, "Head", true);
-      c.origin = Vec3(base.x(), 0, base.z());
-      set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
-      g.shift = crown.y() + 0.1 - h_hi;
-      fit_to_body(c, body.positions, crown.y() + 0.1 - span, crown.y() + 0.1, 0.2);
-      // With a torso: the hood's panels flat where the file puts them beside the torso's
-      // neckline, the file moved as the torso's middle and top were.
-      if (parts.count(BodyPart::kTorso) && !parts[BodyPart::kTorso].cone) {
-        const PartGeometry& t = parts[BodyPart::kTorso];
-        g.file_offset = Vec3(t.cyl.origin.x() - t.file_origin.x(), t.shift, t.cyl.origin.z() - t.file_origin.z());
-      }
-    } else {
-      const Vec3 hip = joint(rig, side > 0 ? "LeftUpLeg" : "RightUpLeg");
-      c.origin = Vec3(hip.x(), 0, hip.z());
-      set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
-      const double waist = joint(rig, "LowerBack", true).y();
-      g.shift = waist - h_hi;
-      fit_to_body(c, body.positions, waist - span, waist, 0.15);
-    }
-    c.r1 += clearance;
-    c.r2 += clearance;
-    c.tabulate();
-    const double want = options.girth_allowance * width;
-    if (c.girth() < want) {
-      const double f = want / c.girth();
-      c.r1 *= f;
-      c.r2 *= f;
-      c.tabulate();
+// Sets the file's axis of a part (up for the torso, legs and head; along an arm, its first
+// sleeve panel's x axis, pointing away from the body) and a point on it (the middle of the
+// part's panels across the axis); returns the panels measured across and along it. Throws
+// InputError naming a panel that faces along the axis.
+PartPanels measure_part(BodyPart part, PartGeometry& g, const Pattern& pattern, const GarmentMesh& gm,
+                        const std::vector<FilePanel>& fp) {
+  const bool arm = part == BodyPart::kLeftArm || part == BodyPart::kRightArm;
+  const double side = (part == BodyPart::kLeftArm || part == BodyPart::kLeftLeg) ? 1.0 : -1.0;
+  // (Pattern generators draw sleeves with the arm along x.)
+  if (arm) {
+    Vec3 a = fp[g.panels[0]].R * Vec3::UnitX();
+    if (a.x() * side < 0) a = -a;
+    g.file_axis = a.normalized();
+  }
+  Vec3 lo = Vec3::Constant(1e30), hi = Vec3::Constant(-1e30), mean = Vec3::Zero();
+  for (int p : g.panels) {
+    mean += fp[p].centroid;
+    for (const Vec2& v : gm.panels[p].vertices_m) {
+      lo = lo.cwiseMin(file_point(fp[p], v));
+      hi = hi.cwiseMax(file_point(fp[p], v));
     }
   }
+  g.file_origin = arm ? Vec3(mean / g.panels.size()) : Vec3(0.5 * (lo + hi));
+  PartPanels out;
+  for (int p : g.panels) {
+    double s_lo = 1e30, s_hi = -1e30;
+    const Vec3 n = fp[p].outward;
+    const Vec3 ap = g.file_axis - g.file_axis.dot(n) * n;
+    if (ap.norm() < 0.2)
+      throw InputError(pattern.file + ": panel '" + pattern.panels[p].name + "' faces along the " +
+                       body_part_name(part) + "'s axis and cannot be wrapped around it (set its part or angle)");
+    const Vec3 tau = ap.normalized().cross(n);
+    out.flat.emplace_back();
+    for (const Vec2& v : gm.panels[p].vertices_m) {
+      const Vec3 x = file_point(fp[p], v);
+      out.flat.back().emplace_back((x - fp[p].centroid).dot(tau),
+                                   (x - fp[p].centroid).dot(ap.normalized()) + fp[p].centroid.dot(g.file_axis));
+      s_lo = std::min(s_lo, (x - fp[p].centroid).dot(tau));
+      s_hi = std::max(s_hi, (x - fp[p].centroid).dot(tau));
+      out.h_lo = std::min(out.h_lo, x.dot(g.file_axis));
+      out.h_hi = std::max(out.h_hi, x.dot(g.file_axis));
+    }
+    out.width += s_hi - s_lo;
+  }
+  return out;
+}
 
-  // Roll each panel onto its cylinder.
-  PlacedGarment out;
-  // The mesh's pattern coordinates are material coordinates (turned by each panel's grain),
-  // laid out side by side as they are.
+// The body's cylinder for a part, fitted to the body, and where its panels sit along it: a
+// skirt on a cone from the waist, the torso from the base of the neck, a sleeve from where the
+// torso's cylinder meets the arm, a hood above the crown (or flat beside the torso's neckline),
+// trousers from the waist. `parts` holds the parts set before this one (the torso first).
+void fit_part(BodyPart part, PartGeometry& g, const PartPanels& panels, std::map<BodyPart, PartGeometry>& parts,
+              const Pattern& pattern, const BindBody& body, const PlacementOptions& options) {
+  const bool arm = part == BodyPart::kLeftArm || part == BodyPart::kRightArm;
+  const double side = (part == BodyPart::kLeftArm || part == BodyPart::kLeftLeg) ? 1.0 : -1.0;
+  const Rig& rig = body.rig;
+  const double clearance = options.clearance_m;
+  Cylinder& c = g.cyl;
+  const double span = panels.h_hi - panels.h_lo;
+  if (part == BodyPart::kTorso && is_skirt(pattern, g.panels)) {
+    // A skirt: its top at the waist, on a cone as flared as its panels.
+    c.origin = Vec3(0, 0, 0);
+    set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
+    const double waist = joint(rig, "LowerBack", true).y();
+    g.shift = waist - panels.h_hi;
+    fit_to_body(c, body.positions, waist - span, waist, 0.35);
+    g.cone = skirt_cone(panels.flat, span, c.origin, waist, body.positions, clearance, options.girth_allowance);
+  } else if (part == BodyPart::kTorso) {
+    // Vertical; the panels' top at the base of the neck, the fit taken below the armpits.
+    c.origin = Vec3(0, 0, 0);
+    set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
+    const double top = joint(rig, "Neck1").y() + clearance;
+    const double armpit = joint(rig, "LeftArm").y() - 0.1;
+    g.shift = top - panels.h_hi;
+    fit_to_body(c, body.positions, std::min(top - span, armpit - 0.05), armpit, 0.35);
+  } else if (arm) {
+    const Vec3 shoulder = joint(rig, side > 0 ? "LeftArm" : "RightArm");
+    const Vec3 wrist = joint(rig, side > 0 ? "LeftHand" : "RightHand");
+    c.origin = shoulder;
+    set_frame(c, wrist - shoulder, Vec3::UnitZ());
+    // The sleeve starts where the torso's cylinder meets the arm.
+    const Cylinder& torso = parts.count(BodyPart::kTorso) ? parts[BodyPart::kTorso].cyl : c;
+    double start = 0;
+    if (&torso != &c) {
+      const double half_width = std::abs((Vec3::UnitX()).dot(torso.e2)) * torso.r2 + torso.origin.x() * side;
+      start = std::max(0.0, (half_width - shoulder.x() * side) / std::abs(c.axis.x()));
+    }
+    g.shift = start - panels.h_lo;
+    fit_to_body(c, body.positions, start, start + span, 0.12);
+  } else if (part == BodyPart::kHead) {
+    const Vec3 base = joint(rig, "Head"), crown = joint(rig, "Head", true);
+    c.origin = Vec3(base.x(), 0, base.z());
+    set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
+    g.shift = crown.y() + 0.1 - panels.h_hi;
+    fit_to_body(c, body.positions, crown.y() + 0.1 - span, crown.y() + 0.1, 0.2);
+    // With a torso: the hood's panels flat where the file puts them beside the torso's
+    // neckline, the file moved as the torso's middle and top were.
+    if (parts.count(BodyPart::kTorso) && !parts[BodyPart::kTorso].cone) {
+      const PartGeometry& t = parts[BodyPart::kTorso];
+      g.file_offset = Vec3(t.cyl.origin.x() - t.file_origin.x(), t.shift, t.cyl.origin.z() - t.file_origin.z());
+    }
+  } else {
+    const Vec3 hip = joint(rig, side > 0 ? "LeftUpLeg" : "RightUpLeg");
+    c.origin = Vec3(hip.x(), 0, hip.z());
+    set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
+    const double waist = joint(rig, "LowerBack", true).y();
+    g.shift = waist - panels.h_hi;
+    fit_to_body(c, body.positions, waist - span, waist, 0.15);
+  }
+}
+
+// Moves a part's cylinder out by the clearance, then widens it (keeping its aspect) to the
+// girth its panels need: `allowance` times their summed width.
+void widen_cylinder(Cylinder& c, double clearance, double allowance, double width) {
+  c.r1 += clearance;
+  c.r2 += clearance;
+  c.tabulate();
+  const double want = allowance * width;
+  if (c.girth() < want) {
+    const double f = want / c.girth();
+    c.r1 *= f;
+    c.r2 *= f;
+    c.tabulate();
+  }
+}
+
+// Each part's axis, cylinder (or cone) and panels, in BodyPart order.
+std::map<BodyPart, PartGeometry> part_geometries(const Pattern& pattern, const GarmentMesh& gm, const BindBody& body,
+                                                 const std::vector<FilePanel>& fp, const PlacementOptions& options) {
+  std::map<BodyPart, PartGeometry> parts;
+  for (size_t p = 0; p < fp.size(); ++p) parts[fp[p].part].panels.push_back(static_cast<int>(p));
+  for (auto& [part, g] : parts) {
+    const PartPanels panels = measure_part(part, g, pattern, gm, fp);
+    fit_part(part, g, panels, parts, pattern, body, options);
+    widen_cylinder(g.cyl, options.clearance_m, options.girth_allowance, panels.width);
+  }
+  return parts;
+}
+
+// Where each panel's material coordinates go in the flat layout of the garment's pattern
+// coordinates (side by side, as the panels are).
+std::vector<Vec2> material_layout(const GarmentMesh& gm) {
   GarmentMesh in_material;
   for (const GarmentPanelMesh& pm : gm.panels) {
     GarmentPanelMesh flat;
     flat.vertices_m = material_coordinates(pm);
     in_material.panels.push_back(std::move(flat));
   }
-  const std::vector<Vec2> layout = flat_layout_offsets(in_material);
-  out.panel_first_vertex.push_back(0);
-  int total = 0;
-  for (int p = 0; p < np; ++p) out.panel_first_vertex.push_back(total += static_cast<int>(gm.panels[p].vertices_m.size()));
-  out.mesh.positions.resize(total, 3);
-  out.mesh.pattern.resize(total);
-  // Panels of one part that would lie on each other (the overlapping fronts of a jacket) go
-  // on layers further out, kLayer_m apart, each its own cylinder.
-  constexpr double kLayer_m = 0.008;
-  // Panels of one part and layer that meet edge on edge around the girth (the two fronts of
-  // an open jacket, drawn touching in the file) are moved apart to leave this gap: their
-  // edges would otherwise lie on one line, vertex on vertex, which sewing cannot part (two
-  // coincident vertices have no direction to push apart) and which the garment keeps as
-  // intersecting triangles.
-  constexpr double kSideGap_m = 0.006;
-  struct Extent {
-    BodyPart part;
-    double s_lo, s_hi, h_lo, h_hi;
-    int layer;
-  };
-  std::vector<Extent> placed_extents;
-  std::map<std::pair<BodyPart, int>, Cylinder> layers;
-  for (int p = 0; p < np; ++p) {
-    const GarmentPanelMesh& pm = gm.panels[p];
-    const FilePanel& f = fp[p];
-    PartGeometry& g = parts[f.part];
-    const Vec3 n = f.outward;
-    const Vec3 ap = (g.file_axis - g.file_axis.dot(n) * n).normalized();
-    const Vec3 tau = ap.cross(n);
-    // The file's directions turned onto the body's axis.
-    const Eigen::Quaterniond Q = Eigen::Quaterniond::FromTwoVectors(g.file_axis, g.cyl.axis);
-    double phi_n = g.cyl.phi_of_direction(Q * n);
-    double shift = g.shift;
-    auto o = options.overrides.find(pattern.panels[p].name);
-    if (o != options.overrides.end()) {
-      if (o->second.angle_deg) phi_n = *o->second.angle_deg * kPi / 180.0;
-      shift += o->second.shift_m;
-    }
-    // The panel's extent around (as a fraction of the girth) and along the axis; its layer.
-    double s_lo = 1e30, s_hi = -1e30, h_lo = 1e30, h_hi = -1e30;
-    for (const Vec2& v : pm.vertices_m) {
-      const Vec3 x = file_point(p, v);
-      s_lo = std::min(s_lo, (x - f.centroid).dot(tau));
-      s_hi = std::max(s_hi, (x - f.centroid).dot(tau));
-      h_lo = std::min(h_lo, (x - f.centroid).dot(ap));
-      h_hi = std::max(h_hi, (x - f.centroid).dot(ap));
-    }
-    const double centre_fraction =
-        (g.cyl.arc_at(phi_n) + (f.centroid - g.file_origin).dot(tau)) / g.cyl.girth();
-    Extent e{f.part, centre_fraction + s_lo / g.cyl.girth(), centre_fraction + s_hi / g.cyl.girth(),
-             f.centroid.dot(g.file_axis) + h_lo, f.centroid.dot(g.file_axis) + h_hi, 0};
-    auto beside = [&](const Extent& o) {
-      return o.part == e.part && std::min(o.h_hi, e.h_hi) - std::max(o.h_lo, e.h_lo) > 0.01;
-    };
-    int layer = 0;
-    for (const Extent& o : placed_extents) {
-      if (!beside(o) || g.cone || g.file_offset) continue;  // a skirt's panels lie side by side on its cone
-      for (double wrap : {-1.0, 0.0, 1.0})
-        if (std::min(o.s_hi + wrap, e.s_hi) - std::max(o.s_lo + wrap, e.s_lo) > 0.01 / g.cyl.girth()) ++layer;
-    }
-    e.layer = layer;
-    // Around the girth, as a fraction of it: moved away from a panel of its layer it meets.
-    double nudge = 0;
-    const double side_gap = kSideGap_m / g.cyl.girth();
-    for (const Extent& o : placed_extents) {
-      if (!beside(o) || o.layer != e.layer || g.cone || g.file_offset) continue;
-      for (double wrap : {-1.0, 0.0, 1.0}) {
-        const double overlap = std::min(o.s_hi + wrap, e.s_hi + nudge) - std::max(o.s_lo + wrap, e.s_lo + nudge);
-        if (overlap <= -side_gap || overlap > 0.01 / g.cyl.girth()) continue;
-        const bool after = e.s_lo + e.s_hi + 2 * nudge > o.s_lo + o.s_hi + 2 * wrap;
-        nudge += (after ? 1 : -1) * (overlap + side_gap);
-        ++out.panels_moved_apart;
-      }
-    }
-    e.s_lo += nudge;
-    e.s_hi += nudge;
-    placed_extents.push_back(e);
-    auto [lit, fresh] = layers.try_emplace({f.part, layer}, g.cyl);
-    Cylinder& c = lit->second;
-    if (fresh && layer > 0) {
-      c.r1 += layer * kLayer_m;
-      c.r2 += layer * kLayer_m;
-      c.tabulate();
-    }
-    const double s_centre = c.arc_at(phi_n) + (f.centroid - g.file_origin).dot(tau) + nudge * c.girth();
-    // On a skirt's cone: the panel's middle line on the ray of the development that faces
-    // where the panel does, moved across by its offset in the file.
-    // Each panel's top (along the panel) at the waist, lowered by an override's shift.
-    double theta_c = 0, panel_top = -1e30;
-    if (g.cone) {
-      for (const Vec2& v : pm.vertices_m) panel_top = std::max(panel_top, (file_point(p, v) - f.centroid).dot(ap));
-      panel_top -= shift - g.shift;
-      theta_c = phi_n * g.cone->sin_a() + (f.centroid - g.file_origin).dot(tau) / (g.cone->rho_top() + panel_top);
-    }
-    const bool mirror = pattern.panels[p].clockwise;
-    const int first = out.panel_first_vertex[p];
-    const std::vector<Vec2> material = material_coordinates(pm);
-    for (size_t v = 0; v < pm.vertices_m.size(); ++v) {
-      const Vec3 x = file_point(p, pm.vertices_m[v]);
-      const double s = (x - f.centroid).dot(tau), h = (x - f.centroid).dot(ap) + f.centroid.dot(g.file_axis);
-      out.mesh.positions.row(first + v) =
-          (g.file_offset ? Vec3(x + *g.file_offset)
-           : g.cone      ? g.cone->roll(theta_c, s, panel_top - (x - f.centroid).dot(ap))
-                         : c.point(h + shift, c.phi_at(s_centre + s)))
-              .transpose();
-      Vec2 u = material[v];
-      if (mirror) u.x() = -u.x();
-      out.mesh.pattern[first + v] = u + layout[p];
-    }
-    for (const auto& t : pm.triangles) {
-      std::array<int, 3> tri{first + t[0], first + t[1], first + t[2]};
-      if (mirror) std::swap(tri[1], tri[2]);
-      out.mesh.triangles.push_back(tri);
-      out.panel_of_triangle.push_back(p);
-    }
-    out.panel_part.push_back(f.part);
+  return flat_layout_offsets(in_material);
+}
+
+// How panel p faces its part: the file's directions turned onto the body's axis, an override's
+// angle and shift.
+PanelFrame panel_frame(int p, const FilePanel& f, const PartGeometry& g, const Pattern& pattern,
+                       const PlacementOptions& options) {
+  PanelFrame fr;
+  const Vec3 n = f.outward;
+  fr.ap = (g.file_axis - g.file_axis.dot(n) * n).normalized();
+  fr.tau = fr.ap.cross(n);
+  const Eigen::Quaterniond Q = Eigen::Quaterniond::FromTwoVectors(g.file_axis, g.cyl.axis);
+  fr.phi_n = g.cyl.phi_of_direction(Q * n);
+  fr.shift = g.shift;
+  auto o = options.overrides.find(pattern.panels[p].name);
+  if (o != options.overrides.end()) {
+    if (o->second.angle_deg) fr.phi_n = *o->second.angle_deg * kPi / 180.0;
+    fr.shift += o->second.shift_m;
   }
-  // Mirrored panels were laid out unmirrored: move each back into its own layout box.
-  for (int p = 0; p < np; ++p) {
+  return fr;
+}
+
+// The panel's extent around the girth (as a fraction of it) and along the axis, on layer 0.
+Extent panel_extent(const GarmentPanelMesh& pm, const FilePanel& f, const PartGeometry& g, const PanelFrame& fr) {
+  double s_lo = 1e30, s_hi = -1e30, h_lo = 1e30, h_hi = -1e30;
+  for (const Vec2& v : pm.vertices_m) {
+    const Vec3 x = file_point(f, v);
+    s_lo = std::min(s_lo, (x - f.centroid).dot(fr.tau));
+    s_hi = std::max(s_hi, (x - f.centroid).dot(fr.tau));
+    h_lo = std::min(h_lo, (x - f.centroid).dot(fr.ap));
+    h_hi = std::max(h_hi, (x - f.centroid).dot(fr.ap));
+  }
+  const double centre_fraction =
+      (g.cyl.arc_at(fr.phi_n) + (f.centroid - g.file_origin).dot(fr.tau)) / g.cyl.girth();
+  return Extent{f.part, centre_fraction + s_lo / g.cyl.girth(), centre_fraction + s_hi / g.cyl.girth(),
+                f.centroid.dot(g.file_axis) + h_lo, f.centroid.dot(g.file_axis) + h_hi, 0};
+}
+
+// Whether two panels are of one part and overlap along its axis by over a centimetre.
+bool beside(const Extent& o, const Extent& e) {
+  return o.part == e.part && std::min(o.h_hi, e.h_hi) - std::max(o.h_lo, e.h_lo) > 0.01;
+}
+
+// The panel's layer: one for each overlap around the girth with a panel placed before it
+// beside it (none on a skirt's cone, whose panels lie side by side, or for a hood laid flat).
+int panel_layer(const Extent& e, const std::vector<Extent>& placed, const PartGeometry& g) {
+  int layer = 0;
+  for (const Extent& o : placed) {
+    if (!beside(o, e) || g.cone || g.file_offset) continue;  // a skirt's panels lie side by side on its cone
+    for (double wrap : {-1.0, 0.0, 1.0})
+      if (std::min(o.s_hi + wrap, e.s_hi) - std::max(o.s_lo + wrap, e.s_lo) > 0.01 / g.cyl.girth()) ++layer;
+  }
+  return layer;
+}
+
+// How far around the girth, as a fraction of it, the panel moves away from the panels of its
+// layer it meets edge on edge (kSideGap_m); counts each move in `moved`.
+double nudge_apart(const Extent& e, const std::vector<Extent>& placed, const PartGeometry& g, int& moved) {
+  double nudge = 0;
+  const double side_gap = kSideGap_m / g.cyl.girth();
+  for (const Extent& o : placed) {
+    if (!beside(o, e) || o.layer != e.layer || g.cone || g.file_offset) continue;
+    for (double wrap : {-1.0, 0.0, 1.0}) {
+      const double overlap = std::min(o.s_hi + wrap, e.s_hi + nudge) - std::max(o.s_lo + wrap, e.s_lo + nudge);
+      if (overlap <= -side_gap || overlap > 0.01 / g.cyl.girth()) continue;
+      const bool after = e.s_lo + e.s_hi + 2 * nudge > o.s_lo + o.s_hi + 2 * wrap;
+      nudge += (after ? 1 : -1) * (overlap + side_gap);
+      ++moved;
+    }
+  }
+  return nudge;
+}
+
+// The cylinder of a part's layer: the part's, kLayer_m further out per layer, made on first use.
+Cylinder& layer_cylinder(std::map<std::pair<BodyPart, int>, Cylinder>& layers, BodyPart part, int layer,
+                         const Cylinder& cyl) {
+  auto [lit, fresh] = layers.try_emplace({part, layer}, cyl);
+  Cylinder& c = lit->second;
+  if (fresh && layer > 0) {
+    c.r1 += layer * kLayer_m;
+    c.r2 += layer * kLayer_m;
+    c.tabulate();
+  }
+  return c;
+}
+
+// Rolls panel p onto cylinder c (its middle at arc length s_centre), onto its part's cone or,
+// for a hood, lays it where the file puts it moved by the part's offset; writes its vertices'
+// positions and pattern coordinates (mirrored where the file's loop is clockwise, placed at
+// `offset` in the layout), its triangles and its part.
+void roll_panel(PlacedGarment& out, int p, const Pattern& pattern, const GarmentPanelMesh& pm, const FilePanel& f,
+                const PartGeometry& g, const PanelFrame& fr, const Cylinder& c, double s_centre, const Vec2& offset) {
+  // On a skirt's cone: the panel's middle line on the ray of the development that faces
+  // where the panel does, moved across by its offset in the file.
+  // Each panel's top (along the panel) at the waist, lowered by an override's shift.
+  double theta_c = 0, panel_top = -1e30;
+  if (g.cone) {
+    for (const Vec2& v : pm.vertices_m) panel_top = std::max(panel_top, (file_point(f, v) - f.centroid).dot(fr.ap));
+    panel_top -= fr.shift - g.shift;
+    theta_c = fr.phi_n * g.cone->sin_a() + (f.centroid - g.file_origin).dot(fr.tau) / (g.cone->rho_top() + panel_top);
+  }
+  const bool mirror = pattern.panels[p].clockwise;
+  const int first = out.panel_first_vertex[p];
+  const std::vector<Vec2> material = material_coordinates(pm);
+  for (size_t v = 0; v < pm.vertices_m.size(); ++v) {
+    const Vec3 x = file_point(f, pm.vertices_m[v]);
+    const double s = (x - f.centroid).dot(fr.tau), h = (x - f.centroid).dot(fr.ap) + f.centroid.dot(g.file_axis);
+    out.mesh.positions.row(first + v) =
+        (g.file_offset ? Vec3(x + *g.file_offset)
+         : g.cone      ? g.cone->roll(theta_c, s, panel_top - (x - f.centroid).dot(fr.ap))
+                       : c.point(h + fr.shift, c.phi_at(s_centre + s)))
+            .transpose();
+    Vec2 u = material[v];
+    if (mirror) u.x() = -u.x();
+    out.mesh.pattern[first + v] = u + offset;
+  }
+  for (const auto& t : pm.triangles) {
+    std::array<int, 3> tri{first + t[0], first + t[1], first + t[2]};
+    if (mirror) std::swap(tri[1], tri[2]);
+    out.mesh.triangles.push_back(tri);
+    out.panel_of_triangle.push_back(p);
+  }
+  out.panel_part.push_back(f.part);
+}
+
+// Mirrored panels were laid out unmirrored: moves each back into its own layout box.
+void unmirror_layout(PlacedGarment& out, const Pattern& pattern, const GarmentMesh& gm, const std::vector<Vec2>& layout) {
+  for (size_t p = 0; p < pattern.panels.size(); ++p) {
     if (!pattern.panels[p].clockwise) continue;
     double lo = 1e30, hi = -1e30, lo0 = 1e30;
     for (int v = out.panel_first_vertex[p]; v < out.panel_first_vertex[p + 1]; ++v) {
@@ -528,8 +609,10 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     for (int v = out.panel_first_vertex[p]; v < out.panel_first_vertex[p + 1]; ++v)
       out.mesh.pattern[v].x() += (lo0 + layout[p].x()) - lo;
   }
+}
 
-  // Seams: the stitches' vertex pairs, each pair once.
+// Seams: the stitches' vertex pairs, each pair once, with their stitches.
+void add_seam_pairs(PlacedGarment& out, const GarmentMesh& gm) {
   std::vector<std::array<int, 2>> pairs;
   for (size_t s = 0; s < gm.stitches.size(); ++s) {
     const StitchVertexPairs& st = gm.stitches[s];
@@ -543,8 +626,10 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     }
   }
   out.seam_pairs = std::move(pairs);
+}
 
-  // Vertices that ended nearer the body than half the clearance move out along its normal.
+// Vertices that ended nearer the body than half the clearance move out along its normal.
+void push_out_of_body(PlacedGarment& out, const BindBody& body, double clearance) {
   ColliderSpec spec;
   spec.shape = ColliderShape::kMesh;
   spec.name = "body";
@@ -553,13 +638,55 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
       spec, body.triangles, [body_positions](double, Points& out_positions) { out_positions = body_positions; }, true);
   collider->prepare(0, 0);
   const double keep = 0.5 * clearance;
-  for (int v = 0; v < total; ++v) {
+  for (int v = 0; v < out.mesh.num_vertices(); ++v) {
     SurfacePoint sp;
     const Vec3 x = out.mesh.positions.row(v).transpose();
     if (!collider->closest(x, keep, true, v, sp) || sp.distance >= keep) continue;
     out.mesh.positions.row(v) = (sp.point + keep * sp.normal).transpose();
     ++out.vertices_pushed_out;
   }
+}
+
+}  // namespace
+
+PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const BindBody& body,
+                            const PlacementOptions& options) {
+  check_overrides(pattern, options);
+  const std::vector<FilePanel> fp = file_panels(pattern, gm, options);
+  std::map<BodyPart, PartGeometry> parts = part_geometries(pattern, gm, body, fp, options);
+
+  // The mesh's pattern coordinates are material coordinates (turned by each panel's grain),
+  // laid out side by side as they are.
+  PlacedGarment out;
+  const std::vector<Vec2> layout = material_layout(gm);
+  const int np = static_cast<int>(pattern.panels.size());
+  out.panel_first_vertex.push_back(0);
+  int total = 0;
+  for (int p = 0; p < np; ++p) out.panel_first_vertex.push_back(total += static_cast<int>(gm.panels[p].vertices_m.size()));
+  out.mesh.positions.resize(total, 3);
+  out.mesh.pattern.resize(total);
+
+  // Roll each panel onto its part's cylinder, on a layer of its own where it would lie on a
+  // panel placed before it, moved apart from one it meets edge on edge.
+  std::vector<Extent> placed_extents;
+  std::map<std::pair<BodyPart, int>, Cylinder> layers;
+  for (int p = 0; p < np; ++p) {
+    const FilePanel& f = fp[p];
+    const PartGeometry& g = parts[f.part];
+    const PanelFrame fr = panel_frame(p, f, g, pattern, options);
+    Extent e = panel_extent(gm.panels[p], f, g, fr);
+    e.layer = panel_layer(e, placed_extents, g);
+    const double nudge = nudge_apart(e, placed_extents, g, out.panels_moved_apart);
+    e.s_lo += nudge;
+    e.s_hi += nudge;
+    placed_extents.push_back(e);
+    const Cylinder& c = layer_cylinder(layers, f.part, e.layer, g.cyl);
+    const double s_centre = c.arc_at(fr.phi_n) + (f.centroid - g.file_origin).dot(fr.tau) + nudge * c.girth();
+    roll_panel(out, p, pattern, gm.panels[p], f, g, fr, c, s_centre, layout[p]);
+  }
+  unmirror_layout(out, pattern, gm, layout);
+  add_seam_pairs(out, gm);
+  push_out_of_body(out, body, options.clearance_m);
   return out;
 }
 
