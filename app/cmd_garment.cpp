@@ -524,7 +524,7 @@ RegisterCommand reg{
     {"", "garment", "Mesh a sewing pattern, place its panels around the mannequin and sew them",
      [](CLI::App& sub) {
        sub.footer(
-           "Reads a GarmentCode or Garment-Pattern-Generator pattern (docs/garments.md), meshes every panel\n"
+           "Reads a GarmentCode or Garment-Pattern-Generator pattern (docs/patterns.md), meshes every panel\n"
            "with both sides of each stitch given matching boundary vertices, rolls each panel onto a\n"
            "cylinder about the torso, an arm, a leg or the head of the mannequin in its bind pose, and sews:\n"
            "springs pull the stitches shut (gravity off, the body and the cloth itself as colliders), then\n"

@@ -1,5 +1,5 @@
 // The pattern reader: GarmentCode and Garment-Pattern-Generator JSON specifications
-// (docs/garments.md, "Pattern files").
+// (docs/patterns.md, "Pattern files").
 #include "weft/garment/pattern.hpp"
 
 #include <algorithm>

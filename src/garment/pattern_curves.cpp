@@ -1,5 +1,6 @@
 // Edge curves of sewing patterns: points, exact lengths, sampling at equal arc length, panel
-// outlines and stitch sides built from the same samples (docs/garments.md, "Curves").
+// outlines and stitch sides built from the same samples (docs/patterns.md, "Curves and
+// sampling").
 #include <algorithm>
 #include <cmath>
 #include <numeric>

@@ -52,7 +52,7 @@ TEST(PlacementApart, NoTwoVerticesTheWeldKeepsApartArePlacedTogether) {
     const Pattern pattern = load_pattern(file);
     const PlacedGarment placed = place_garment(pattern, mesh_garment(pattern, options), body);
     // The jumpsuit's legs go on two cylinders, one about each leg, that cross at the crotch:
-    // its placement is not yet one to sew (docs/garments.md, "Shipped patterns").
+    // its placement is not yet one to sew (docs/garments.md, "Every shipped pattern on the mannequin").
     if (pattern.name == "js_mean_all") continue;
     const Nearest near = nearest_unwelded(placed);
     // Half the 6 mm the placement leaves between panels that meet edge on edge.

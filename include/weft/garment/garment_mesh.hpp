@@ -1,8 +1,8 @@
 #pragma once
-// A sewing pattern's panels meshed for simulation (docs/garments.md): every edge sampled at
-// the target length with both sides of each stitch given the same count, each panel's
-// outline meshed with those points kept as its boundary, and each stitch's two sides
-// matched vertex by vertex.
+// A sewing pattern's panels meshed for simulation (docs/patterns.md, "Meshing a pattern"):
+// every edge sampled at the target length with both sides of each stitch given the same
+// count, each panel's outline meshed with those points kept as its boundary, and each
+// stitch's two sides matched vertex by vertex.
 //
 // Coordinates are each panel's own pattern coordinates (metres, x right, y up, as the pattern
 // file gives them). Placing the panels around a body and sewing them come later.

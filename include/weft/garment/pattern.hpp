@@ -1,6 +1,6 @@
 #pragma once
 // Sewing patterns: the JSON specifications of GarmentCode and Garment-Pattern-Generator
-// (docs/garments.md), their edge curves, and the sampling of those curves into the points
+// (docs/patterns.md), their edge curves, and the sampling of those curves into the points
 // that panel outlines and stitches share.
 //
 // Coordinates are in metres in each panel's own plane (x right, y up). An edge is sampled at
