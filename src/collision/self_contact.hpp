@@ -163,7 +163,12 @@ class SelfContacts : public ContactHandler {
   /// Whether the searches pass over regions of the cloth that cannot hold a pair
   /// (collision/self_culling.hpp); on by default. The pairs found are the same either way:
   /// the switch is for the tests that check so and for the benchmarks.
-  void set_culling(bool on) { culling_on_ = on; }
+  /// Culling on or off; keep_regions: regions found kept for later searches while the cloth
+  /// stays near a rigid motion of where they were found (self_culling.hpp).
+  void set_culling(bool on, bool keep_regions = true) {
+    culling_on_ = on;
+    culling_.set_keeping(keep_regions);
+  }
   const SelfCullingStatistics& culling_statistics() const { return culling_.statistics(); }
 
   /// A vertex-face or edge-edge pair: four nodes and their weights in the relative position

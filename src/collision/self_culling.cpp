@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <limits>
+#include <map>
+
+#include <Eigen/SVD>
 
 #include "util/threads.hpp"
 
@@ -15,6 +17,12 @@ namespace {
 constexpr double kSafety = 1.001;
 constexpr double kCosineSlack = 1e-9;
 constexpr size_t kLeafChunk = 256;
+/// Kept regions are taken only with this much to spare (the fit's rounding, far below it).
+constexpr double kKeptRounding = 1 + 1e-6;
+/// The contours of the regions passed over are measured out to this many times the widest
+/// reach asked so far, so that regions kept may serve reaches up to that (and positions that
+/// far from a rigid motion of theirs).
+constexpr double kKeptProbe = 4;
 
 Vec3 at(const VecX& x, int i) { return Vec3(x[3 * i], x[3 * i + 1], x[3 * i + 2]); }
 
@@ -98,16 +106,81 @@ SelfCulling::SelfCulling(const std::vector<std::array<int, 3>>& triangles, const
 void SelfCulling::find(const std::vector<std::array<int, 3>>& triangles, const AabbTree& tree, const VecX& xa,
                        const VecX& xb, double r, std::vector<char>& skip) {
   const int nodes = tree.node_count();
-  skip.assign(nodes, 0);
   ++stats_.calls;
-  if (nodes == 0 || !(r > 0) || static_cast<int>(never_.size()) != nodes) return;
+  if (nodes == 0 || !(r > 0) || static_cast<int>(never_.size()) != nodes) {
+    skip.assign(nodes, 0);
+    return;
+  }
   const bool moving = &xa != &xb && xa != xb;
+  widest_r_ = std::max(widest_r_, r);
+  auto count = [&](const std::vector<char>& flags) {
+    for (int i = 0; i < nodes; ++i)
+      if (flags[i]) {
+        ++stats_.regions_culled;
+        stats_.triangles_culled += tree.node_end(i) - tree.node_begin(i);
+      }
+  };
+  // The kept regions, where the positions are near enough a rigid motion of the kept ones (the
+  // bound is taken with room for the rounding of the fit).
+  if (keeping_ && kept_.valid && kept_.positions.size() == xa.size() &&
+      near_kept(xa, xb, moving, 0.5 * (kept_.reach / kKeptRounding - r))) {
+    skip = kept_.skip;
+    ++stats_.reused;
+    count(skip);
+    return;
+  }
+  find_cones(triangles, tree, xa, xb, moving);
+  const double reach = select(tree, xa, xb, moving, r, skip);
+  count(skip);
+  kept_.valid = keeping_ && reach > 0;
+  if (!kept_.valid) return;
+  kept_.reach = reach;
+  kept_.skip = skip;
+  kept_.positions = xb;
+  kept_.centroid = Vec3::Zero();
+  const int n = static_cast<int>(xb.size() / 3);
+  for (int i = 0; i < n; ++i) kept_.centroid += at(xb, i);
+  kept_.centroid /= std::max(n, 1);
+}
+
+bool SelfCulling::near_kept(const VecX& xa, const VecX& xb, bool moving, double d) const {
+  if (!(d >= 0)) return false;
+  const int n = static_cast<int>(xa.size() / 3);
+  const double d2 = d * d;
+  // Every vertex within d of where it was kept, and of a rigid motion of it. The first is the
+  // common case (the positions a search ended at, looked at again at the next step's start).
+  auto within = [&](const auto& moved) {
+    for (int i = 0; i < n; ++i) {
+      const Vec3 p = moved(i);
+      if ((at(xa, i) - p).squaredNorm() > d2 || (moving && (at(xb, i) - p).squaredNorm() > d2)) return false;
+    }
+    return true;
+  };
+  if (within([&](int i) { return at(kept_.positions, i); })) return true;
+  // Kabsch: the rotation taking the kept positions about their centroid nearest to xa about its
+  // own, from the SVD of their covariance. Any rotation and shift give a valid bound; the best
+  // fit gives the smallest.
+  Vec3 centroid = Vec3::Zero();
+  for (int i = 0; i < n; ++i) centroid += at(xa, i);
+  centroid /= std::max(n, 1);
+  Mat3 h = Mat3::Zero();
+  for (int i = 0; i < n; ++i) h += (at(kept_.positions, i) - kept_.centroid) * (at(xa, i) - centroid).transpose();
+  const Eigen::JacobiSVD<Mat3> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Mat3 flip = Mat3::Identity();
+  if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0) flip(2, 2) = -1;
+  const Mat3 rotation = svd.matrixV() * flip * svd.matrixU().transpose();
+  return within([&](int i) { return Vec3(centroid + rotation * (at(kept_.positions, i) - kept_.centroid)); });
+}
+
+void SelfCulling::find_cones(const std::vector<std::array<int, 3>>& triangles, const AabbTree& tree, const VecX& xa,
+                             const VecX& xb, bool moving) {
   // Cones bottom up. A leaf's from its triangles (on the threads allowed, each leaf apart):
   // each triangle's unit control vectors of its normal over the step (n(t) = e1(t) x e2(t), a
   // quadratic in t whose Bernstein coefficients are n(0), n(0) + (e1 x d2 + d1 x e2) / 2 and
   // n(1); at rest n alone), the cone about their mean, and the smallest altitude bound. A
   // node's the best of three about its children's axes and their bisector that holds both
   // children's cones (cosines and sines only: cos(a + b) = cos a cos b - sin a sin b).
+  const int nodes = tree.node_count();
   cone_.resize(nodes);
   const std::vector<int>& slot = tree.slot_triangles();
   const int controls = moving ? 3 : 1;
@@ -184,7 +257,14 @@ void SelfCulling::find(const std::vector<std::array<int, 3>>& triangles, const A
     c.cosine -= kCosineSlack;  // rounding
     c.sine = c.cosine > 0 ? std::sqrt(1 - c.cosine * c.cosine) : 1.0;
   }
+}
+
+double SelfCulling::select(const AabbTree& tree, const VecX& xa, const VecX& xb, bool moving, double r,
+                           std::vector<char>& skip) {
   // The top-most regions that pass, from the root down.
+  const int nodes = tree.node_count();
+  skip.assign(nodes, 0);
+  double reach = std::numeric_limits<double>::infinity();
   std::vector<int> stack{0};
   while (!stack.empty()) {
     const int i = stack.back();
@@ -195,22 +275,24 @@ void SelfCulling::find(const std::vector<std::array<int, 3>>& triangles, const A
       const double bound = (moving ? c.cosine * c.cosine : c.cosine) * c.altitude;
       if (bound >= kSafety * r) {
         ++stats_.contour_checks;
-        pass = contour_clear(i, c.axis, xa, xb, moving, r);
+        const double clearance = contour_clearance(i, c.axis, xa, xb, moving, r);
+        pass = clearance >= kSafety * r;
+        if (pass) reach = std::min(reach, std::min(bound, clearance) / kSafety);
         if (!pass) ++stats_.contour_failures;
       }
     }
     if (pass) {
       skip[i] = 1;
-      ++stats_.regions_culled;
-      stats_.triangles_culled += tree.node_end(i) - tree.node_begin(i);
     } else if (!tree.node_leaf(i)) {
       stack.push_back(tree.node_right(i));
       stack.push_back(i + 1);
     }
   }
+  return std::isfinite(reach) ? reach : 0.0;
 }
 
-bool SelfCulling::contour_clear(int node, const Vec3& axis, const VecX& xa, const VecX& xb, bool moving, double r) {
+double SelfCulling::contour_clearance(int node, const Vec3& axis, const VecX& xa, const VecX& xb, bool moving,
+                                      double r) {
   // A basis of the plane orthogonal to the axis.
   Vec3 helper = std::abs(axis.x()) < 0.6 ? Vec3::UnitX() : Vec3::UnitY();
   const Vec3 u = axis.cross(helper).normalized();
@@ -219,7 +301,10 @@ bool SelfCulling::contour_clear(int node, const Vec3& axis, const VecX& xa, cons
     const Vec3 p = at(x, i);
     return std::array<double, 2>{p.dot(u), p.dot(w)};
   };
-  const double grow = 0.5 * kSafety * r;
+  // Pairs whose boxes are farther apart than the probe are clear by that much; those nearer are
+  // measured.
+  const double probe = kKeptProbe * kSafety * std::max(r, widest_r_);
+  const double grow = 0.5 * probe;
   segments_.clear();
   for (int k = contour_begin_[node]; k < contour_begin_[node + 1]; ++k) {
     const auto& e = contour_[k];
@@ -255,16 +340,24 @@ bool SelfCulling::contour_clear(int node, const Vec3& axis, const VecX& xa, cons
     const auto p = project(xa, i), q = project(xb, i);
     return std::hypot(q[0] - p[0], q[1] - p[1]);
   };
-  // Segments s and t share the end `c`: each far end at least r from the other segment, at
-  // every time of the step.
-  auto far_ends_clear = [&](const Segment& s, const Segment& t, int c) {
+  // Segments s and t share the end `c`: how far each far end stays from the other segment at
+  // every time of the step (the least of the two).
+  auto far_ends_clearance = [&](const Segment& s, const Segment& t, int c) {
     const int fs = s.a == c ? s.b : s.a, ft = t.a == c ? t.b : t.a;
-    if (fs == ft) return false;  // the same edge twice
+    if (fs == ft) return 0.0;  // the same edge twice
     const double mc = motion(c), mfs = motion(fs), mft = motion(ft);
     const auto pc = project(xa, c), pfs = project(xa, fs), pft = project(xa, ft);
-    return point_segment_distance(pfs, pc, pft) - mfs - std::max(mc, mft) >= kSafety * r &&
-           point_segment_distance(pft, pc, pfs) - mft - std::max(mc, mfs) >= kSafety * r;
+    return std::min(point_segment_distance(pfs, pc, pft) - mfs - std::max(mc, mft),
+                    point_segment_distance(pft, pc, pfs) - mft - std::max(mc, mfs));
   };
+  // Segments s and t sharing no end: their boxes' separation along either axis (a bound on
+  // their distance at every time of the step: each box holds its segment throughout).
+  auto box_gap = [&](const Segment& s, const Segment& t) {
+    double gap = -std::numeric_limits<double>::infinity();
+    for (int d = 0; d < 2; ++d) gap = std::max({gap, s.lo[d] - t.hi[d] + probe, t.lo[d] - s.hi[d] + probe});
+    return gap;
+  };
+  double clearance = probe;
   for (size_t i = 0; i < sorted_.size(); ++i) {
     const Segment& s = segments_[sorted_[i]];
     for (size_t j = i + 1; j < sorted_.size(); ++j) {
@@ -272,12 +365,12 @@ bool SelfCulling::contour_clear(int node, const Vec3& axis, const VecX& xa, cons
       if (t.lo[0] > s.hi[0]) break;
       if (t.lo[1] > s.hi[1] || s.lo[1] > t.hi[1]) continue;
       const bool sa = s.a == t.a || s.a == t.b, sb = s.b == t.a || s.b == t.b;
-      if (sa && sb) return false;
-      if (!sa && !sb) return false;  // two segments sharing no end within r
-      if (!far_ends_clear(s, t, sa ? s.a : s.b)) return false;
+      if (sa && sb) return 0;
+      clearance = std::min(clearance, sa || sb ? far_ends_clearance(s, t, sa ? s.a : s.b) : box_gap(s, t));
+      if (clearance < kSafety * r) return 0;  // fails at the call's reach: no need to go on
     }
   }
-  return true;
+  return clearance;
 }
 
 }  // namespace weft

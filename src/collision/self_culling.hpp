@@ -28,6 +28,18 @@
 // region through a contour segment at v and comes back through another within r of it (3
 // forbids). So the region holds no such pair, and the tests left out would all have found
 // nothing: with culling the pairs found are the same, in the same order.
+//
+// Regions found are kept for the calls after (a sheet's shape changes little from one step to
+// the next): regions holding no pair within R at positions P hold none within R - 2 d at
+// positions X each within d of a rigid motion of P (X_i within d of R P_i + t), since moving
+// every point of two primitives by at most d changes their distance by at most 2 d and a rigid
+// motion changes none; along a step from xa to xb, both ends within d of the same motion, every
+// position between is too. So a call looks first at how far its positions are from the best
+// rigid motion of the kept ones (Kabsch's fit), and takes the kept regions when that bound
+// allows; otherwise it finds the regions anew and keeps them with the largest reach at which
+// they all pass (each region's cone and altitude bound, and its contour's distances measured out
+// to a few times the widest reach asked). Taking kept regions changes no pair found, only the time
+// spent.
 #include <array>
 #include <vector>
 
@@ -43,6 +55,7 @@ struct SelfCullingStatistics {
   long triangles_culled = 0;   ///< triangles in them
   long contour_checks = 0;     ///< regions whose contour was checked (1 and 2 held)
   long contour_failures = 0;   ///< of those, contours that failed 3
+  long reused = 0;             ///< calls that took the regions kept from an earlier call
 };
 
 class SelfCulling {
@@ -63,8 +76,25 @@ class SelfCulling {
 
   const SelfCullingStatistics& statistics() const { return stats_; }
 
+  /// Keeps no regions between calls (each call finds its own; for tests and benchmarks).
+  void set_keeping(bool on) {
+    keeping_ = on;
+    kept_.valid = false;
+  }
+
  private:
-  bool contour_clear(int node, const Vec3& axis, const VecX& xa, const VecX& xb, bool moving, double r);
+  // The cones of every node of the tree over the step from xa to xb.
+  void find_cones(const std::vector<std::array<int, 3>>& triangles, const AabbTree& tree, const VecX& xa,
+                  const VecX& xb, bool moving);
+  // The top-most regions that pass at reach r, flagged in skip (resized and cleared); returns
+  // the largest reach at which they all pass (at least r; 0 if none passes).
+  double select(const AabbTree& tree, const VecX& xa, const VecX& xb, bool moving, double r, std::vector<char>& skip);
+  // Whether every vertex of xa (and of xb, moving) lies within d of the kept positions, or of the
+  // rigid motion of them that best fits xa.
+  bool near_kept(const VecX& xa, const VecX& xb, bool moving, double d) const;
+  // How far apart condition 3 finds the contour's segments (the least of its distances, as
+  // times kSafety, out to kKeptProbe times the widest reach asked); 0 when it fails at r.
+  double contour_clearance(int node, const Vec3& axis, const VecX& xa, const VecX& xb, bool moving, double r);
 
   std::vector<std::array<int, 2>> contour_;  ///< directed edges, per node from contour_begin_
   std::vector<int> contour_begin_;           ///< node count + 1 offsets
@@ -84,6 +114,19 @@ class SelfCulling {
   };
   std::vector<Segment> segments_;
   std::vector<int> sorted_;
+
+  // Regions kept from an earlier call: they hold no pair within `reach` at `positions`.
+  struct Kept {
+    bool valid = false;
+    VecX positions;
+    Vec3 centroid = Vec3::Zero();
+    double reach = 0;
+    std::vector<char> skip;
+    long triangles = 0;  ///< held by the regions in skip
+  };
+  Kept kept_;
+  bool keeping_ = true;
+  double widest_r_ = 0;  ///< the widest reach asked so far
   SelfCullingStatistics stats_;
 };
 

@@ -2,7 +2,7 @@
 // searches find the same pairs with culling on and off, on cloth that folds, rolls and
 // crumples; a flat or gently curved sheet is passed over whole, and what must not be passed
 // over (a fold, two pieces side by side closer than the reach, a sheet finer than the reach)
-// is not.
+// is not; regions kept from an earlier search are taken after a rigid motion, not after a fold.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -116,6 +116,19 @@ VecX smooth_velocity(const Cloth& c, double speed, unsigned seed) {
   return v;
 }
 
+// A culling over a cloth's tree, and the regions of its last search.
+struct Searches {
+  explicit Searches(const Cloth& c) : triangles(c.triangles), tree(c.triangles, c.rest.data()), culling(c.triangles, tree) {}
+  const std::vector<char>& find(const VecX& xa, const VecX& xb, double r) {
+    culling.find(triangles, tree, xa, xb, r, skip);
+    return skip;
+  }
+  std::vector<std::array<int, 3>> triangles;
+  AabbTree tree;
+  SelfCulling culling;
+  std::vector<char> skip;
+};
+
 }  // namespace
 
 TEST(SelfCulling, AFlatSheetIsPassedOverWholeAndNothingIsFound) {
@@ -180,6 +193,43 @@ TEST(SelfCulling, TwoPiecesSideBySideCloserThanTheReachAreNotPassedOverTogether)
   EXPECT_EQ(skip[0], 1);
   EXPECT_GT(held_without_culling(c, VecX::Zero(c.x.size())), 0u);  // the gap's edges hold each other
   same_with_and_without_culling(c, VecX::Zero(c.x.size()), 0.005);
+}
+
+TEST(SelfCulling, KeptRegionsAreTakenAfterARigidMotionAndAreThoseFoundAnew) {
+  // A gently curved sheet, then the same turned by 40 degrees and shifted by 30 cm, with a
+  // ripple of 0.1 mm: the kept regions are taken (the positions are within 0.1 mm of a rigid
+  // motion of the first) and they are the regions a culling without kept regions finds there.
+  const Cloth c = grid(33, 0.5, [](double s, double t) { return Vec3(s, 1 + 0.2 * s * s, t); });
+  Searches kept(c), fresh(c);
+  fresh.culling.set_keeping(false);
+  ASSERT_EQ(kept.find(c.x, c.x, kReach)[0], 1);
+  const Mat3 turn = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  VecX moved(c.x.size());
+  for (int i = 0; i < moved.size() / 3; ++i)
+    node(moved, i) = turn * node(c.x, i) + Vec3(0.3, -0.1, 0.2) + Vec3(0, 1e-4 * std::sin(40.0 * i), 0);
+  EXPECT_EQ(kept.find(moved, moved, kReach), fresh.find(moved, moved, kReach));
+  EXPECT_EQ(kept.culling.statistics().reused, 1);
+  EXPECT_EQ(fresh.culling.statistics().reused, 0);
+  // Moving over a step from there to a little further along the same motion: taken again.
+  VecX further(c.x.size());
+  for (int i = 0; i < moved.size() / 3; ++i) node(further, i) = node(moved, i) + Vec3(0.002, 0.001, 0);
+  EXPECT_EQ(kept.find(moved, further, 0.1 * kThickness)[0], 1);
+  EXPECT_EQ(kept.culling.statistics().reused, 2);
+}
+
+TEST(SelfCulling, KeptRegionsAreNotTakenOnceTheClothFolded) {
+  // A flat sheet whose regions were kept, then folded flat onto itself 2 mm apart (within the
+  // reach): its vertices are far from any rigid motion of the flat sheet, so the regions are
+  // found anew, the root is not passed over, and the searches find the pairs across the fold.
+  const Cloth flat = grid(33, 0.5, [](double s, double t) { return Vec3(s, 1, t); });
+  Searches searches(flat);
+  ASSERT_EQ(searches.find(flat.x, flat.x, kReach)[0], 1);
+  const Cloth folded = grid(33, 0.5, [](double s, double t) {
+    return s <= 0.25 ? Vec3(s, 1, t) : Vec3(0.5 - s, 1.002, t);  // a sharp hinge at s = 0.25
+  });
+  EXPECT_EQ(searches.find(folded.x, folded.x, kReach)[0], 0);
+  EXPECT_EQ(searches.culling.statistics().reused, 0);
+  EXPECT_GT(held_without_culling(folded, VecX::Zero(folded.x.size())), 100u);
 }
 
 TEST(SelfCulling, AFoldedSheetFindsTheSameContacts) {
@@ -248,7 +298,7 @@ TEST(SelfCulling, AHangingSheetRunsToTheSameBitsWithAndWithoutCulling) {
   // The free-sheet benchmark's cloth (1 m, 33 x 33, hanging from two corners, folding as it
   // swings), 0.4 s: the same state bit for bit, and culling passed over most of it.
   VecX x[2];
-  long culled = 0, offered = 0;
+  long culled = 0, offered = 0, reused = 0;
   for (int on = 0; on < 2; ++on) {
     Simulation sim(test::cloth_step_scene(33));
     SelfContacts* self = sim.core().simulation_data().self_contacts.get();
@@ -259,10 +309,12 @@ TEST(SelfCulling, AHangingSheetRunsToTheSameBitsWithAndWithoutCulling) {
     if (on) {
       culled = self->culling_statistics().triangles_culled;
       offered = self->culling_statistics().calls * static_cast<long>(sim.core().model().mesh.triangles.size());
+      reused = self->culling_statistics().reused;
     }
   }
   EXPECT_TRUE(x[0] == x[1]);
   EXPECT_GT(culled, offered / 2);
+  EXPECT_GT(reused, 0);  // kept regions were taken along the way
 }
 
 TEST(SelfCulling, ContactScenesRunToTheSameBitsWithAndWithoutCulling) {
@@ -272,7 +324,7 @@ TEST(SelfCulling, ContactScenesRunToTheSameBitsWithAndWithoutCulling) {
     SCOPED_TRACE(file);
     const Scene scene = load_scene(std::string(WEFT_SOURCE_DIR) + "/scenes/" + file);
     VecX x[2], v[2];
-    long culled = 0;
+    long culled = 0, reused = 0;
     for (int on = 0; on < 2; ++on) {
       Simulation sim(scene);
       SelfContacts* self = sim.core().simulation_data().self_contacts.get();
@@ -281,10 +333,14 @@ TEST(SelfCulling, ContactScenesRunToTheSameBitsWithAndWithoutCulling) {
       sim.advance_to(seconds);
       x[on] = sim.core().state().x;
       v[on] = sim.core().state().v;
-      if (on) culled = self->culling_statistics().triangles_culled;
+      if (on) {
+        culled = self->culling_statistics().triangles_culled;
+        reused = self->culling_statistics().reused;
+      }
     }
     EXPECT_TRUE(x[0] == x[1]);
     EXPECT_TRUE(v[0] == v[1]);
     EXPECT_GT(culled, 0);
+    EXPECT_GT(reused, 0);
   }
 }
