@@ -246,7 +246,7 @@ MUTATIONS = [
     # Garments
     M("weld-one-side", "garment", "src/garment/sewing.cpp",
       "m.positions.row(w) += positions.row(i);", "m.positions.row(w) = (members[w] + 1) * positions.row(i);",
-      "a welded vertex put at one of its vertices instead of their mean", "Weld.*"),
+      "a welded vertex put at one of its vertices instead of their mean", "Weld.*:SewingStage.*"),
     # Checkpoints
     M("fingerprint-cloth-friction", "checkpoint", "src/sim/model_data.cpp",
       "for (double d : {M.scene.cloth.thickness, M.scene.cloth.friction}) w.f64(d);",
