@@ -340,9 +340,11 @@ PYBIND11_MODULE(weft, m) {
         "same bits at every count.");
   m.def("thread_count", &weft::thread_count, "The threads a parallel part of a step may use now");
   m.def("sweep", &sweep,
-        "sweep(spec, out, client=None, *, scheduler=None, workers=None, weft=None, base_dir=None, quiet=True): runs a "
-        "sweep file's runs (a path, or a dict in its layout) on Dask into the folder `out` and returns results.csv's "
-        "rows as a pandas DataFrame; client: a dask.distributed.Client (default: a local cluster of `workers`). The "
+        "sweep(spec, out, client=None, *, scheduler=None, workers=None, weft=None, base_dir=None, quiet=True, "
+        "rerun_other_builds=False): runs a sweep file's runs (a path, or a dict in its layout) on Dask into the folder "
+        "`out` and returns results.csv's rows as a pandas DataFrame; client: a dask.distributed.Client (default: a "
+        "local cluster of `workers`). Runs already finished in `out` are skipped, those another weft build made too "
+        "unless rerun_other_builds (results.csv's weft_version names each run's build). The "
         "driver is weft_sweep (python/weft_sweep, docs/sweeps.md); the runs use the weft command of this build unless "
         "weft= or $WEFT_EXE names another.");
 

@@ -181,6 +181,16 @@ def client():
     cluster.close()
 
 
+def test_weft_sweep_docstring_names_every_argument_of_the_driver_with_its_default():
+    import inspect
+    import weft
+    sys.path.insert(0, os.path.join(SOURCE, "python"))
+    import weft_sweep
+    for name, p in inspect.signature(weft_sweep.sweep).parameters.items():
+        shown = name if p.default is inspect.Parameter.empty else f"{name}={p.default!r}"
+        assert shown in weft.sweep.__doc__, shown
+
+
 def test_weft_sweep_from_python_zips_axes_into_a_dataframe_with_a_failed_run_as_a_row(tmp_path, client):
     import weft
     # forward Euler at 20 ms blows up on the swing (weft run: exit status 3, unstable).
