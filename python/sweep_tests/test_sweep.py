@@ -318,6 +318,29 @@ def test_folders_a_killed_sweep_left_are_removed_on_resume_and_counted_only_if_t
     assert "all 2 runs are already in" in err
 
 
+def test_leftover_tables_a_killed_driver_left_half_written_are_removed_on_resume_if_its_process_is_dead(tmp_path):
+    spec = swing_sweep(**{"integrator.dt": [0.01, 0.02]})
+    spec["index"] = {"file": "dataset.csv", "columns": {"status": "status"}}
+    out = tmp_path / "out"
+    _, env = own_tmp(tmp_path)
+    status, err = weft_sweep(tmp_path, spec, out, "--workers", 2, env=env)
+    assert status == 0, err
+    tables = sorted(n for n in os.listdir(out) if n.endswith(".csv"))
+    assert tables == ["dataset.csv", "results.csv"] and not any(n.endswith(".tmp") for n in os.listdir(out)), err
+    # As a driver killed by SIGKILL while writing a table leaves it (write_csv's NAME.<pid>.tmp);
+    # a live driver's, and a file of that shape that is no table of this sweep, are kept.
+    dead, me = dead_pid(), os.getpid()
+    planted = [f"results.csv.{dead}.tmp", f"dataset.csv.{dead}.tmp", f"results.csv.{me}.tmp", f"other.csv.{dead}.tmp"]
+    for name in planted:
+        (out / name).write_text("id,status\n0000,")
+    status, err = weft_sweep(tmp_path, spec, out, "--workers", 2, env=env)
+    assert status == 0, err
+    assert f"weft sweep: removed 2 unfinished tables in {out} that sweeps stopped or killed left\n" in err
+    assert sorted(n for n in os.listdir(out) if n.endswith(".tmp")) == [f"other.csv.{dead}.tmp", f"results.csv.{me}.tmp"]
+    assert "all 2 runs are already in" in err
+    assert [r["status"] for r in results(out)] == ["ok", "ok"]
+
+
 def build_of(weft):
     """`weft --version` and the first 12 hex digits of the file's SHA-256."""
     version = subprocess.run([weft, "--version"], capture_output=True, text=True, check=True).stdout.strip()

@@ -335,6 +335,28 @@ def write_csv(path, rows, columns=None):
         raise
 
 
+def table_names(sw):
+    """The tables a sweep writes into OUT: results.csv and the index file, if any."""
+    return ["results.csv"] + ([sw.index["file"]] if sw.index else [])
+
+
+def remove_stale_tables(out, names):
+    """Removes the files NAME.<pid>.tmp (write_csv's) of the tables `names` that a driver killed
+    while writing one left in `out` (its pid no longer running; a live driver's are left);
+    returns how many."""
+    removed = 0
+    for entry in os.listdir(out):
+        table, _, pid = entry.removesuffix(".tmp").rpartition(".")
+        if entry.endswith(".tmp") and table in names and pid.isdigit() and not worker.alive(int(pid)):
+            path = os.path.join(out, entry)
+            try:
+                os.remove(path)
+                removed += 1
+            except OSError:
+                pass
+    return removed
+
+
 def write_tables(sw, out, rows):
     rows = sorted(rows, key=lambda r: r["id"])
     write_csv(os.path.join(out, "results.csv"), rows)
@@ -464,6 +486,7 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
         raise OutputError(f"cannot create {out}: {e.strerror}")
     folders = RunFolders(out)
     stale = worker.remove_stale()
+    stale_tables = remove_stale_tables(out, table_names(sw))
     done_rows, todo, others = [], [], 0
     for r in sw.runs:
         record = folders.finished(r)
@@ -476,6 +499,7 @@ def execute(sw, out, client=None, scheduler=None, workers=None, weft=None, quiet
     progress = Progress(len(sw.runs), len(done_rows), quiet, stream)
     progress.failed = sum(1 for r in done_rows if r["status"] not in OK_STATUSES)
     removed = [f"{n} {what}" for n, what in ((folders.stale_removed, f"unfinished run folders in {folders.root}"),
+                                             (stale_tables, f"unfinished tables in {out}"),
                                              (stale, f"temporary folders in {tempfile.gettempdir()}")) if n]
     if removed:
         progress.say(f"weft sweep: removed {' and '.join(removed)} that sweeps stopped or killed left")
