@@ -3,9 +3,12 @@
 
 src/layers.txt says which folders each src/ folder may include, which folder each public
 header (include/weft/) counts as, and the known exceptions. Every quoted #include of every
-file under src/ is checked against it; so are the table itself (every src/ folder named, no
-folder named that is not there, no circle of folders) and, first, the check (a tree with an
-include that runs up must fail naming the file and the include).
+file under src/ is checked against it, and so is every public header it reaches through the
+public headers it includes (include/weft/..., followed to the end): a src/ file that includes
+weft/garment/placement.hpp, which includes weft/body.hpp, reaches body/. So are the table
+itself (every src/ folder named, no folder named that is not there, no circle of folders)
+and, first, the check (a tree with an include that runs up, directly or through a public
+header, must fail naming the file, the include and the header it runs up through).
 
 Usage: tools/check_layering.py [ROOT]   (ctest runs it as the test `layering`)
 Exit status 0 when every include keeps to the table, 1 otherwise (each problem on a line of
@@ -21,7 +24,8 @@ INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"')
 
 def read_table(path):
     """The table of src/layers.txt: allowed[folder] = set, owners[header] = folder,
-    exceptions = {(file, include)}."""
+    exceptions = {(file, include)}; a file include/weft/... there is a public header whose
+    include is not followed."""
     allowed, owners, exceptions = {}, {}, set()
     section = "folder"
     with open(path) as f:
@@ -60,6 +64,37 @@ def folder_of_include(include, owners):
     if "/" in include:
         return include.split("/", 1)[0]
     return None
+
+
+def public_includes(root):
+    """graph[header] = the public headers it includes, for every header under include/
+    (names as included: weft/...)."""
+    graph = {}
+    base = os.path.join(root, "include")
+    for folder, _, files in os.walk(base):
+        for name in sorted(files):
+            path = os.path.join(folder, name)
+            with open(path, errors="replace") as f:
+                graph[os.path.relpath(path, base)] = [m.group(1) for m in map(INCLUDE.match, f) if m]
+    return graph
+
+
+def reached(include, graph, exceptions, used):
+    """{header: the chain of includes from `include` to it} for every public header that
+    `include` reaches (itself included), not following the includes that `exceptions` lists
+    for a public header (those it meets are added to `used`)."""
+    chains = {include: [include]}
+    todo = [include]
+    while todo:
+        header = todo.pop()
+        for other in graph.get(header, ()):
+            if ("include/" + header, other) in exceptions:
+                used.add(("include/" + header, other))
+                continue
+            if other in graph and other not in chains:
+                chains[other] = chains[header] + [other]
+                todo.append(other)
+    return chains
 
 
 def find_circle(allowed):
@@ -105,6 +140,7 @@ def check(root):
     circle = find_circle(allowed)
     if circle:
         problems.append("%s: the folders include each other in a circle: %s" % (table, " -> ".join(circle)))
+    graph = public_includes(root)
     used = set()
     for folder in folders:
         for base, _, files in os.walk(os.path.join(src, folder)):
@@ -119,16 +155,27 @@ def check(root):
                         if not m:
                             continue
                         include = m.group(1)
-                        target = folder_of_include(include, owners)
-                        if target is None or target == folder or target in allowed.get(folder, ()):
+                        chains = reached(include, graph, exceptions, used) if include in graph else {include: [include]}
+                        runs_up = {}  # folder -> the shortest chain that reaches it
+                        for header, chain in sorted(chains.items(), key=lambda hc: (len(hc[1]), hc[0])):
+                            target = folder_of_include(header, owners)
+                            if target is None or target == folder or target in allowed.get(folder, ()):
+                                continue
+                            runs_up.setdefault(target, chain)
+                        if not runs_up:
                             continue
                         if (rel, include) in exceptions:
                             used.add((rel, include))
                             continue
                         may = " ".join(sorted(allowed.get(folder, ()))) or "nothing"
-                        problems.append('%s:%d: #include "%s" reaches %s/, a floor above %s/ (src/layers.txt: %s/ may '
-                                        "include %s)" % (rel, number, include, target, folder, folder, may))
+                        for target, chain in sorted(runs_up.items()):
+                            through = "" if len(chain) == 1 else " through %s (%s)" % (chain[-1], " -> ".join(chain))
+                            problems.append('%s:%d: #include "%s" reaches %s/%s, a floor above %s/ (src/layers.txt: '
+                                            "%s/ may include %s)" % (rel, number, include, target, through, folder,
+                                                                     folder, may))
     for rel, include in sorted(exceptions - used):
+        if rel.startswith("include/") and include in graph.get(rel[len("include/"):], ()):
+            continue  # a public header's include that no src/ file reaches today: still true
         problems.append('%s: the exception for %s includes "%s", which it no longer does: take it off the list'
                         % (table, rel, include))
     return problems
@@ -149,6 +196,28 @@ def self_test():
         expected = 'src/util/threads.cpp:3: #include "mesh/mesh.hpp" reaches mesh/'
         if len(problems) != 1 or not problems[0].startswith(expected):
             return ["self-test: expected one problem starting %r, got %r" % (expected, problems)]
+        # Through public headers: util/ includes a vocabulary header that includes one of mesh/'s.
+        os.makedirs(os.path.join(root, "include", "weft"))
+        for name, text in (("types.hpp", '#include "weft/vocabulary.hpp"\n'),
+                           ("vocabulary.hpp", '#include <vector>\n#include "weft/mesh.hpp"\n'),
+                           ("mesh.hpp", '#include "weft/types.hpp"\n')):
+            with open(os.path.join(root, "include", "weft", name), "w") as f:
+                f.write(text)
+        with open(os.path.join(root, "src", "layers.txt"), "a") as f:
+            f.write("weft/mesh.hpp mesh\n")
+        with open(os.path.join(root, "src", "util", "threads.cpp"), "w") as f:
+            f.write('#include "util/threads.hpp"\n#include "weft/types.hpp"\n')
+        problems = check(root)
+        expected = ('src/util/threads.cpp:2: #include "weft/types.hpp" reaches mesh/ through weft/mesh.hpp '
+                    "(weft/types.hpp -> weft/vocabulary.hpp -> weft/mesh.hpp), a floor above util/")
+        if len(problems) != 1 or not problems[0].startswith(expected):
+            return ["self-test: expected one problem starting %r, got %r" % (expected, problems)]
+        # A known exception for the public header's include: not followed, so nothing runs up.
+        with open(os.path.join(root, "src", "layers.txt"), "a") as f:
+            f.write("exception include why\ninclude/weft/vocabulary.hpp weft/mesh.hpp the test's\n")
+        problems = check(root)
+        if problems:
+            return ["self-test: expected no problem past a public header's known exception, got %r" % problems]
     return []
 
 
