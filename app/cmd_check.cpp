@@ -1,5 +1,6 @@
 // `weft check DIR`: counts, in every frame a run wrote to DIR/frames, the pairs of cloth
-// triangles that intersect and the cloth-body pairs that do (docs/collisions.md, "Checking").
+// triangles that intersect and the cloth-body pairs that do (docs/collision-geometry.md,
+// "Checking").
 #include <cstdio>
 #include <filesystem>
 #include <iostream>

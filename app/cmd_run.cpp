@@ -369,8 +369,9 @@ class RunWriter {
     std::error_code ec;
     fs::create_directories(out_.dir(), ec);
     if (ec) throw InputError(a.out + ": cannot create output folder: " + ec.message());
-    // Every frame's intersections (docs/collisions.md, "Checking"), counted whether or not it is
-    // written; a resumed run takes over the counts of the frames before its checkpoint.
+    // Every frame's intersections (docs/collision-geometry.md, "Checking"), counted whether or
+    // not it is written; a resumed run takes over the counts of the frames before its
+    // checkpoint.
     tally_.first_frame = first_frame;
     if (resumed && resumed->header.contains("intersections")) {
       try {

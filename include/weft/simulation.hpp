@@ -201,9 +201,9 @@ RunResult run_simulation(Simulation& sim, const RunCallbacks& callbacks = {}, co
 /// hash `weft run` keeps of the scene a checkpoint was made from.
 std::uint64_t fnv1a(const void* data, size_t size, std::uint64_t hash = 0xcbf29ce484222325ull);
 
-/// A checkpoint (docs/scene-format.md, "Checkpoints") of a run at a frame boundary: `header` (what the
-/// caller needs to rebuild the Simulation), sim's state and the run so far. The bytes to
-/// write to a file.
+/// A checkpoint (docs/run-outputs.md, "Checkpoints and resuming") of a run at a frame
+/// boundary: `header` (what the caller needs to rebuild the Simulation), sim's state and the
+/// run so far. The bytes to write to a file.
 std::string checkpoint_bytes(const nlohmann::json& header, const Simulation& sim, const RunResult& so_far);
 /// The header of the checkpoint in `bytes` read from `file`; throws InputError naming the
 /// file for anything other than an undamaged checkpoint of this format version.

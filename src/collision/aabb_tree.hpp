@@ -1,7 +1,7 @@
 #pragma once
 // A bounding-volume hierarchy of axis-aligned boxes over the triangles of a mesh: its shape is
 // built once from the topology and a set of positions; each step only refits the boxes to
-// the new positions (docs/collisions.md, "Detection").
+// the new positions (docs/collision-geometry.md, "Detection").
 #include <array>
 #include <limits>
 #include <vector>

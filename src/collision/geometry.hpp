@@ -1,8 +1,8 @@
 #pragma once
-// Geometric queries of collision handling (docs/collisions.md, "Detection"): closest points
-// between a point and a triangle and between two segments, continuous collision detection of
-// a vertex against a triangle and of an edge against an edge along straight trajectories over
-// a step, and intersection tests of segments and triangles.
+// Geometric queries of collision handling (docs/collision-geometry.md, "Detection"): closest points
+// between a point and a triangle and between two segments, continuous collision detection of a
+// vertex against a triangle and of an edge against an edge along straight trajectories over a step,
+// and intersection tests of segments and triangles.
 //
 // Naming: `_t0` and `_t1` are positions at the start and end of the step; in between a vertex
 // moves on the straight line x(t) = x_t0 + t (x_t1 - x_t0), t in [0, 1].

@@ -1,5 +1,5 @@
 #pragma once
-// Counting intersecting triangle pairs in output frames (docs/collisions.md, "Checking"):
+// Counting intersecting triangle pairs in output frames (docs/collision-geometry.md, "Checking"):
 // a cloth against itself, and a cloth against another mesh (a body).
 #include <array>
 #include <cstddef>

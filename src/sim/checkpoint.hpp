@@ -1,6 +1,6 @@
 #pragma once
-// Checkpoints of a run (docs/scene-format.md, "Checkpoints"): everything a step depends on
-// and the run so far, at a frame boundary, in binary (doubles bit for bit), so that a run
+// Checkpoints of a run (docs/run-outputs.md, "Checkpoints and resuming"): everything a step depends
+// on and the run so far, at a frame boundary, in binary (doubles bit for bit), so that a run
 // continued from one gives the same bits as a run never stopped.
 //
 // File layout (little-endian): "WEFTCKPT", format version (u32), header length (u64) and
