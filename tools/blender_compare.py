@@ -44,18 +44,23 @@ def die(message, status=2):
     sys.exit(status)
 
 
-def parse_settings(text):
-    """'5:2,10:5' -> [(5, 2), (10, 5)]: Blender's quality (steps per frame) and collision quality."""
+def parse_settings(text, distance):
+    """'5:2,10:5:10' -> [(5, 2, 0.004), (10, 5, 0.010)]: Blender's quality (steps per frame),
+    collision quality and, optionally, the cloth-body collision distance in mm (else --distance)."""
     out = []
     for item in text.split(","):
         parts = item.strip().split(":")
         try:
+            if len(parts) not in (2, 3):
+                raise ValueError
             q, c = int(parts[0]), int(parts[1])
-            if len(parts) != 2 or not (1 <= q <= 200 and 1 <= c <= 50):
+            d = float(parts[2]) / 1000.0 if len(parts) == 3 else distance
+            if not (1 <= q <= 200 and 1 <= c <= 50 and 0.001 < d <= 0.1):
                 raise ValueError
         except (ValueError, IndexError):
-            die("--settings: %r is not QUALITY:COLLISION_QUALITY (quality 1-200, collision quality 1-50)" % item)
-        out.append((q, c))
+            die("--settings: %r is not QUALITY:COLLISION_QUALITY[:DISTANCE_MM] (quality 1-200, collision "
+                "quality 1-50, distance above 1 and up to 100 mm)" % item)
+        out.append((q, c, d))
     if not out:
         die("--settings is empty")
     return out
@@ -73,12 +78,14 @@ def parse_args(argv):
     p.add_argument("--scene", default=os.path.join(ROOT, "scenes", "walk.json"), help="weft scene (default: scenes/walk.json)")
     p.add_argument("--cases", default="standing,walking", help="comma-separated: standing, walking (default both)")
     p.add_argument("--settings", default="5:2,10:5",
-                   help="Blender settings to run, QUALITY:COLLISION_QUALITY,... (steps per frame and collision "
-                   "iterations; Blender's defaults are 5:2)")
+                   help="Blender settings to run, QUALITY:COLLISION_QUALITY[:DISTANCE_MM],... (steps per frame, "
+                   "collision iterations and the cloth-body distance, default --distance; Blender's defaults are 5:2)")
     p.add_argument("--repeats", type=int, default=1, help="rounds of the interleaved runs (default 1)")
     p.add_argument("--walk-start", type=float, default=1.0,
                    help="seconds into the walk where the walking case starts (default 1.0: the body has blended into the walk)")
     p.add_argument("--no-weft", action="store_true", help="run only Blender (after the exports exist): a sweep of --settings")
+    p.add_argument("--results", default="results",
+                   help="name of the results files in OUT (default results: OUT/results.csv, OUT/results.md)")
     p.add_argument("--distance", type=float, default=0.004,
                    help="Blender's cloth-body collision distance in m, the cloth's distance plus the body's outer "
                    "thickness (default 0.004, weft's body thickness)")
@@ -89,7 +96,6 @@ def parse_args(argv):
     for c in a.cases:
         if c not in ("standing", "walking"):
             die("--cases: %r is neither standing nor walking" % c)
-    a.settings = parse_settings(a.settings)
     if a.repeats < 1:
         die("--repeats must be at least 1, not %d" % a.repeats)
     if not 0.5 <= a.walk_start <= 3.4:
@@ -98,6 +104,7 @@ def parse_args(argv):
         die("--distance must be in (0.001, 0.1] m, not %g" % a.distance)
     if not 0.0 < a.self_distance <= 0.1:
         die("--self-distance must be in (0, 0.1] m, not %g" % a.self_distance)
+    a.settings = parse_settings(a.settings, a.distance)
     blender = shutil.which(a.blender)
     if blender is None:
         die("`%s` not found: install Blender (Debian: apt-get install blender) or name it with --blender" % a.blender)
@@ -244,7 +251,7 @@ def material_constants(material):
     return dict(MATERIALS[material], bending_blender=BENDING_PER_RIGIDITY * MATERIALS[material]["bending"])
 
 
-def blender_settings(a, rest_obj, fps, quality, collision_quality, consts):
+def blender_settings(distance, self_distance, rest_obj, fps, quality, collision_quality, consts):
     n, area = mesh_area(rest_obj)
     edge = mean_edge(rest_obj)
     # Blender's cloth works in frames of time with gravity scaled by 1/1000: with Speed
@@ -265,13 +272,13 @@ def blender_settings(a, rest_obj, fps, quality, collision_quality, consts):
         "shear_stiffness": shear,
         "bending_stiffness": consts["bending_blender"],
     }
-    distance_min = a.distance - 0.001  # plus the body's outer thickness, 1 mm (Blender's least)
+    distance_min = distance - 0.001  # plus the body's outer thickness, 1 mm (Blender's least)
     collision = {
         "use_collision": True,
         "collision_quality": collision_quality,
         "distance_min": distance_min,
         "use_self_collision": True,
-        "self_distance_min": a.self_distance,
+        "self_distance_min": self_distance,
     }
     body = {"thickness_outer": 0.001}
     derived = {"vertices": n, "area_m2": round(area, 4), "mean_edge_m": round(edge, 5)}
@@ -327,14 +334,14 @@ def run_weft(a, case, label):
             "body_pairs": sum(body), "self_pairs": sum(per) - sum(body), "status": summary["status"]}
 
 
-def run_blender(a, case, quality, collision_quality, label):
-    name = "blender-%s-q%d-c%d-%s" % (case["name"], quality, collision_quality, label)
+def run_blender(a, case, quality, collision_quality, distance, label):
+    name = "blender-%s-q%d-c%d-d%g-%s" % (case["name"], quality, collision_quality, 1000 * distance, label)
     out_dir = os.path.join(a.out, name)
     if os.path.isdir(out_dir):
         shutil.rmtree(out_dir)
     os.makedirs(os.path.join(out_dir, "frames"))
-    cloth, collision, body, derived = blender_settings(a, case["rest"], case["fps"], quality, collision_quality,
-                                                       case["consts"])
+    cloth, collision, body, derived = blender_settings(distance, a.self_distance, case["rest"], case["fps"], quality,
+                                                       collision_quality, case["consts"])
     spec = {"start": case["start"], "rest": case["rest"], "body": case["body"], "fps": case["fps"],
             "frames": case["frames"], "cloth": cloth, "collision": collision, "body_collision": body}
     spec_path = os.path.join(out_dir, "case.json")
@@ -397,7 +404,7 @@ def make_cases(a):
 
 
 def write_results(a, rows):
-    path = os.path.join(a.out, "results.csv")
+    path = os.path.join(a.out, a.results + ".csv")
     keys = ["round", "case", "program", "setting", "wall_s", "cpu_s", "sim_wall_s", "sim_cpu_s",
             "frames_with_crossings", "worst_pairs", "body_pairs", "self_pairs", "rms_from_weft_cm", "status"]
     with open(path, "w", newline="") as f:
@@ -412,7 +419,7 @@ def write_results(a, rows):
             r["round"], r["case"], r["program"], r["setting"], r["wall_s"], r["cpu_s"], r["sim_wall_s"],
             r["frames_with_crossings"], r["frames"], r["worst_pairs"], r["body_pairs"], r["self_pairs"],
             r.get("rms_from_weft_cm", "")))
-    with open(os.path.join(a.out, "results.md"), "w") as f:
+    with open(os.path.join(a.out, a.results + ".md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     return path
 
@@ -431,15 +438,16 @@ def main(argv):
                     res = run_weft(a, case, label)
                     res.update(setting="dt 5 ms, --threads 1", sim_cpu_s="")
                 else:
-                    res = run_blender(a, case, setting[0], setting[1], label)
-                    res.update(setting="quality %d, collision quality %d, -t 1" % setting)
+                    res = run_blender(a, case, setting[0], setting[1], setting[2], label)
+                    res.update(setting="quality %d, collision quality %d, distance %g mm" % (
+                        setting[0], setting[1], 1000 * setting[2]))
                 res.update(round=r, case=case["name"], program=program, frames=case["frames"] + 1)
                 rows.append(res)
                 print("%-8s %-7s %-40s wall %7.1f s  CPU %7.1f s  sim %7.1f s  crossings: %d of %d frames (worst %d pairs)" % (
                     case["name"], program, res["setting"], res["wall_s"], res["cpu_s"], res["sim_wall_s"],
                     res["frames_with_crossings"], res["frames"], res["worst_pairs"]), flush=True)
                 write_results(a, rows)
-    print("wrote %s and results.md" % os.path.join(a.out, "results.csv"))
+    print("wrote %s.csv and %s.md" % (os.path.join(a.out, a.results), a.results))
     return 0
 
 
