@@ -187,7 +187,7 @@ try:
     main()
 except SystemExit:
     raise
-except BaseException as e:  # an error inside Blender must still end it with a non-zero status
+except BaseException:  # an error inside Blender must still end it with a non-zero status
     import traceback
     traceback.print_exc()
     os._exit(1)

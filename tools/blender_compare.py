@@ -9,9 +9,9 @@ cloth's OBJ frames (triangles, start and rest positions) and the body's OBJ fram
 in Blender as a point cache under a Collision modifier. Two cases:
 
   standing  the walk's first 0.48 s: the body stands, the coat settles (from frame 0)
-  walking   a segment of the walk: weft resumes from a checkpoint taken at --walk-start
-            (the first frame boundary after it), Blender starts from weft's frame there
-            (with zero velocity), both run to --walk-start + 0.48 s
+  walking   a segment of the walk: weft resumes from a checkpoint taken at the frame after
+            --walk-start (1.04 s for 1.0), Blender starts from weft's frame there (with zero
+            velocity), both run for 0.48 s
 
 docs/notes/blender.md says how weft's settings map onto Blender's, and what was measured.
 Blender is not a dependency of weft's build or tests; this script needs it on PATH (or
@@ -162,9 +162,14 @@ def prepare_walking(a, interval):
     prefix = os.path.join(a.out, "walk-prefix")
     start, end = walk_frames(a, interval)
     done = os.path.join(prefix, "checkpoint.weft")
-    if os.path.isfile(done) and os.path.isfile(os.path.join(prefix, "prepared.json")):
-        with open(os.path.join(prefix, "prepared.json")) as f:
-            return json.load(f)["checkpoint_frame"]
+    prepared = os.path.join(prefix, "prepared.json")
+    if os.path.isfile(done) and os.path.isfile(prepared):
+        with open(prepared) as f:
+            p = json.load(f)
+        if p.get("walk_start", 1.0) != a.walk_start:
+            die("%s holds the walk from %g s, not --walk-start %g: remove %s or use another --out" % (
+                prefix, p.get("walk_start", 1.0), a.walk_start, prefix))
+        return p["checkpoint_frame"]
     # Run to the segment's end, but stop with SIGINT as soon as the frame at --walk-start is
     # written: weft then stops at the next frame boundary and writes its checkpoint there.
     # (The checkpoint's frame is read back; the run's duration, fixed at the start, is the
@@ -184,7 +189,7 @@ def prepare_walking(a, interval):
         die("the walk's prefix run did not stop at a checkpoint (exit status %d): see %s" % (status, log.name), 1)
     checkpoint_frame = len(frame_files(prefix, "frame_")) - 1
     with open(os.path.join(prefix, "prepared.json"), "w") as f:
-        json.dump({"checkpoint_frame": checkpoint_frame, "end_frame": end}, f)
+        json.dump({"checkpoint_frame": checkpoint_frame, "end_frame": end, "walk_start": a.walk_start}, f)
     return checkpoint_frame
 
 
