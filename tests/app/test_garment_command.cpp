@@ -295,6 +295,48 @@ TEST_F(UnsewnGarment, ExitsSixKeepsItAsGarmentUnsewnAndNamesTheOpenStitch) {
   EXPECT_EQ(sewing["garment"]["vertices"], summary["vertices"]);
 }
 
+// A pattern that cannot close however long it is sewn: two panels about the torso, a front and
+// a back, sewn at both sides and along both their top and their bottom edges, would be a closed
+// bag, and the body passes through it (the neck through the top seam, the hips and legs through
+// the bottom one). Sewing draws the top round the neck and stalls with both seams centimetres
+// open, well within the default sewing time: exit 6, no garment.obj, both stitches named.
+TEST_F(UnsewnGarment, ABagTheBodyPassesThroughCannotCloseAndItsStitchesAreNamed) {
+  const auto pattern = write("bag.json", R"({"properties": {"units_in_meter": 100},
+    "pattern": {"panels": {
+      "front": {"vertices": [[-20, 0], [20, 0], [20, 55], [-20, 55]],
+                "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}],
+                "translation": [0, 90, 20], "rotation": [0, 0, 0]},
+      "back": {"vertices": [[-20, 0], [-20, 55], [20, 55], [20, 0]],
+               "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}],
+               "translation": [0, 90, -20], "rotation": [0, 0, 0]}},
+    "stitches": [[{"panel": "front", "edge": 1}, {"panel": "back", "edge": 2}],
+                 [{"panel": "front", "edge": 3}, {"panel": "back", "edge": 0}],
+                 [{"panel": "front", "edge": 2}, {"panel": "back", "edge": 1}],
+                 [{"panel": "front", "edge": 0}, {"panel": "back", "edge": 3}]]}})");
+  const auto out = folder_ / "out";
+  const auto r = weft("--threads 1 garment " + quoted(pattern) + " --out " + quoted(out) + " --edge-length 0.07");
+  ASSERT_EQ(r.exit_code, 6) << r.error_output;
+  EXPECT_FALSE(std::filesystem::exists(out / "garment.obj"));
+  EXPECT_TRUE(std::filesystem::exists(out / "garment_unsewn.obj"));
+  EXPECT_NE(r.error_output.find("bag did not sew: "), std::string::npos) << r.error_output;
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  const auto& sewing = summary["sewing"];
+  EXPECT_EQ(sewing["sewn"], false);
+  EXPECT_LE(sewing["simulated_time_s"].get<double>(), 0.5 + 1e-9);  // the default sewing time
+  // The top and bottom seams, each with the body between its two sides (the neck is some 10 cm
+  // across): open by centimetres and named on stderr with their panels, edges and gaps.
+  for (const auto& [stitch, sides] : {std::pair{2, "stitch 2 (panel 'front' edge 2 to panel 'back' edge 1): gap "},
+                                      std::pair{3, "stitch 3 (panel 'front' edge 0 to panel 'back' edge 3): gap "}}) {
+    double gap = -1;
+    for (const auto& open : sewing["open_stitches"])
+      if (open["stitch"] == stitch) gap = open["gap_m"].get<double>();
+    EXPECT_GT(gap, 0.03) << "stitch " << stitch;
+    char gap_text[64];
+    std::snprintf(gap_text, sizeof gap_text, "%.2f mm", 1e3 * gap);
+    EXPECT_NE(r.error_output.find(std::string(sides) + gap_text), std::string::npos) << r.error_output;
+  }
+}
+
 TEST_F(UnsewnGarment, ASceneWhosePatternDoesNotSewIsRefused) {
   const auto scene = [&](const std::string& extra) {
     return write("scene.json", R"({"weft_scene": 1, "duration": 0.01, "frame_interval": 0.01,
