@@ -21,6 +21,7 @@
 #include "weft/recording.hpp"
 #include "progress.hpp"
 #include "weft/atomic_file.hpp"
+#include "weft/body.hpp"
 #include "weft/error.hpp"
 #include "weft/simulation.hpp"
 

@@ -9,11 +9,10 @@
 #include <string>
 #include <vector>
 
+#include "weft/collider.hpp"
 #include "weft/types.hpp"
 
 namespace weft {
-
-using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
 // ---------------------------------------------------------------------------------------------
 // OBJ files
@@ -98,10 +97,6 @@ void skin_lbs(const Points& rest, const SkinWeights& weights, const std::vector<
 /// Dual-quaternion skinning (Kavan et al. 2007): blend unit dual quaternions, normalise, apply.
 void skin_dqs(const Points& rest, const SkinWeights& weights, const std::vector<BonePose>& poses,
               Points& out);
-
-enum class Skinning { kLinearBlend, kDualQuaternion };
-/// "lbs" or "dqs"; throws InputError naming `where` otherwise.
-Skinning parse_skinning(const std::string& name, const std::string& where);
 
 // ---------------------------------------------------------------------------------------------
 // BVH motion capture
@@ -191,27 +186,7 @@ class Animation {
 };
 
 // ---------------------------------------------------------------------------------------------
-// The mannequin and the collider description that scenes use
-
-/// The body as a scene collider: {"type": "body", "motion": FILE, "speed": 0.75,
-/// "skinning": "lbs"|"dqs", "start_time": 0}.
-struct BodyColliderSpec {
-  std::string motion_file;    ///< "" for the shipped walk (data/motion/35_01.bvh)
-  double speed = 0.75;        ///< playback speed scale
-  std::string skinning = "lbs";
-  double start_time = 0.0;    ///< seconds into the motion at scene time 0
-  /// Scene seconds the body stands in its bind pose (the T-pose) before it moves, and the
-  /// seconds over which it then blends into the motion's first pose; the motion starts after both.
-  double bind_pose_hold = 0.0;
-  double blend = 0.0;
-  /// AnimationOptions::arm_spread_rad, given in the scene in degrees ("arm_spread_deg").
-  double arm_spread_deg = 0.0;
-};
-
-/// Validates keys and types; errors name `where` and the key. "type" may be present ("body").
-/// A relative "motion" path is taken relative to base_dir (the scene file's folder).
-BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string& where,
-                                     const std::string& base_dir = ".");
+// The mannequin (its collider description, BodyColliderSpec, is in weft/collider.hpp)
 
 /// The skinned, walking mannequin.
 class WalkingBody {

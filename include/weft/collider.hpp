@@ -1,10 +1,10 @@
 #pragma once
 // Collider descriptions of a scene (docs/scene-format.md, `colliders`): analytic shapes and
 // triangle meshes, static or moved rigidly, and the skinned walking body.
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
-#include "weft/body.hpp"
 #include "weft/types.hpp"
 
 namespace weft {
@@ -57,6 +57,32 @@ struct ColliderSpec {
   RigidMotion motion;
   int body = -1;                      ///< kBody: index into Scene::bodies
 };
+
+/// How the body's skin follows its bones (docs/body.md): linear blend or dual quaternions.
+enum class Skinning { kLinearBlend, kDualQuaternion };
+/// "lbs" or "dqs"; throws InputError naming `where` otherwise.
+Skinning parse_skinning(const std::string& name, const std::string& where);
+
+/// The body as a scene collider: {"type": "body", "motion": FILE, "speed": 0.75,
+/// "skinning": "lbs"|"dqs", "start_time": 0}; WalkingBody (weft/body.hpp) is the mannequin it
+/// describes.
+struct BodyColliderSpec {
+  std::string motion_file;    ///< "" for the shipped walk (data/motion/35_01.bvh)
+  double speed = 0.75;        ///< playback speed scale
+  std::string skinning = "lbs";
+  double start_time = 0.0;    ///< seconds into the motion at scene time 0
+  /// Scene seconds the body stands in its bind pose (the T-pose) before it moves, and the
+  /// seconds over which it then blends into the motion's first pose; the motion starts after both.
+  double bind_pose_hold = 0.0;
+  double blend = 0.0;
+  /// AnimationOptions::arm_spread_rad (weft/body.hpp), given in the scene in degrees ("arm_spread_deg").
+  double arm_spread_deg = 0.0;
+};
+
+/// Validates keys and types; errors name `where` and the key. "type" may be present ("body").
+/// A relative "motion" path is taken relative to base_dir (the scene file's folder).
+BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string& where,
+                                     const std::string& base_dir = ".");
 
 /// Rotation by X, then Y, then Z degrees (as scenes give placements).
 Mat3 rotation_from_degrees(const Vec3& deg);

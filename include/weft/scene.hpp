@@ -8,11 +8,10 @@
 #include <string_view>
 #include <vector>
 
-#include "weft/body.hpp"
 #include "weft/collider.hpp"
-#include "weft/garment.hpp"
 #include "weft/material.hpp"
 #include "weft/mesh.hpp"
+#include "weft/placement_spec.hpp"
 #include "weft/settings.hpp"
 #include "weft/types.hpp"
 

@@ -19,6 +19,8 @@ using VecX = Eigen::VectorXd;
 using MatX = Eigen::MatrixXd;
 /// #V by 3 array of points (row per vertex).
 using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+/// #F by 3 array of vertex indices (row per triangle).
+using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
 /// A 3n vector viewed as n 3D points.
 inline Eigen::Map<Vec3> node(VecX& x, int i) { return Eigen::Map<Vec3>(x.data() + 3 * i); }

@@ -2,7 +2,6 @@
 #include <algorithm>
 
 #include "weft/body.hpp"
-#include "weft/error.hpp"
 #include "util/threads.hpp"
 
 namespace weft {
@@ -78,12 +77,6 @@ void skin_dqs(const Points& rest, const SkinWeights& weights, const std::vector<
     const Vec3 vx = qv.cross(x);
     out.row(v) = (x + 2.0 * (w * vx + qv.cross(vx)) + t).transpose();
   });
-}
-
-Skinning parse_skinning(const std::string& name, const std::string& where) {
-  if (name == "lbs") return Skinning::kLinearBlend;
-  if (name == "dqs") return Skinning::kDualQuaternion;
-  throw InputError(where + ": skinning must be \"lbs\" or \"dqs\", got \"" + name + "\"");
 }
 
 }  // namespace weft

@@ -1,9 +1,8 @@
-// The walking mannequin: shipped body data + a motion, skinned at any time; and its collider
-// description for scenes.
+// The walking mannequin: shipped body data + a motion, skinned at any time (its collider
+// description for scenes is read in io/body_specs.cpp).
 #include <numbers>
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "io/json_util.hpp"
@@ -17,62 +16,9 @@ namespace {
 
 nlohmann::json read_json(const std::string& path) { return json_util::load_json_file(path, "body data file"); }
 
-/// Bounds on a body collider's playback (docs/scene-format.md).
-constexpr double kMaxBodySpeed = 100;
-constexpr double kMaxBodyStartTime_s = 1e7;
-
 }  // namespace
 
 std::string default_motion_file() { return data_dir() + "/motion/35_01.bvh"; }
-
-BodyColliderSpec parse_body_collider(const nlohmann::json& j, const std::string& where,
-                                     const std::string& base_dir) {
-  if (!j.is_object()) throw InputError(where + ": a body collider must be an object");
-  BodyColliderSpec spec;
-  for (const auto& [key, value] : j.items()) {
-    const std::string at = where + "." + key;
-    if (key == "type") {
-      if (!value.is_string() || value.get<std::string>() != "body")
-        throw InputError(at + ": expected \"body\"");
-    } else if (key == "motion") {
-      if (!value.is_string()) throw InputError(at + ": expected a file name (string)");
-      const std::filesystem::path motion = value.get<std::string>();
-      if (motion.empty()) throw InputError(at + ": expected a file name, got \"\"");
-      spec.motion_file = (motion.is_absolute() ? motion : std::filesystem::path(base_dir) / motion)
-                             .lexically_normal()
-                             .string();
-    } else if (key == "speed") {
-      if (!value.is_number()) throw InputError(at + ": expected a number");
-      spec.speed = value.get<double>();
-      if (!(spec.speed > 0 && spec.speed <= kMaxBodySpeed))
-        throw InputError(at + ": must be in (0, 100], got " + value.dump());
-    } else if (key == "skinning") {
-      if (!value.is_string()) throw InputError(at + ": expected \"lbs\" or \"dqs\"");
-      spec.skinning = value.get<std::string>();
-      parse_skinning(spec.skinning, at);
-    } else if (key == "start_time") {
-      if (!value.is_number()) throw InputError(at + ": expected a number (seconds)");
-      spec.start_time = value.get<double>();
-      if (!(spec.start_time >= 0 && spec.start_time <= kMaxBodyStartTime_s))
-        throw InputError(at + ": must be in [0, 1e7] s, got " + value.dump());
-    } else if (key == "bind_pose_hold" || key == "blend") {
-      if (!value.is_number()) throw InputError(at + ": expected a number (seconds)");
-      const double seconds = value.get<double>();
-      if (!(seconds >= 0 && seconds <= kMaxBodyStartTime_s)) throw InputError(at + ": must be in [0, 1e7] s, got " + value.dump());
-      (key == "blend" ? spec.blend : spec.bind_pose_hold) = seconds;
-    } else if (key == "arm_spread_deg") {
-      if (!value.is_number()) throw InputError(at + ": expected a number (degrees)");
-      spec.arm_spread_deg = value.get<double>();
-      if (!(spec.arm_spread_deg >= -45 && spec.arm_spread_deg <= 45))
-        throw InputError(at + ": must be in [-45, 45] degrees, got " + value.dump());
-    } else {
-      throw InputError(where + ": unknown key \"" + key +
-                       "\" (expected type, motion, speed, skinning, start_time, bind_pose_hold, blend, arm_spread_deg, "
-                       "thickness, friction)");
-    }
-  }
-  return spec;
-}
 
 WalkingBody::WalkingBody(const BodyColliderSpec& spec)
     : skinning_(parse_skinning(spec.skinning, "skinning")) {

@@ -194,26 +194,6 @@ Cone skirt_cone(const std::vector<std::vector<Vec2>>& panels, double span, const
 
 }  // namespace
 
-BodyPart parse_body_part(const std::string& name, const std::string& where) {
-  for (BodyPart p : {BodyPart::kTorso, BodyPart::kLeftArm, BodyPart::kRightArm, BodyPart::kLeftLeg,
-                     BodyPart::kRightLeg, BodyPart::kHead})
-    if (body_part_name(p) == name) return p;
-  throw InputError(where + ": unknown body part \"" + name +
-                   "\" (expected torso, left_arm, right_arm, left_leg, right_leg or head)");
-}
-
-std::string body_part_name(BodyPart part) {
-  switch (part) {
-    case BodyPart::kTorso: return "torso";
-    case BodyPart::kLeftArm: return "left_arm";
-    case BodyPart::kRightArm: return "right_arm";
-    case BodyPart::kLeftLeg: return "left_leg";
-    case BodyPart::kRightLeg: return "right_leg";
-    case BodyPart::kHead: return "head";
-  }
-  return "torso";
-}
-
 BindBody load_bind_body(BodyColliderSpec spec, double hold_s) {
   if (!(hold_s > 0)) throw std::invalid_argument("load_bind_body: the hold must be positive");
   spec.bind_pose_hold = std::max(spec.bind_pose_hold, hold_s);
@@ -419,9 +399,16 @@ void fit_part(BodyPart part, PartGeometry& g, const PartPanels& panels, std::map
     fit_to_body(c, body.positions, crown.y() + 0.1 - span, crown.y() + 0.1, 0.2);
     // With a torso: the hood's panels flat where the file puts them beside the torso's
     // neckline, the file moved as the torso's middle and top were.
+    // Raised, where needed, so that its lowest point is a centimetre above the torso panels' top
+    // (the base of the neck): hoody_mean's hood, laid with its neckline 3.5 cm below that top
+    // beside the fronts' shoulders, tangled there in the first steps of sewing (the left front's
+    // neckline stayed 14 mm open to the hood, 21 triangle pairs crossing); raised, it sews.
     if (parts.count(BodyPart::kTorso) && !parts[BodyPart::kTorso].cone) {
       const PartGeometry& t = parts[BodyPart::kTorso];
-      g.file_offset = Vec3(t.cyl.origin.x() - t.file_origin.x(), t.shift, t.cyl.origin.z() - t.file_origin.z());
+      const double torso_top = joint(rig, "Neck1").y() + clearance;
+      const double raise = std::max(0.0, torso_top + 0.01 - (panels.h_lo + t.shift));
+      g.file_offset =
+          Vec3(t.cyl.origin.x() - t.file_origin.x(), t.shift + raise, t.cyl.origin.z() - t.file_origin.z());
     }
   } else {
     const Vec3 hip = joint(rig, side > 0 ? "LeftUpLeg" : "RightUpLeg");

@@ -1,7 +1,5 @@
 #include "weft/scene.hpp"
 
-#include "weft/garment/pattern.hpp"
-
 #include <unistd.h>
 
 #include <algorithm>
@@ -200,12 +198,10 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
     if (g.has("sewing_time")) gs.sewing_time_s = g.number_in("sewing_time", 0, 60, true);
     if (g.has("allow_open_seams")) gs.allow_open_seams = g.boolean("allow_open_seams");
     if (g.has("panels")) {
-      const Pattern pattern = load_pattern(gs.pattern_file);
+      // The names are checked against the pattern's panels where the pattern is read, when the
+      // garment is sewn (sim/model_data.cpp): reading a scene reads no pattern.
       const Reader panels = g.object("panels");
       for (const auto& [name, value] : panels.json().items()) {
-        bool found = false;
-        for (const Panel& panel : pattern.panels) found = found || panel.name == name;
-        if (!found) panels.fail(name.c_str(), "the pattern " + gs.pattern_file + " has no panel '" + name + "'");
         const Reader o = panels.object(name.c_str());
         o.allow_only({"part", "angle_deg", "shift", "material", "grain_deg"});
         PanelPlacementOverride po;

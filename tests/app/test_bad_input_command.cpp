@@ -140,3 +140,13 @@ TEST_F(BadInputCommand, AGarmentPanelOfAnUnknownMaterial) {
                        R"("colliders": [{"type": "body", "bind_pose_hold": 0.5}], )"),
                  "key cloth.mesh.pattern.panels.left_sleeve_f.material: unknown material preset \"velvet\"");
 }
+
+TEST_F(BadInputCommand, AGarmentPanelThePatternLacks) {
+  // Checked when the garment is made rather than when the scene is read: still before anything
+  // is written.
+  const std::string shirt = std::string(WEFT_SOURCE_DIR) + "/data/patterns/garmentcode/shirt_mean_specification.json";
+  expect_refused("panel_name",
+                 scene(R"("mesh": {"pattern": {"file": ")" + shirt + R"(", "panels": {"collar": {"part": "head"}}}})",
+                       R"("colliders": [{"type": "body", "bind_pose_hold": 0.5}], )"),
+                 "key cloth.mesh.pattern.panels.collar: the pattern " + shirt + " has no panel 'collar'");
+}

@@ -1,11 +1,13 @@
 // weft::Simulation through the public API only (include/weft/, docs/api.md): what it reports
-// agrees with the scene it was built from, bad collider indices are refused with a message, and
-// the frames recorded for the animations are the states the simulation passed through.
+// agrees with the scene it was built from, bad collider indices and panels a garment's pattern
+// lacks are refused with a message, and the frames recorded for the animations are the states
+// the simulation passed through.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "weft/error.hpp"
 #include "weft/recording.hpp"
@@ -87,6 +89,27 @@ TEST(PublicSimulation, ACollidersIndexOutOfRangeIsRefused) {
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()), "collider_surface: collider 5 does not exist (the scene has 2 colliders)");
   }
+}
+
+TEST(PublicSimulation, AGarmentsPanelsAreCheckedAgainstItsPatternBeforeItIsSewn) {
+  // Reading the scene reads no pattern: the panel names are checked where the garment is made,
+  // and the error names the scene's key, as the scene reader's errors do.
+  const std::string shirt = std::string(WEFT_SOURCE_DIR) + "/data/patterns/garmentcode/shirt_mean_specification.json";
+  const Scene scene = parse_scene_text(
+      R"({"weft_scene": 1, "duration": 0.04, "frame_interval": 0.02,
+          "integrator": {"method": "implicit-midpoint", "dt": 0.01},
+          "colliders": [{"type": "body", "bind_pose_hold": 0.5}],
+          "cloth": {"mesh": {"pattern": {"file": ")" + shirt + R"(", "panels": {"collar": {"part": "head"}}}}}})",
+      "s.json", ".");
+  std::vector<std::string> stages;
+  try {
+    Simulation sim(scene, [&](const std::string& stage, double) { stages.push_back(stage); });
+    FAIL() << "no error for the panel 'collar'";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "s.json: key cloth.mesh.pattern.panels.collar: the pattern " + shirt + " has no panel 'collar'");
+  }
+  for (const std::string& stage : stages) EXPECT_EQ(stage.find("sewing"), std::string::npos) << stage;
 }
 
 TEST(FrameRecording, HoldsTheStatesItWasGivenAndTheCollidersAsked) {

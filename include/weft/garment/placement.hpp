@@ -12,7 +12,7 @@
 #include "weft/garment/garment_mesh.hpp"
 #include "weft/mesh.hpp"
 #include "weft/body.hpp"
-#include "weft/garment.hpp"
+#include "weft/placement_spec.hpp"
 
 namespace weft {
 

@@ -1,5 +1,7 @@
 #pragma once
-// Garments sewn from patterns (docs/garments.md): how a scene places a panel on the body.
+// How a scene places a garment's panels on the body (docs/garments.md): the body parts a panel
+// is wrapped around and a panel's placement chosen by hand. Placing them is garment/'s
+// (weft/garment/placement.hpp).
 #include <optional>
 #include <string>
 
