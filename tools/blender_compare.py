@@ -174,7 +174,8 @@ def prepare_walking(a, interval):
     # written: weft then stops at the next frame boundary and writes its checkpoint there.
     # (The checkpoint's frame is read back; the run's duration, fixed at the start, is the
     # segment's end.)
-    print("preparing the walking case: weft up to %.2f s (one thread)..." % (start * interval), flush=True)
+    print("preparing the walking case: weft up to %.2f s, a checkpoint there (one thread)..." % ((start + 1) * interval),
+          flush=True)
     duration = end * interval
     log = open(os.path.join(a.out, "walk-prefix.log"), "w")
     proc = subprocess.Popen([a.weft, "--threads", "1", "run", a.scene, "--duration", "%.6g" % duration,
@@ -182,12 +183,18 @@ def prepare_walking(a, interval):
     trigger = os.path.join(prefix, "frames", "frame_%05d.obj" % start)
     while proc.poll() is None and not os.path.isfile(trigger):
         time.sleep(0.05)
+    # weft looks for the interrupt once a frame is written: half a second later it is into the
+    # next frame's steps (several seconds of them), so it stops at the frame after --walk-start
+    time.sleep(0.5)
     if proc.poll() is None:
         proc.send_signal(signal.SIGINT)
     status = proc.wait()
     if status != 130 or not os.path.isfile(done):
         die("the walk's prefix run did not stop at a checkpoint (exit status %d): see %s" % (status, log.name), 1)
     checkpoint_frame = len(frame_files(prefix, "frame_")) - 1
+    if checkpoint_frame != start + 1:
+        print("note: weft stopped at frame %d (%.2f s), not %d: the walking case has %d frames" % (
+            checkpoint_frame, checkpoint_frame * interval, start + 1, end - checkpoint_frame), flush=True)
     with open(os.path.join(prefix, "prepared.json"), "w") as f:
         json.dump({"checkpoint_frame": checkpoint_frame, "end_frame": end, "walk_start": a.walk_start}, f)
     return checkpoint_frame
