@@ -16,6 +16,7 @@
 
 #include "command.hpp"
 #include "weft/error.hpp"
+#include "weft/garment/pattern.hpp"
 #include "weft/scene.hpp"
 
 #ifndef WEFT_PYTHON_EXECUTABLE
@@ -66,7 +67,10 @@ int check_scenes(const std::string& file) {
   for (size_t k = 0; k < runs.size(); ++k) {
     const auto& r = runs.at(k);
     try {
-      weft::parse_scene(r.at("scene"), r.at("name").get<std::string>(), r.at("base_dir").get<std::string>());
+      const weft::Scene scene =
+          weft::parse_scene(r.at("scene"), r.at("name").get<std::string>(), r.at("base_dir").get<std::string>());
+      // The scene's reader reads no pattern: the panels a garment names are checked against it here.
+      if (scene.cloth.garment) weft::check_scene_panels(scene, weft::load_pattern(scene.cloth.garment->pattern_file));
     } catch (const weft::InputError& e) {
       refused.push_back({{"index", k}, {"error", e.what()}});
     }

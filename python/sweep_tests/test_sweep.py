@@ -110,6 +110,21 @@ def test_a_bad_sweep_file_exits_2_naming_the_key_and_value_before_anything_runs(
     assert not (tmp_path / "out").exists()
 
 
+def test_a_garment_panel_its_pattern_lacks_is_refused_before_anything_runs(tmp_path):
+    # The scene's reader reads no pattern; the driver's scene check reads it for the panel names.
+    walk = os.path.join(SOURCE, "scenes", "walk.json")
+    spec = {"weft_sweep": 1, "scene": walk,
+            "set": {"duration": 0.04, "cloth.mesh.pattern.panels": {"collar": {"part": "torso"}}}}
+    status, err = weft_sweep(tmp_path, spec, tmp_path / "out")
+    assert status == 2, err
+    pattern = os.path.normpath(os.path.join(SOURCE, "data", "patterns", "coat", "coat.json"))
+    assert err.startswith(f"weft: error: {tmp_path / 'sweep.json'}: set: the scene is refused: {walk}: "
+                          f"key cloth.mesh.pattern.panels.collar: the pattern "), err
+    assert err.rstrip().endswith("has no panel 'collar'"), err
+    assert os.path.basename(pattern) in err, err
+    assert not (tmp_path / "out").exists()
+
+
 def test_a_missing_scene_and_a_wrong_version_are_refused(tmp_path):
     status, err = weft_sweep(tmp_path, {"weft_sweep": 1, "scene": "missing.json"}, tmp_path / "out")
     assert status == 2 and f"scene: cannot read \"missing.json\" ({tmp_path / 'missing.json'})" in err, err

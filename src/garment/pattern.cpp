@@ -11,6 +11,7 @@
 #include "weft/input_file.hpp"
 #include "io/json_util.hpp"
 #include "weft/error.hpp"
+#include "weft/scene.hpp"
 
 namespace weft {
 
@@ -431,5 +432,16 @@ Pattern parse_pattern(const std::string& text, const std::string& file) {
 }
 
 Pattern load_pattern(const std::string& path) { return parse_pattern(read_input_file(path, "pattern file"), path); }
+
+void check_scene_panels(const Scene& scene, const Pattern& pattern) {
+  if (!scene.cloth.garment) return;
+  for (const auto& [name, placement] : scene.cloth.garment->panels) {
+    bool found = false;
+    for (const Panel& panel : pattern.panels) found = found || panel.name == name;
+    if (!found)
+      throw InputError((scene.file.empty() ? std::string("scene") : scene.file) + ": key cloth.mesh.pattern.panels." +
+                       name + ": the pattern " + scene.cloth.garment->pattern_file + " has no panel '" + name + "'");
+  }
+}
 
 }  // namespace weft

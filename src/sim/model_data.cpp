@@ -29,15 +29,9 @@ TriMesh sew_scene_garment(const Scene& scene, const SetupProgress& on_setup, Tri
   const std::string where = scene_name(scene) + ": cloth.mesh.pattern";
   if (on_setup) on_setup("garment: meshing " + g.pattern_file, 0.0);
   const Pattern pattern = load_pattern(g.pattern_file);
-  // The panels the scene names (cloth.mesh.pattern.panels) are the pattern's: checked here,
-  // where the pattern is read (reading the scene reads none), before any meshing.
-  for (const auto& [name, placement] : g.panels) {
-    bool found = false;
-    for (const Panel& panel : pattern.panels) found = found || panel.name == name;
-    if (!found)
-      throw InputError(scene_name(scene) + ": key cloth.mesh.pattern.panels." + name + ": the pattern " +
-                       g.pattern_file + " has no panel '" + name + "'");
-  }
+  // The panels the scene names are the pattern's: checked here, where the pattern is read
+  // (reading the scene reads none), before any meshing.
+  check_scene_panels(scene, pattern);
   GarmentMeshOptions mesh_options;
   mesh_options.target_edge_m = g.edge_length_m;
   for (const auto& [name, degrees] : g.panel_grain_deg) mesh_options.grain_angle_rad[name] = degrees * M_PI / 180;

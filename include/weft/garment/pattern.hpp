@@ -80,6 +80,13 @@ Pattern load_pattern(const std::string& path);
 /// The same from JSON text; `file` names it in messages and gives Pattern::name.
 Pattern parse_pattern(const std::string& text, const std::string& file);
 
+struct Scene;
+/// Checks that every panel the scene's garment names (cloth.mesh.pattern.panels) is one of
+/// `pattern`'s (the scene's reader reads no pattern). Throws InputError naming the scene's file
+/// (or "scene"), the key and the pattern: "SCENE: key cloth.mesh.pattern.panels.NAME: the
+/// pattern FILE has no panel 'NAME'". A scene without a garment passes.
+void check_scene_panels(const Scene& scene, const Pattern& pattern);
+
 // ---- curves ----
 
 /// The point at parameter t in [0, 1] (the curve's own parameter, not arc length).
