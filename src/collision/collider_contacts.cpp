@@ -22,10 +22,10 @@ constexpr double kFaceHoldDip = 0.25;
 
 }  // namespace
 
-ColliderContacts::ColliderContacts(std::vector<Collider*> colliders, const VecX& mass, const std::vector<char>& fixed,
+ColliderContacts::ColliderContacts(std::vector<Collider*> colliders, const VecX& mass, const std::vector<char>& scene_held,
                                    std::vector<std::array<int, 3>> triangles)
-    : colliders_(std::move(colliders)), mass_(mass), fixed_(fixed), triangles_(std::move(triangles)) {
-  for (Collider* c : colliders_) c->reserve_nodes(static_cast<int>(fixed_.size()));
+    : colliders_(std::move(colliders)), mass_(mass), scene_held_(scene_held), triangles_(std::move(triangles)) {
+  for (Collider* c : colliders_) c->reserve_nodes(static_cast<int>(scene_held_.size()));
   for (const auto& t : triangles_)
     for (int k = 0; k < 3; ++k) cloth_edges_.push_back({std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])});
   std::sort(cloth_edges_.begin(), cloth_edges_.end());
@@ -50,7 +50,7 @@ ColliderContacts::ColliderContacts(std::vector<Collider*> colliders, const VecX&
 
 void ColliderContacts::detect(const VecX& x, const VecX& v, double t, double dt, std::vector<NodeContact>& out) {
   out.clear();
-  const int n = static_cast<int>(fixed_.size());
+  const int n = static_cast<int>(scene_held_.size());
   best_gap_.assign(n, 0);
   std::vector<int>& slot = slot_;  // the node's contact in out
   slot.assign(n, -1);
@@ -163,7 +163,7 @@ void ColliderContacts::hold_faces_off_round(const Collider& c, const VecX& v, do
     const double displacement = dt * face_velocity.dot(sp.normal) + thickness - sp.distance;
     for (int k = 0; k < 3; ++k) {
       const int i = t[k];
-      if (fixed_[i]) continue;
+      if (scene_held_[i]) continue;
       if (slot_[i] >= 0 && sp.distance >= best_gap_[i]) continue;
       best_gap_[i] = sp.distance;
       place(out, i, sp.normal, displacement, sp.displacement / dt, c);
@@ -183,7 +183,7 @@ void ColliderContacts::hold_faces_over_vertices(const Collider& c, const VecX& x
   face_pokes(c, predicted_, tunables_.hold_margin * thickness, pokes_);
   const Points& start = *c.start_vertices();
   const Points& end = *c.end_vertices();
-  const int n = static_cast<int>(fixed_.size());
+  const int n = static_cast<int>(scene_held_.size());
   if (static_cast<int>(face_held_height_.size()) != n) face_held_height_.resize(n);
   std::fill(face_held_height_.begin(), face_held_height_.end(), std::numeric_limits<double>::infinity());
   for (const FacePoke& poke : pokes_) {
@@ -199,7 +199,7 @@ void ColliderContacts::hold_faces_over_vertices(const Collider& c, const VecX& x
     const Vec3 surface_velocity = (p_end - start.row(poke.vertex).transpose()) / dt;
     for (int k = 0; k < 3; ++k) {
       const int i = t[k];
-      if (fixed_[i] || poke.height >= face_held_height_[i]) continue;
+      if (scene_held_[i] || poke.height >= face_held_height_[i]) continue;
       // A node held against the surface closer than the face is to the vertex keeps that
       // contact; otherwise the face's is the more pressing one (a node can have only one).
       if (slot_[i] >= 0 && !std::isfinite(face_held_height_[i]) && best_gap_[i] <= poke.height) continue;
@@ -212,7 +212,7 @@ void ColliderContacts::hold_faces_over_vertices(const Collider& c, const VecX& x
 
 void ColliderContacts::detect_end(const VecX& x0, const VecX& x1, double /*t*/, double dt,
                                   const std::vector<char>& held, std::vector<NodeContact>& out) {
-  const int n = static_cast<int>(fixed_.size());
+  const int n = static_cast<int>(scene_held_.size());
   std::vector<int>& slot = slot_;
   slot.assign(n, -1);
   for (Collider* c : colliders_) {

@@ -50,8 +50,8 @@ void ColliderContacts::face_pokes(const Collider& c, const VecX& x, double limit
   const Points& body = *c.end_vertices();
   const auto& body_triangles = *c.triangle_list();
   const AabbTree& body_tree = *c.end_tree();
-  side_normal_known_.assign(fixed_.size(), 0);
-  side_normal_.resize(fixed_.size());
+  side_normal_known_.assign(scene_held_.size(), 0);
+  side_normal_.resize(scene_held_.size());
   // Each (cloth face, collider vertex) pair once: the vertices of the collider's triangles
   // whose boxes overlap the face's (grown by the margin), faces in order and each face's
   // vertices in increasing order. Their geometry on every thread, each chunk of faces keeping

@@ -22,7 +22,7 @@ constexpr double kLaterRoundTarget = 0.5;
 }  // namespace
 
 void ColliderContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double t, double dt, ContactReport& report) {
-  const int n = static_cast<int>(fixed_.size());
+  const int n = static_cast<int>(scene_held_.size());
   if (t != prepared_t_ || dt != prepared_dt_) {
     for (Collider* c : colliders_) c->prepare(t, t + dt);
     prepared_t_ = t;
@@ -100,11 +100,11 @@ void ColliderContacts::lift_face(const std::array<int, 3>& t, const Vec3& weight
                                  VecX& v1, ContactReport& report, double surface_speed) {
   // The face's point with these weights moves by `lift` along n: vertex i by w_i lift / sum w^2.
   double w2 = 0;
-  for (int k = 0; k < 3; ++k) w2 += fixed_[t[k]] ? 0.0 : weights[k] * weights[k];
+  for (int k = 0; k < 3; ++k) w2 += scene_held_[t[k]] ? 0.0 : weights[k] * weights[k];
   if (!(w2 > 0)) return;
   for (int k = 0; k < 3; ++k) {
     const int i = t[k];
-    if (fixed_[i] || (k > 0 && i == t[k - 1])) continue;  // an edge given as (a, b, b): b once
+    if (scene_held_[i] || (k > 0 && i == t[k - 1])) continue;  // an edge given as (a, b, b): b once
     node(x1, i) += (weights[k] * lift / w2) * n;
     const Vec3 v_old = node(v1, i);
     const double vn = v_old.dot(n);

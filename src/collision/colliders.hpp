@@ -101,7 +101,7 @@ constexpr double kEdgeLiftHeight = 0.5;
 class ColliderContacts : public ContactHandler {
  public:
   /// `triangles`: the cloth's, for keeping mesh colliders' vertices out of its faces.
-  ColliderContacts(std::vector<Collider*> colliders, const VecX& mass, const std::vector<char>& fixed,
+  ColliderContacts(std::vector<Collider*> colliders, const VecX& mass, const std::vector<char>& scene_held,
                    std::vector<std::array<int, 3>> triangles);
   void detect(const VecX& x, const VecX& v, double t, double dt, std::vector<NodeContact>& out) override;
   void detect_end(const VecX& x0, const VecX& x1, double t, double dt, const std::vector<char>& held,
@@ -121,7 +121,7 @@ class ColliderContacts : public ContactHandler {
   ContactSettings tunables_;
   std::vector<Collider*> colliders_;
   const VecX& mass_;
-  std::vector<char> fixed_;  ///< pinned (or clamped) nodes, which contacts leave alone
+  std::vector<char> scene_held_;  ///< nodes held by the scene (pinned or clamped), which contacts leave alone
   std::vector<double> best_gap_;  ///< per node: the gap of its contact so far
   std::vector<int> slot_;         ///< per node: its contact's index in the output, or -1
   std::vector<char> touching_;    ///< touching()
@@ -140,7 +140,7 @@ class ColliderContacts : public ContactHandler {
   /// which (`target_`).
   std::vector<char> moved_;
   double trigger_ = 0.5, target_ = 1.0;
-  bool looks_at(int i) const { return !fixed_[i] && (moved_.empty() || moved_[i]); }
+  bool looks_at(int i) const { return !scene_held_[i] && (moved_.empty() || moved_[i]); }
   bool looks_at(const std::array<int, 3>& t) const { return looks_at(t[0]) || looks_at(t[1]) || looks_at(t[2]); }
   /// Moves cloth faces that a mesh collider's vertex (a nose, a finger) came within the
   /// thickness of, or poked through, back out along the poke's normal (FacePoke).

@@ -36,15 +36,15 @@ bool degenerate_normal(const Vec3& fallback, const Vec3& relative_velocity, Vec3
 }  // namespace
 
 SelfContacts::SelfContacts(const std::vector<std::array<int, 3>>& triangles, const VecX& rest_positions,
-                           const VecX& mass, const std::vector<char>& fixed, double thickness, double friction)
-    : triangles_(triangles), fixed_(fixed), thickness_(thickness), friction_(friction) {
+                           const VecX& mass, const std::vector<char>& scene_held, double thickness, double friction)
+    : triangles_(triangles), scene_held_(scene_held), thickness_(thickness), friction_(friction) {
   if (!(thickness > 0)) throw std::invalid_argument("SelfContacts: the thickness must be positive");
-  const int n = static_cast<int>(fixed.size());
+  const int n = static_cast<int>(scene_held.size());
   if (mass.size() != n || rest_positions.size() != 3 * n)
     throw std::invalid_argument("SelfContacts: masses, pins and positions of different sizes");
   inverse_mass_ = VecX::Zero(n);
   for (int i = 0; i < n; ++i)
-    if (!fixed[i] && mass[i] > 0) inverse_mass_[i] = 1 / mass[i];
+    if (!scene_held[i] && mass[i] > 0) inverse_mass_[i] = 1 / mass[i];
   // Each vertex and each edge is tested through one triangle holding it, its owner (the first).
   // A primitive's box lies inside every box of a triangle holding it, so a pair of primitives
   // whose boxes overlap comes from a pair of owners whose boxes overlap: every pair is visited
@@ -89,7 +89,7 @@ void SelfContacts::set_primitive_groups() {
 }
 
 void SelfContacts::set_vertex_groups(std::vector<int> group) {
-  if (group.size() != fixed_.size()) throw std::invalid_argument("SelfContacts: one group per vertex");
+  if (group.size() != scene_held_.size()) throw std::invalid_argument("SelfContacts: one group per vertex");
   group_ = std::move(group);
   set_primitive_groups();
 }
@@ -111,7 +111,7 @@ void SelfContacts::for_each_candidate(const VecX& xa, const VecX& xb, double mar
   }
   // The tree's boxes hold the primitives at xa and xb, grown by the margin.
   if (&xa == &xb) tree_.refit(xa.data(), margin); else tree_.refit(xa.data(), xb.data(), margin);
-  const int n = static_cast<int>(fixed_.size());
+  const int n = static_cast<int>(scene_held_.size());
   std::vector<Box>& vb = vertex_box_;
   std::vector<Box>& eb = edge_box_;
   vb.resize(n);
@@ -238,7 +238,7 @@ void SelfContacts::find_proximities(const VecX& x0) {
 
 void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt, std::vector<NodeContact>& out) {
   if (!(dt > 0)) return;
-  const int n = static_cast<int>(fixed_.size());
+  const int n = static_cast<int>(scene_held_.size());
   u_ = v;  // the approach direction of pairs whose closest points coincide
   detected_x_ = x;
   find_proximities(x);
@@ -268,7 +268,7 @@ void SelfContacts::detect(const VecX& x, const VecX& v, double /*t*/, double dt,
   hold_normal_.assign(n, Vec3::Zero());
   closest_side_.assign(n, 0);
   auto offer = [&](int i, int k, int side) {
-    if (fixed_[i] || (has_contact_[i] && !on_layer(i, pairs_[k]))) return;
+    if (scene_held_[i] || (has_contact_[i] && !on_layer(i, pairs_[k]))) return;
     const int c = closest_pair_[i];
     if (c < 0 || pairs_[k].gap < pairs_[c].gap) {
       closest_pair_[i] = k;
@@ -568,7 +568,7 @@ void SelfContacts::merge(int a, int b) {
 }
 
 void SelfContacts::rigidify_zones(const VecX& x0, double dt, bool stop) {
-  const int n = static_cast<int>(fixed_.size());
+  const int n = static_cast<int>(scene_held_.size());
   // Path compression once per round, then the members of every zone that grew.
   for (int i = 0; i < n; ++i) parent_[i] = zone_of(i);
   std::vector<std::vector<int>>& members = zone_members_;
@@ -641,7 +641,7 @@ void SelfContacts::rigidify_zones(const VecX& x0, double dt, bool stop) {
 void SelfContacts::finish_step(const VecX& x0, VecX& x1, VecX& v1, double /*t*/, double dt, ContactReport& report) {
   if (!(dt > 0)) return;
   const auto start = Clock::now();
-  const int n = static_cast<int>(fixed_.size());
+  const int n = static_cast<int>(scene_held_.size());
   u_ = (x1 - x0) / dt;
   step_inverse_mass_ = inverse_mass_;
   step_held_normal_.assign(n, Vec3::Zero());

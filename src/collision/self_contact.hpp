@@ -97,12 +97,12 @@ inline constexpr SelfContactStatistic kSelfContactStatistics[] = {
 class SelfContacts : public ContactHandler {
  public:
   /// `triangles` (#F vertex triples), `rest_positions` (3n, m: they shape the bounding-volume
-  /// tree), `mass` (n, kg) and `fixed` (n, pinned nodes, which do not move and count as
-  /// infinitely heavy); `thickness` (m, > 0): the separation the repulsions keep; `friction`:
-  /// the Coulomb coefficient between layers. Throws std::invalid_argument for sizes that do
-  /// not fit or a thickness that is not positive.
+  /// tree), `mass` (n, kg) and `scene_held` (n, the nodes the scene holds, pinned or clamped,
+  /// which do not move and count as infinitely heavy); `thickness` (m, > 0): the separation
+  /// the repulsions keep; `friction`: the Coulomb coefficient between layers. Throws
+  /// std::invalid_argument for sizes that do not fit or a thickness that is not positive.
   SelfContacts(const std::vector<std::array<int, 3>>& triangles, const VecX& rest_positions, const VecX& mass,
-               const std::vector<char>& fixed, double thickness, double friction);
+               const std::vector<char>& scene_held, double thickness, double friction);
 
   /// Vertices that stand for one point of the cloth (the two sides of a seam being sewn):
   /// group[v] is the same for each, and a vertex meets no face and an edge no edge holding a
@@ -237,7 +237,7 @@ class SelfContacts : public ContactHandler {
   const std::vector<Vec3>* held_normal_ = nullptr;
   std::vector<Vec3> step_held_normal_;  ///< per node this step: its collider's normal (0: free)
   std::vector<double> inward_budget_;   ///< per node this step: the inward speed still allowed
-  std::vector<char> fixed_;
+  std::vector<char> scene_held_;  ///< pinned or clamped nodes (held by the scene)
   std::vector<int> group_;  ///< set_vertex_groups; identity by default
   /// Whether triangle f holds v or a vertex of its group.
   bool holds(int f, int v) const;

@@ -11,9 +11,9 @@ namespace weft {
 void Integrator::derivative(const VecX& x, const VecX& v, VecX& a, double& viscous_power) {
   system_.evaluate(x, v, false, d_.eval);
   a = d_.eval.force.cwiseQuotient(c_.mass3);
-  const auto& fixed = system_.pinned();
-  for (size_t i = 0; i < fixed.size(); ++i)
-    if (fixed[i]) a.segment<3>(3 * i).setZero();
+  const auto& pinned = system_.pinned();
+  for (size_t i = 0; i < pinned.size(); ++i)
+    if (pinned[i]) a.segment<3>(3 * i).setZero();
   viscous_power = d_.eval.viscous_power;
 }
 

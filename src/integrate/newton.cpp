@@ -17,9 +17,9 @@ double Integrator::newton_residual(const State& s, double alpha, double beta, do
   system_.evaluate(d_.newton_x, d_.newton_v, false, d_.eval);
   r = dt_b * d_.eval.force - c_.mass3.cwiseProduct(dv);
   if (beta != 0.0) r += beta * c_.mass3.cwiseProduct(s.dv_prev);
-  const auto& fixed = system_.pinned();
-  for (size_t i = 0; i < fixed.size(); ++i)
-    if (fixed[i]) r.segment<3>(3 * i).setZero();
+  const auto& pinned = system_.pinned();
+  for (size_t i = 0; i < pinned.size(); ++i)
+    if (pinned[i]) r.segment<3>(3 * i).setZero();
   if (d_.contacts.empty()) return std::sqrt(r.cwiseAbs2().cwiseQuotient(c_.mass3).sum());
   // At a contact only the free directions' residual counts: the held ones carry the
   // constraint's force.

@@ -16,6 +16,7 @@
 #include "sim/simulation_core.hpp"
 
 using weft::test::CommandTest;
+using weft::test::read_binary;
 using weft::test::read_text;
 namespace fs = std::filesystem;
 
@@ -30,13 +31,6 @@ std::string scene(const std::string& integrator, const std::string& duration = "
             "material": {"surface_density": 0.15, "weft": 100, "warp": 100, "shear": 10, "bending_rigidity": 1e-4,
                          "viscosity": 0.001},
             "pins": {"grid": [[0, 0], [-1, 0]]}}})";
-}
-
-std::string read_binary(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
 }
 
 // Every file below `dir` (relative path -> bytes), but summary.json and the checkpoint,

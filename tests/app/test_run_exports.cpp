@@ -13,6 +13,7 @@
 #include "support/command.hpp"
 
 using weft::test::CommandTest;
+using weft::test::read_binary;
 using weft::test::read_text;
 namespace fs = std::filesystem;
 
@@ -34,13 +35,6 @@ std::string scene(const std::string& output = "") {
 }
 
 constexpr int kVertices = 25, kFrames = 6;
-
-std::string read_bytes(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 uint32_t u32_at(const std::string& bytes, size_t offset) {
   uint32_t v = 0;
@@ -88,7 +82,7 @@ struct Glb {
 };
 
 Glb read_glb(const fs::path& path) {
-  const std::string bytes = read_bytes(path);
+  const std::string bytes = read_binary(path);
   Glb g;
   EXPECT_GE(bytes.size(), 28u);
   if (bytes.size() < 28) return g;
@@ -162,7 +156,7 @@ TEST_F(RunExports, ObjFramesCarryPatternTextureCoordinatesAndUnitNormals) {
 
 TEST_F(RunExports, Pc2ReadBackGivesEveryFramesPositions) {
   const auto out = run_with("--format obj,pc2");
-  const std::string pc2 = read_bytes(out / "animation.pc2");
+  const std::string pc2 = read_binary(out / "animation.pc2");
   ASSERT_GE(pc2.size(), 32u);
   EXPECT_EQ(pc2.substr(0, 12), std::string("POINTCACHE2\0", 12));
   EXPECT_EQ(u32_at(pc2, 12), 1u);  // version

@@ -12,17 +12,11 @@
 #include "support/command.hpp"
 
 using weft::test::CommandTest;
+using weft::test::read_binary;
 using weft::test::read_text;
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string read_binary(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 // energy.csv and every frame (relative path -> bytes).
 std::map<std::string, std::string> motion_files(const fs::path& dir) {

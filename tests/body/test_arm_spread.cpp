@@ -61,15 +61,5 @@ TEST(ArmSpread, TurnsEachArmRigidlyAboutItsShoulderAwayFromTheBody) {
   }
 }
 
-TEST(ArmSpread, SceneKeyIsCheckedAndNamed) {
-  EXPECT_DOUBLE_EQ(parse_body_collider(nlohmann::json{{"arm_spread_deg", 20}}, "colliders[0]").arm_spread_deg, 20.0);
-  try {
-    parse_body_collider(nlohmann::json{{"arm_spread_deg", 60}}, "colliders[0]");
-    FAIL() << "accepted 60 degrees";
-  } catch (const InputError& e) {
-    EXPECT_STREQ(e.what(), "colliders[0].arm_spread_deg: must be in [-45, 45] degrees, got 60");
-  }
-}
-
 }  // namespace
 }  // namespace weft

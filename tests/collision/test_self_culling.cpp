@@ -195,6 +195,25 @@ TEST(SelfCulling, TwoPiecesSideBySideCloserThanTheReachAreNotPassedOverTogether)
   same_with_and_without_culling(c, VecX::Zero(c.x.size()), 0.005);
 }
 
+TEST(SelfCulling, TwoPiecesClosingInOverTheStepAreNotPassedOverTogether) {
+  // Two flat pieces 6 mm apart (beyond the reach) at the step's start, the second moving 4 mm
+  // towards the first: 2 mm apart at its end. The contour is measured over the whole step, so
+  // the region holding both is not passed over, and the pairs across the gap are found.
+  const double dt = 0.005;
+  const int n = 17;
+  const Cloth c = grid(n, 0.25, [](double s, double t) { return Vec3(s, 1, t); }, 2, 0.006);
+  VecX v = VecX::Zero(c.x.size());
+  for (int i = n * n; i < 2 * n * n; ++i) node(v, i) = Vec3(-0.004 / dt, 0, 0);
+  const VecX end = c.x + dt * v;
+  EXPECT_EQ(Searches(c).find(c.x, c.x, kReach)[0], 1);  // at rest: passed over whole
+  Searches moving(c);
+  EXPECT_EQ(moving.find(c.x, end, kReach)[0], 0);
+  EXPECT_GT(moving.culling.statistics().contour_failures, 0);
+  // each piece alone is still passed over
+  EXPECT_EQ(moving.culling.statistics().triangles_culled, static_cast<long>(c.triangles.size()));
+  same_with_and_without_culling(c, v, dt);
+}
+
 TEST(SelfCulling, KeptRegionsAreTakenAfterARigidMotionAndAreThoseFoundAnew) {
   // A gently curved sheet, then the same turned by 40 degrees and shifted by 30 cm, with a
   // ripple of 0.1 mm: the kept regions are taken (the positions are within 0.1 mm of a rigid

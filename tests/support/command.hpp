@@ -25,6 +25,13 @@ inline std::string read_text(const std::filesystem::path& p) {
   return s.str();
 }
 
+inline std::string read_binary(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
 class CommandTest : public ::testing::Test {
  protected:
   void SetUp() override {
