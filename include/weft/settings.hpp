@@ -1,6 +1,7 @@
 #pragma once
 // How a scene is integrated (docs/scene-format.md, "integrator"): the method, its
 // implicitness, the step and the linear solves.
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -107,6 +108,12 @@ struct IntegratorSettings {
   /// run stops stepping early (above the one scale at which it is unstable; scene key
   /// `integrator.runaway_energy_factor`). Decides where a blown-up run stops, not its motion.
   double runaway_energy_factor = 1000;
+  /// The most any node may move in one alpha-family step (m): a step that would move one
+  /// farther has its displacement scaled down to this, its end velocity with it (the step's
+  /// direction kept). For quasi-static relaxations, whose path does not matter (the sewing of
+  /// garments: docs/garments.md, "Sewing"); a step scaled so does not follow the dynamics.
+  /// Infinity (the default): never.
+  double max_step_motion = std::numeric_limits<double>::infinity();
 };
 
 /// "auto", "block-jacobi", "ssor" or "multigrid"; nullopt for an unknown name.

@@ -126,6 +126,7 @@ IntegratorSettings sewing_integrator(const SewingOptions& options) {
   settings.dt = options.dt_s;
   settings.halve_overshooting_solves = false;
   settings.backward_euler_newton = false;
+  settings.max_step_motion = options.max_step_motion_m;
   return settings;
 }
 
@@ -134,6 +135,7 @@ void check_options(const SewingOptions& o) {
   auto positive = [](double v) { return v > 0 && std::isfinite(v); };
   if (!positive(o.dt_s) || !positive(o.interval_s) || !positive(o.max_time_s))
     throw std::invalid_argument("sew_garment: the step, the interval and the sewing time must be positive");
+  if (!(o.max_step_motion_m > 0)) throw std::invalid_argument("sew_garment: the step's motion limit must be positive");
   const double steps = o.interval_s / o.dt_s;
   if (steps < 1 - 1e-9 || std::abs(steps - std::round(steps)) > 1e-6 * steps)
     throw std::invalid_argument("sew_garment: the interval must be a whole number of steps");

@@ -512,6 +512,19 @@ bool Integrator::update_active_set(const State& s, double dt, double alpha, doub
   return changed;
 }
 
+void Integrator::limit_step_motion(State& s, double alpha) {
+  // IntegratorSettings::max_step_motion: dx = dt (v + alpha dv) scaled by f, the end velocity
+  // v + dv' with it where alpha is 1 (dv' = f dv - (1 - f) v / alpha keeps dx = dt (v + alpha dv')).
+  const double limit = c_.settings.max_step_motion;
+  if (!(limit < std::numeric_limits<double>::infinity()) || !(alpha > 0.0)) return;
+  double largest2 = 0;
+  for (Eigen::Index i = 0; i < s.dx_prev.size(); i += 3) largest2 = std::max(largest2, s.dx_prev.segment<3>(i).squaredNorm());
+  if (!(largest2 > limit * limit)) return;
+  const double f = limit / std::sqrt(largest2);
+  s.dx_prev *= f;
+  d_.dv = f * d_.dv - ((1 - f) / alpha) * s.v;
+}
+
 void Integrator::take_step(State& s, double dt, double alpha, double beta, double dt_b, int newton_iterations) {
   // dx = beta dx_p + dt_b (v + alpha dv), built in dx_prev's storage (no allocation per step);
   // d_.mean_velocity holds the mean velocity dx/dt.
@@ -519,6 +532,7 @@ void Integrator::take_step(State& s, double dt, double alpha, double beta, doubl
     s.dx_prev = beta * s.dx_prev + dt_b * (s.v + alpha * d_.dv);
   } else {
     s.dx_prev = dt_b * (s.v + alpha * d_.dv);
+    limit_step_motion(s, alpha);
   }
   // Viscous work over the step, at the start's positions with the step's mean velocity
   // dx/dt (docs/method.md 6); for forward Euler the start's velocity. A step Newton iterated

@@ -311,6 +311,8 @@ class Integrator {
                          bool bounded, StepStatistics& stats);
   /// x, v and the history moved by the solved step, and its viscous work booked.
   void take_step(State& s, double dt, double alpha, double beta, double dt_b, int newton_iterations);
+  /// An alpha-family step's dx_prev and Data::dv scaled down to IntegratorSettings::max_step_motion.
+  void limit_step_motion(State& s, double alpha);
   /// Newton iterations a linear step takes now (the settings', or the guard's last resort's).
   int newton_limit() const { return std::max(c_.settings.newton_iterations, d_.newton_now); }
   /// Newton iterations on the step's equations from the linearised solution in Data::dv

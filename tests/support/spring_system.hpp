@@ -19,7 +19,7 @@ class SpringSystem : public System {
   SpringSystem(VecX mass, std::vector<Spring> springs, Vec3 gravity = Vec3::Zero())
       : mass_(std::move(mass)), springs_(std::move(springs)), gravity_(gravity) {
     const int n = static_cast<int>(mass_.size());
-    fixed_.assign(n, 0);
+    pinned_.assign(n, 0);
     std::vector<std::pair<int, int>> pairs;
     for (const auto& s : springs_)
       if (s.b >= 0) pairs.emplace_back(s.a, s.b);
@@ -27,8 +27,8 @@ class SpringSystem : public System {
   }
   int num_nodes() const override { return static_cast<int>(mass_.size()); }
   const VecX& node_mass() const override { return mass_; }
-  const std::vector<char>& pinned() const override { return fixed_; }
-  std::vector<char>& pinned() { return fixed_; }
+  const std::vector<char>& pinned() const override { return pinned_; }
+  std::vector<char>& pinned() { return pinned_; }
   const BlockPattern& pattern() const override { return pattern_; }
   void evaluate(const VecX& x, const VecX& v, bool jacobians, Evaluation& out) override {
     if (out.force.size() != x.size() || out.stiffness.pattern != &pattern_) prepare(out);
@@ -68,7 +68,7 @@ class SpringSystem : public System {
   VecX mass_;
   std::vector<Spring> springs_;
   Vec3 gravity_;
-  std::vector<char> fixed_;
+  std::vector<char> pinned_;
   BlockPattern pattern_;
 };
 

@@ -22,6 +22,10 @@ struct SewingOptions {
   double interval_s = 0.02;     ///< velocities are zeroed after each interval (quasi-static)
   double max_time_s = 1.0;      ///< gives up sewing after this simulated time (or once the gap stops shrinking)
   double gap_m = 0.0005;        ///< sewing stops once every seam pair is this close
+  /// The most a vertex moves in one sewing step (IntegratorSettings::max_step_motion): seams
+  /// placed tens of centimetres apart close over several steps instead of one, so that the
+  /// contacts' search over each step's motion stays short.
+  double max_step_motion_m = 0.02;
   /// The largest seam gap the weld closes: a stitch whose pairs are farther apart than this
   /// when sewing stops is left open (not welded), and the garment is not sewn. At 5 mm each
   /// side of a seam moves at most 2.5 mm in the weld, a sixth of a 1.5 cm edge.
