@@ -251,6 +251,10 @@ MUTATIONS = [
     M("weld-one-side", "garment", "src/garment/sewing.cpp",
       "m.positions.row(w) += positions.row(i);", "m.positions.row(w) = (members[w] + 1) * positions.row(i);",
       "a welded vertex put at one of its vertices instead of their mean", "Weld.*:SewingStage.*"),
+    M("step-motion-end-velocity", "garment", "src/integrate/integrator.cpp",
+      "  d_.dv = f * d_.dv - ((1 - f) / alpha) * s.v;", "  d_.dv = f * d_.dv;",
+      "a step held to the motion limit keeps an end velocity that does not match its displacement",
+      "StepMotionLimit.*"),
     # Checkpoints
     M("fingerprint-cloth-friction", "checkpoint", "src/sim/model_data.cpp",
       "for (double d : {M.scene.cloth.thickness, M.scene.cloth.friction}) w.f64(d);",
