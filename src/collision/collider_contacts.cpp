@@ -22,8 +22,8 @@ constexpr double kFaceHoldDip = 0.25;
 
 }  // namespace
 
-ColliderContacts::ColliderContacts(std::vector<Collider*> colliders, const VecX& mass, const std::vector<char>& scene_held,
-                                   std::vector<std::array<int, 3>> triangles)
+ColliderContacts::ColliderContacts(std::vector<Collider*> colliders, const VecX& mass,
+                                   const std::vector<char>& scene_held, std::vector<std::array<int, 3>> triangles)
     : colliders_(std::move(colliders)), mass_(mass), scene_held_(scene_held), triangles_(std::move(triangles)) {
   for (Collider* c : colliders_) c->reserve_nodes(static_cast<int>(scene_held_.size()));
   for (const auto& t : triangles_)

@@ -121,7 +121,7 @@ class ColliderContacts : public ContactHandler {
   ContactSettings tunables_;
   std::vector<Collider*> colliders_;
   const VecX& mass_;
-  std::vector<char> scene_held_;  ///< nodes held by the scene (pinned or clamped), which contacts leave alone
+  std::vector<char> scene_held_;  ///< nodes the scene holds (pinned or clamped): contacts leave them alone
   std::vector<double> best_gap_;  ///< per node: the gap of its contact so far
   std::vector<int> slot_;         ///< per node: its contact's index in the output, or -1
   std::vector<char> touching_;    ///< touching()

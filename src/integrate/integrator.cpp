@@ -518,7 +518,8 @@ void Integrator::limit_step_motion(State& s, double alpha) {
   const double limit = c_.settings.max_step_motion;
   if (!(limit < std::numeric_limits<double>::infinity()) || !(alpha > 0.0)) return;
   double largest2 = 0;
-  for (Eigen::Index i = 0; i < s.dx_prev.size(); i += 3) largest2 = std::max(largest2, s.dx_prev.segment<3>(i).squaredNorm());
+  for (Eigen::Index i = 0; i < s.dx_prev.size(); i += 3)
+    largest2 = std::max(largest2, s.dx_prev.segment<3>(i).squaredNorm());
   if (!(largest2 > limit * limit)) return;
   const double f = limit / std::sqrt(largest2);
   s.dx_prev *= f;

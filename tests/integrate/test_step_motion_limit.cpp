@@ -3,7 +3,9 @@
 // direction kept), the end velocity with it; a step within the limit is left as it is.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "integrate/integrator.hpp"
 #include "support/spring_system.hpp"
