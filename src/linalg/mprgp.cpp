@@ -132,9 +132,34 @@ class BoundedSolver {
         rz = rz_new;
         continue;
       }
-      // Expansion: to the first bound, then a projected step along the free residual.
+      // Expansion. To the first bound; from there, first the whole CG step with every bound it
+      // crosses met (projected), kept where it lowers the energy: a step that crosses many
+      // bounds then meets them all at once, where the projected gradient step below meets a
+      // few and CG starts again after each.
       x_ += a_feasible * ws_.p;
       ws_.r -= a_feasible * ws_.q;
+      if (settings.projected_cg_step) {
+        ws_.x_save = x_;
+        ws_.r_save = ws_.r;
+        ws_.active_save = active_;
+        x_ += (a_cg - a_feasible) * ws_.p;
+        for (size_t k = 0; k < bounds_.size(); ++k) project(k);
+        residual();
+        ++result.iterations;
+        // f(x) - f(x_b) = -1/2 d . (r + r_b), d = x - x_b, for f = 1/2 x^T A x - b^T x
+        // (d is zero on held nodes, where the residuals are not kept).
+        ws_.d = x_ - ws_.x_save;
+        if (-0.5 * ws_.d.dot(ws_.r + ws_.r_save) < 0) {
+          ++result.expansions;
+          refresh_face();
+          rz = precondition();
+          ws_.p = ws_.z;
+          continue;
+        }
+        x_ = ws_.x_save;
+        ws_.r = ws_.r_save;
+        active_ = ws_.active_save;
+      }
       for (size_t k = 0; k < bounds_.size(); ++k) {
         if (active_[k]) continue;
         const NodeBound& c = bounds_[k];

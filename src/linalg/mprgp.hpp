@@ -4,8 +4,9 @@
 // per node with orthogonal directions, and nodes held at given values. It is Dostal's modified
 // proportioning with reduced gradient projections (MPRGP), preconditioned in the face by the
 // nodes' diagonal blocks: conjugate gradient steps on the bounds that are active, a step to
-// the first bound met followed by a projected gradient step (expansion) where a step would
-// leave the feasible set, and a step that frees bounds (proportioning) where the part of the
+// the first bound met where a step would leave the feasible set, then (expansion) the whole
+// step with every bound it crosses met, or where that does not lower the energy a projected
+// gradient step, and a step that frees bounds (proportioning) where the part of the
 // gradient that would leave them outweighs the free part. Its answer satisfies the
 // conditions of the problem's minimum (docs/collisions.md, "Contacts as bounds"): the residual
 // b - A x vanishes along every free direction and points into every active bound (a force
@@ -29,6 +30,10 @@ struct BoundedSolveSettings {
   /// Gamma of the proportioning test: bounds are freed when |chopped residual| > Gamma times
   /// the (preconditioned) free residual's size.
   double proportioning = 1.0;
+  /// Where a CG step would cross bounds, try the whole step with every bound it crosses met
+  /// (the step projected onto the feasible set) before the projected gradient step, and keep
+  /// it where it lowers the energy below the first bound's point.
+  bool projected_cg_step = true;
 };
 
 struct BoundedSolveResult {
@@ -47,6 +52,8 @@ struct BoundedSolveWorkspace {
   std::vector<char> active;         ///< per bound
   std::vector<Mat3> inverse_free;   ///< per node: the diagonal block's inverse (unbounded nodes)
   std::vector<double> scale;        ///< per node: the diagonal block's mean diagonal
+  VecX x_save, r_save;              ///< x and r at the first bound, while a projected CG step is tried
+  std::vector<char> active_save;
 };
 
 /// Solves the bounded problem. `x` holds the initial guess on entry (projected onto the

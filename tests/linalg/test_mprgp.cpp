@@ -149,6 +149,33 @@ TEST(BoundedSolve, FreesBoundsThatPullAndMeetsBoundsItCrosses) {
   EXPECT_LT(on, n);
 }
 
+// A load that pushes every node through its bound: the first CG step crosses them all. The
+// projected CG step meets them together; the projected gradient step alone meets a few at a
+// time, restarting CG after each. Both must reach the minimum.
+TEST(BoundedSolve, TheProjectedCgStepMeetsTheBoundsACgStepCrossesTogether) {
+  const int n = 60;
+  SpringProblem p(n, 11);
+  std::vector<NodeBound> bounds;
+  for (int i = 0; i < n; ++i) {
+    bounds.push_back({i, Vec3::UnitY(), 0.0});
+    p.b.segment<3>(3 * i) = Vec3(0.2, -3.0 - 0.05 * i, 0.1);
+  }
+  const std::vector<char> held(n, 0);
+  BoundedSolveResult with, without;
+  for (bool projected : {true, false}) {
+    BoundedSolveSettings settings{1e-10, 5000};
+    settings.projected_cg_step = projected;
+    VecX x = VecX::Constant(3 * n, 0.5);
+    BoundedSolveWorkspace ws;
+    std::vector<char> active;
+    const BoundedSolveResult r = solve_bounded(p.A, p.b, held, bounds, settings, x, ws, active);
+    ASSERT_TRUE(r.converged) << "projected " << projected;
+    expect_minimum(p, held, x, bounds, x, active);
+    (projected ? with : without) = r;
+  }
+  EXPECT_LT(with.expansions, without.expansions);
+}
+
 TEST(BoundedSolve, RefusesThreeBoundsOnOneNode) {
   const SpringProblem p(4, 3);
   VecX x = VecX::Zero(12);
