@@ -578,12 +578,34 @@ class RunWriter {
                    "newton.automatic_steps; --newton N iterates every step).\n",
                    r.steps.newton_automatic_steps, r.steps.steps,
                    summary["newton"].value("automatic_max_iterations", 0));
+    // Collisions the fail-safes could not clear, and frames that came out crossed: not what a run
+    // is asked for, so said on stderr, and a crossed frame gives `weft check`'s exit status.
+    if (summary.contains("contacts")) {
+      const nlohmann::json& c = summary["contacts"];
+      const long failed = c.value("failed_steps", 0L) + (c.contains("self") ? c["self"].value("failed_steps", 0L) : 0L);
+      if (failed > 0)
+        std::fprintf(stderr,
+                     "weft: warning: the collision fail-safes could not clear %ld step(s) (summary.json: "
+                     "contacts.failed_steps %ld, contacts.self.failed_steps %ld).\n",
+                     failed, c.value("failed_steps", 0L), c.contains("self") ? c["self"].value("failed_steps", 0L) : 0L);
+    }
+    const nlohmann::json& crossed = summary["intersections"];
+    long crossed_frames = 0;
+    for (const auto& n : crossed["per_frame"]) crossed_frames += n.get<size_t>() > 0 ? 1 : 0;
+    if (crossed_frames > 0) {
+      const long worst = crossed["worst_frame"].get<long>();
+      std::fprintf(stderr,
+                   "weft: warning: %ld of %zu frames have intersecting triangle pairs (%zu in all; the worst, frame %ld, "
+                   "%zu); `weft check %s` lists them.\n",
+                   crossed_frames, crossed["per_frame"].size(), crossed["total"].get<size_t>(), worst,
+                   crossed["worst_count"].get<size_t>(), a_.out.c_str());
+    }
     if (r.status == "unstable") {
       std::fprintf(stderr, "weft: simulation became unstable at t = %.4f s: %s.\nKept %zu frames. %s\n", r.unstable_time,
                    r.message.c_str(), r.energy.size(), stability_advice(scene).c_str());
       return app::kExitUnstable;
     }
-    return app::kExitOk;
+    return crossed_frames > 0 ? app::kExitIntersections : app::kExitOk;
   }
 
   bool failed() const { return !out_.failures.empty(); }
@@ -712,7 +734,8 @@ weft::app::RegisterCommand reg{{"", "run", "Simulate a scene file and write fram
         "uninterrupted run.\n"
         "Exit status: 0 ok (also when solves hit the iteration cap: a warning, summary status solver_capped),\n"
         "2 bad input (nothing written), 3 unstable (frames so far kept), 4 an output could not be written\n"
-        "(the message says what was kept), 6 the scene's garment pattern does not sew (stitches left open or\n"
+        "(the message says what was kept), 5 finished, but some frame has intersecting triangle pairs (as\n"
+        "weft check; summary.json's intersections), 6 the scene's garment pattern does not sew (stitches left open or\n"
         "intersections: named; nothing written; cloth.mesh.pattern.allow_open_seams runs it), 130 interrupted\n"
         "(checkpoint written).");
     CLI::App* app = &sub;

@@ -194,7 +194,7 @@ def status_of(result, summary):
             return "ok", ""
         if code == 3:
             return "unstable", said
-    elif summary is not None and code in (0, 3, 4, 130):
+    elif summary is not None and code in (0, 3, 4, 5, 130):  # 5: finished with crossed frames (counted)
         status = summary.get("status", "?")
         return status, ("" if status in OK_STATUSES else said)
     if code is not None and code < 0:

@@ -166,8 +166,13 @@ TEST_F(CheckCommand, RunCountsIntersectionsInTheSummaryAsCheckDoes) {
   write("crossing.obj", kCrossingWithUv);
   const auto scene = write("scene.json", crossing_scene());
   for (const char* extra : {"", " --no-frames"}) {
+    // A run whose frames cross finishes, says so (quiet or not) and exits as `weft check` does.
     const auto r = weft("run '" + scene.string() + "' --out " + run_dir() + " --quiet" + extra);
-    ASSERT_EQ(r.exit_code, 0) << r.error_output;
+    ASSERT_EQ(r.exit_code, 5) << r.error_output;
+    EXPECT_NE(r.error_output.find("weft: warning: 3 of 3 frames have intersecting triangle pairs (12 in all; the "
+                                  "worst, frame 0, 4); `weft check " + (folder_ / "run").string() + "` lists them."),
+              std::string::npos)
+        << r.error_output;
     const auto summary = nlohmann::json::parse(read_text(folder_ / "run" / "summary.json"));
     const auto& in = summary["intersections"];
     EXPECT_EQ(in["per_frame"], nlohmann::json::parse("[4, 4, 4]")) << extra;
@@ -178,7 +183,7 @@ TEST_F(CheckCommand, RunCountsIntersectionsInTheSummaryAsCheckDoes) {
     EXPECT_EQ(in["first_frame"], 0);
   }
   // The frames written by a run (without --no-frames) give `weft check` the same counts.
-  ASSERT_EQ(weft("run '" + scene.string() + "' --out " + run_dir() + " --quiet").exit_code, 0);
+  ASSERT_EQ(weft("run '" + scene.string() + "' --out " + run_dir() + " --quiet").exit_code, 5);
   nlohmann::json j;
   ASSERT_EQ(check_json(run_dir(), j), 5);
   EXPECT_EQ(j["total"], 12);
