@@ -63,6 +63,9 @@ struct GarmentSpec {
   std::map<std::string, double> panel_grain_deg;
   double seam_stiffness_N_m = 1e4;
   double sewing_time_s = 0.5;
+  /// The most a vertex moves in one sewing step (SewingOptions::max_step_motion_m): absent, the
+  /// sewing's default; 0, no limit.
+  std::optional<double> sewing_step_limit_m;
   /// Run the garment even when it does not sew (a stitch left open, an intersection left):
   /// a warning then, in place of the refusal (SewingError).
   bool allow_open_seams = false;

@@ -186,7 +186,8 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
     mesh.fail("grid", "give exactly one of 'grid', 'obj' or 'pattern'");
   if (mesh.has("pattern")) {
     const Reader g = mesh.object("pattern");
-    g.allow_only({"file", "edge_length", "clearance", "panels", "seam_stiffness", "sewing_time", "allow_open_seams"});
+    g.allow_only({"file", "edge_length", "clearance", "panels", "seam_stiffness", "sewing_time", "sewing_step_limit",
+                 "allow_open_seams"});
     GarmentSpec gs;
     const std::string p = g.string("file");
     const fs::path path = fs::path(p).is_absolute() ? fs::path(p) : fs::path(base_dir) / p;
@@ -196,6 +197,7 @@ void parse_cloth(const Reader& r, const std::string& base_dir, ClothSpec& c) {
     if (g.has("clearance")) gs.clearance_m = g.number_in("clearance", 0.002, 0.2, false);
     if (g.has("seam_stiffness")) gs.seam_stiffness_N_m = g.number_in("seam_stiffness", 0, 1e7, true);
     if (g.has("sewing_time")) gs.sewing_time_s = g.number_in("sewing_time", 0, 60, true);
+    if (g.has("sewing_step_limit")) gs.sewing_step_limit_m = g.number_in("sewing_step_limit", 0, 1, false);
     if (g.has("allow_open_seams")) gs.allow_open_seams = g.boolean("allow_open_seams");
     if (g.has("panels")) {
       // The names are checked against the pattern's panels where the pattern is read, when the

@@ -1,6 +1,7 @@
 #include "sim/model_data.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <cstdio>
 #include <numeric>
@@ -49,6 +50,8 @@ TriMesh sew_scene_garment(const Scene& scene, const SetupProgress& on_setup, Tri
   }
   sewing.seam_stiffness_N_m = g.seam_stiffness_N_m;
   sewing.max_time_s = g.sewing_time_s;
+  if (g.sewing_step_limit_m)
+    sewing.max_step_motion_m = *g.sewing_step_limit_m > 0 ? *g.sewing_step_limit_m : std::numeric_limits<double>::infinity();
   if (on_setup) on_setup("garment: sewing " + std::to_string(pattern.stitches.size()) + " stitches", 0.0);
   // Progress every 0.1 s of simulated sewing (five intervals of 20 ms).
   int intervals = 0;

@@ -273,6 +273,15 @@ TEST_F(SceneKeys, BooleanKeysOfTheNewtonRuleAndOpenSeamsTakeTrueOrFalseOnly) {
   EXPECT_TRUE(parse(g).cloth.garment->allow_open_seams);
   g["cloth"]["mesh"]["pattern"]["allow_open_seams"] = 1;
   EXPECT_NE(parse_error(g).find("allow_open_seams"), std::string::npos) << parse_error(g);
+  // cloth.mesh.pattern.sewing_step_limit: absent the sewing's default, 0 none, else metres in (0, 1].
+  g["cloth"]["mesh"]["pattern"].erase("allow_open_seams");
+  EXPECT_FALSE(parse(g).cloth.garment->sewing_step_limit_m.has_value());
+  g["cloth"]["mesh"]["pattern"]["sewing_step_limit"] = 0;
+  EXPECT_EQ(parse(g).cloth.garment->sewing_step_limit_m, 0.0);
+  g["cloth"]["mesh"]["pattern"]["sewing_step_limit"] = 0.05;
+  EXPECT_EQ(parse(g).cloth.garment->sewing_step_limit_m, 0.05);
+  g["cloth"]["mesh"]["pattern"]["sewing_step_limit"] = -0.01;
+  EXPECT_NE(parse_error(g).find("sewing_step_limit"), std::string::npos) << parse_error(g);
 }
 
 TEST_F(SceneKeys, ContactSolveIsActiveSetOrBoundsAndReachesTheIntegratorAndTheFingerprint) {
