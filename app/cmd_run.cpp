@@ -582,12 +582,12 @@ class RunWriter {
     // is asked for, so said on stderr, and a crossed frame gives `weft check`'s exit status.
     if (summary.contains("contacts")) {
       const nlohmann::json& c = summary["contacts"];
-      const long failed = c.value("failed_steps", 0L) + (c.contains("self") ? c["self"].value("failed_steps", 0L) : 0L);
-      if (failed > 0)
+      const long colliders = c.value("failed_steps", 0L), self = c.contains("self") ? c["self"].value("failed_steps", 0L) : 0L;
+      if (colliders + self > 0)
         std::fprintf(stderr,
                      "weft: warning: the collision fail-safes could not clear %ld step(s) (summary.json: "
                      "contacts.failed_steps %ld, contacts.self.failed_steps %ld).\n",
-                     failed, c.value("failed_steps", 0L), c.contains("self") ? c["self"].value("failed_steps", 0L) : 0L);
+                     colliders + self, colliders, self);
     }
     const nlohmann::json& crossed = summary["intersections"];
     long crossed_frames = 0;
