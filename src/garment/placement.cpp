@@ -208,6 +208,27 @@ BindBody load_bind_body(BodyColliderSpec spec, double hold_s) {
     body.rig.tail_bind[b] += shift;
   }
   body.spec = spec;
+  // The legs apart: every bone below each hip turned about the forward axis through that hip.
+  std::vector<BonePose> poses;
+  walker.bone_poses(0.0, poses);
+  body.legs_apart_rig = body.rig;
+  Rig& apart = body.legs_apart_rig;
+  for (const auto& [hip_bone, side] : {std::pair{"LeftUpLeg", 1.0}, std::pair{"RightUpLeg", -1.0}}) {
+    const int hip = apart.find(hip_bone);
+    if (hip < 0) throw InputError(std::string("the body's rig has no bone ") + hip_bone);
+    const Vec3 centre = body.rig.head_bind[hip];
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(side * kLegsApartDeg * kPi / 180, Vec3::UnitZ()));
+    const BonePose turn{q, centre - q * centre};
+    std::vector<char> below(apart.bone_count(), 0);
+    for (int b = 0; b < apart.bone_count(); ++b) {
+      below[b] = b == hip || (apart.parent[b] >= 0 && below[apart.parent[b]]);
+      if (!below[b]) continue;
+      poses[b] = turn * poses[b];
+      apart.head_bind[b] = turn.apply(apart.head_bind[b]);
+      apart.tail_bind[b] = turn.apply(apart.tail_bind[b]);
+    }
+  }
+  walker.skin(poses, body.legs_apart_positions);
   return body;
 }
 
@@ -238,6 +259,9 @@ struct PartGeometry {
   std::optional<Cone> cone;  ///< a skirt's flared panels go on this cone instead
   /// A hood's panels keep their place in the file against the torso, moved by this.
   std::optional<Vec3> file_offset;
+  /// Trousers: both legs' panels on one cone about the hips, each panel's edge nearest the
+  /// body's middle (in the file) put beside the middle line, kSideGap_m / 2 from it.
+  bool trousers = false;
 };
 
 /// A part's panels in flat coordinates (across each panel from its centroid, up along the
@@ -361,14 +385,20 @@ void fit_part(BodyPart part, PartGeometry& g, const PartPanels& panels, std::map
   const double clearance = options.clearance_m;
   Cylinder& c = g.cyl;
   const double span = panels.h_hi - panels.h_lo;
-  if (part == BodyPart::kTorso && is_skirt(pattern, g.panels)) {
-    // A skirt: its top at the waist, on a cone as flared as its panels.
+  if ((part == BodyPart::kTorso && is_skirt(pattern, g.panels)) || g.trousers) {
+    // A skirt: its top at the waist, on a cone as flared as its panels. Trousers: both legs'
+    // panels so, each beside the middle line; sewing closes the inseams between the legs. (On
+    // a cylinder about each leg, as wide as the panels at the hip, the two legs' cylinders
+    // crossed at the crotch.)
     c.origin = Vec3(0, 0, 0);
     set_frame(c, Vec3::UnitY(), Vec3::UnitZ());
     const double waist = joint(rig, "LowerBack", true).y();
     g.shift = waist - panels.h_hi;
     fit_to_body(c, body.positions, waist - span, waist, 0.35);
     g.cone = skirt_cone(panels.flat, span, c.origin, waist, body.positions, clearance, options.girth_allowance);
+    // Trousers' cone round enough at every height for the panels side by side: a trouser
+    // panel is widest at the crotch, below the waist's band that sets a skirt's cone.
+    if (g.trousers) g.cone->r0 = std::max(g.cone->r0, options.girth_allowance * panels.width / (2 * kPi));
   } else if (part == BodyPart::kTorso) {
     // Vertical; the panels' top at the base of the neck, the fit taken below the armpits.
     c.origin = Vec3(0, 0, 0);
@@ -440,11 +470,22 @@ std::map<BodyPart, PartGeometry> part_geometries(const Pattern& pattern, const G
                                                  const std::vector<FilePanel>& fp, const PlacementOptions& options) {
   std::map<BodyPart, PartGeometry> parts;
   for (size_t p = 0; p < fp.size(); ++p) parts[fp[p].part].panels.push_back(static_cast<int>(p));
+  // Panels about both legs: trousers, placed together (the left leg's geometry serves both).
+  const bool trousers = parts.count(BodyPart::kLeftLeg) && parts.count(BodyPart::kRightLeg);
+  if (trousers) {
+    std::vector<int>& both = parts[BodyPart::kLeftLeg].panels;
+    const std::vector<int>& right = parts[BodyPart::kRightLeg].panels;
+    both.insert(both.end(), right.begin(), right.end());
+    std::sort(both.begin(), both.end());
+    parts[BodyPart::kLeftLeg].trousers = true;
+    parts.erase(BodyPart::kRightLeg);
+  }
   for (auto& [part, g] : parts) {
     const PartPanels panels = measure_part(part, g, pattern, gm, fp);
     fit_part(part, g, panels, parts, pattern, body, options);
     widen_cylinder(g.cyl, options.clearance_m, options.girth_allowance, panels.width);
   }
+  if (trousers) parts[BodyPart::kRightLeg] = parts[BodyPart::kLeftLeg];
   return parts;
 }
 
@@ -479,6 +520,21 @@ PanelFrame panel_frame(int p, const FilePanel& f, const PartGeometry& g, const P
   return fr;
 }
 
+// How far across its part (along tau, from the part's middle) the panel's centroid goes: as
+// the file has it or, for trousers, so that the panel's edge nearest the middle lies kSideGap_m / 2
+// from it (pattern files draw trouser panels spread apart, each leg's about that leg).
+double across_offset(const GarmentPanelMesh& pm, const FilePanel& f, const PartGeometry& g, const PanelFrame& fr) {
+  const double offset = (f.centroid - g.file_origin).dot(fr.tau);
+  if (!g.trousers) return offset;
+  double s_lo = 1e30, s_hi = -1e30;
+  for (const Vec2& v : pm.vertices_m) {
+    const double s = (file_point(f, v) - f.centroid).dot(fr.tau);
+    s_lo = std::min(s_lo, s);
+    s_hi = std::max(s_hi, s);
+  }
+  return offset < 0 ? -0.5 * kSideGap_m - s_hi : 0.5 * kSideGap_m - s_lo;
+}
+
 // The panel's extent around the girth (as a fraction of it) and along the axis, on layer 0.
 Extent panel_extent(const GarmentPanelMesh& pm, const FilePanel& f, const PartGeometry& g, const PanelFrame& fr) {
   double s_lo = 1e30, s_hi = -1e30, h_lo = 1e30, h_hi = -1e30;
@@ -489,8 +545,7 @@ Extent panel_extent(const GarmentPanelMesh& pm, const FilePanel& f, const PartGe
     h_lo = std::min(h_lo, (x - f.centroid).dot(fr.ap));
     h_hi = std::max(h_hi, (x - f.centroid).dot(fr.ap));
   }
-  const double centre_fraction =
-      (g.cyl.arc_at(fr.phi_n) + (f.centroid - g.file_origin).dot(fr.tau)) / g.cyl.girth();
+  const double centre_fraction = (g.cyl.arc_at(fr.phi_n) + across_offset(pm, f, g, fr)) / g.cyl.girth();
   return Extent{f.part, centre_fraction + s_lo / g.cyl.girth(), centre_fraction + s_hi / g.cyl.girth(),
                 f.centroid.dot(g.file_axis) + h_lo, f.centroid.dot(g.file_axis) + h_hi, 0};
 }
@@ -556,7 +611,7 @@ void roll_panel(PlacedGarment& out, int p, const Pattern& pattern, const Garment
   if (g.cone) {
     for (const Vec2& v : pm.vertices_m) panel_top = std::max(panel_top, (file_point(f, v) - f.centroid).dot(fr.ap));
     panel_top -= fr.shift - g.shift;
-    theta_c = fr.phi_n * g.cone->sin_a() + (f.centroid - g.file_origin).dot(fr.tau) / (g.cone->rho_top() + panel_top);
+    theta_c = fr.phi_n * g.cone->sin_a() + across_offset(pm, f, g, fr) / (g.cone->rho_top() + panel_top);
   }
   const bool mirror = pattern.panels[p].clockwise;
   const int first = out.panel_first_vertex[p];
@@ -640,7 +695,22 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
                             const PlacementOptions& options) {
   check_overrides(pattern, options);
   const std::vector<FilePanel> fp = file_panels(pattern, gm, options);
-  std::map<BodyPart, PartGeometry> parts = part_geometries(pattern, gm, body, fp, options);
+  // Trousers go on the body with its legs apart, so that their inseams close between the legs.
+  bool left_leg = false, right_leg = false;
+  for (const FilePanel& f : fp) {
+    left_leg = left_leg || f.part == BodyPart::kLeftLeg;
+    right_leg = right_leg || f.part == BodyPart::kRightLeg;
+  }
+  const bool legs_apart = left_leg && right_leg && body.legs_apart_positions.rows() == body.positions.rows();
+  BindBody apart;
+  if (legs_apart) {
+    apart.positions = body.legs_apart_positions;
+    apart.triangles = body.triangles;
+    apart.rig = body.legs_apart_rig;
+    apart.spec = body.spec;
+  }
+  const BindBody& on = legs_apart ? apart : body;
+  std::map<BodyPart, PartGeometry> parts = part_geometries(pattern, gm, on, fp, options);
 
   // The mesh's pattern coordinates are material coordinates (turned by each panel's grain),
   // laid out side by side as they are.
@@ -668,12 +738,13 @@ PlacedGarment place_garment(const Pattern& pattern, const GarmentMesh& gm, const
     e.s_hi += nudge;
     placed_extents.push_back(e);
     const Cylinder& c = layer_cylinder(layers, f.part, e.layer, g.cyl);
-    const double s_centre = c.arc_at(fr.phi_n) + (f.centroid - g.file_origin).dot(fr.tau) + nudge * c.girth();
+    const double s_centre = c.arc_at(fr.phi_n) + across_offset(gm.panels[p], f, g, fr) + nudge * c.girth();
     roll_panel(out, p, pattern, gm.panels[p], f, g, fr, c, s_centre, layout[p]);
   }
   unmirror_layout(out, pattern, gm, layout);
   add_seam_pairs(out, gm);
-  push_out_of_body(out, body, options.clearance_m);
+  push_out_of_body(out, on, options.clearance_m);
+  out.legs_apart = legs_apart;
   return out;
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <memory>
 #include <numeric>
@@ -142,6 +143,9 @@ void check_options(const SewingOptions& o) {
 }
 }  // namespace
 
+/// The time over which a body placed with its legs apart brings them back together (s).
+constexpr double kLegsTogether_s = 0.2;
+
 SewnGarment sew_garment(const PlacedGarment& placed, const BindBody& body, const SewingOptions& options,
                         const std::function<void(double, double)>& progress) {
   check_options(options);
@@ -163,8 +167,22 @@ SewnGarment sew_garment(const PlacedGarment& placed, const BindBody& body, const
   spec.thickness = options.body_thickness_m;
   spec.friction = 0.0;
   std::vector<std::unique_ptr<Collider>> colliders;
+  // Trousers were placed on the body with its legs apart: it stays so while the seams come
+  // together, then brings its legs back over kLegsTogether_s (smoothstep) while the cloth
+  // follows and sewing goes on.
+  const bool apart = placed.legs_apart && body.legs_apart_positions.rows() == body.positions.rows();
+  double together_from = std::numeric_limits<double>::infinity();
   colliders.push_back(make_mesh_collider(
-      spec, body.triangles, [&body](double, Points& out) { out = body.positions; }, true));
+      spec, body.triangles,
+      [&body, apart, &together_from](double t, Points& out) {
+        if (!apart) {
+          out = body.positions;
+          return;
+        }
+        const double a = std::clamp((t - together_from) / kLegsTogether_s, 0.0, 1.0), s = a * a * (3 - 2 * a);
+        out = (1 - s) * body.legs_apart_positions + s * body.positions;
+      },
+      true));
   // The contacts as a scene's cloth has them: its default thickness and friction between layers,
   // the two sides of a seam one point.
   const ClothSpec defaults;
@@ -182,15 +200,29 @@ SewnGarment sew_garment(const PlacedGarment& placed, const BindBody& body, const
   out.largest_gap_placed_m = largest_seam_gap(placed.mesh.positions, placed.seam_pairs);
   double gap = out.largest_gap_placed_m;
   const int intervals = static_cast<int>(std::ceil(options.max_time_s / options.interval_s - 1e-9));
-  // Stops when the gap is small, or when it has not shrunk by a tenth over the last 0.2 s.
+  // Stops when the gap is small, or when it has not shrunk by a tenth over the last 0.2 s (or
+  // the time is up). With the legs apart, the legs come back together first: once the gap
+  // shrinks by less than a tenth in an interval (the seams have come together), or when sewing
+  // would stop; the time of bringing them back is added to the time allowed, and the rule of
+  // 0.2 s counts from when they are back.
   std::vector<double> history;
   const size_t window = static_cast<size_t>(std::max(1.0, std::round(0.2 / options.interval_s)));
-  for (int k = 1; k <= intervals && gap > options.gap_m; ++k) {
-    if (history.size() > window && gap > 0.9 * history[history.size() - 1 - window]) break;
+  const int together_intervals = apart ? static_cast<int>(std::ceil(kLegsTogether_s / options.interval_s - 1e-9)) : 0;
+  int back_at = apart ? -1 : 0;  // the interval at whose start the legs are back (-1: not yet set)
+  for (int k = 1;; ++k) {
+    const bool stop = gap <= options.gap_m || k > intervals + together_intervals ||
+                      (history.size() > window && gap > 0.9 * history[history.size() - 1 - window]);
+    const bool slowing = history.size() >= 2 && gap > 0.9 * history[history.size() - 2];
+    if (back_at < 0 && (stop || slowing)) {
+      together_from = (k - 1) * options.interval_s;
+      back_at = k + together_intervals;
+    }
+    if (stop && k >= back_at) break;
+    if (k == back_at) history.clear();
     integrator.advance(state, k * options.interval_s, statistics);
     state.v.setZero();  // quasi-static: the seams close without swinging
     gap = largest_seam_gap(as_points(state.x), placed.seam_pairs);
-    history.push_back(gap);
+    if (k >= back_at) history.push_back(gap);
     out.sewing_time_s = k * options.interval_s;
     if (progress) progress(out.sewing_time_s, gap);
   }

@@ -5,7 +5,9 @@
 // and the written garment held some 300 intersecting triangle pairs there.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <numeric>
+#include <tuple>
 
 #include "sample_patterns.hpp"
 #include "placed_lengths.hpp"
@@ -51,9 +53,6 @@ TEST(PlacementApart, NoTwoVerticesTheWeldKeepsApartArePlacedTogether) {
   for (const std::string& file : test::sample_pattern_files()) {
     const Pattern pattern = load_pattern(file);
     const PlacedGarment placed = place_garment(pattern, mesh_garment(pattern, options), body);
-    // The jumpsuit's legs go on two cylinders, one about each leg, that cross at the crotch:
-    // its placement is not yet one to sew (docs/garments.md, "Every shipped pattern on the mannequin").
-    if (pattern.name == "js_mean_all") continue;
     const Nearest near = nearest_unwelded(placed);
     // Half the 6 mm the placement leaves between panels that meet edge on edge.
     EXPECT_GT(near.distance_m, 0.003) << pattern.name << ": panels '" << pattern.panels[near.panel_a].name
@@ -104,6 +103,53 @@ TEST(PlacementCone, AFlaredSkirtGoesOnAConeAtTheWaistKeepingItsLengths) {
   }
   EXPECT_EQ(inward, 0);
   EXPECT_EQ(placed.vertices_pushed_out, 0);
+}
+
+// Trousers go on the body with its legs apart: each leg turned kLegsApartDeg out about the
+// forward axis at its hip, every joint above the hips where it was.
+TEST(PlacementLegsApart, EachLegTurnsOutAboutItsHipAndTheRestStays) {
+  const BindBody body = load_bind_body(BodyColliderSpec{}, 1.0);
+  ASSERT_EQ(body.legs_apart_positions.rows(), body.positions.rows());
+  const Rig& bind = body.rig;
+  const Rig& apart = body.legs_apart_rig;
+  for (const auto& [hip_name, foot_name, side] :
+       {std::tuple{"LeftUpLeg", "LeftFoot", 1.0}, std::tuple{"RightUpLeg", "RightFoot", -1.0}}) {
+    const int hip = bind.find(hip_name), foot = bind.find(foot_name);
+    ASSERT_GE(hip, 0);
+    ASSERT_GE(foot, 0);
+    EXPECT_LT((apart.head_bind[hip] - bind.head_bind[hip]).norm(), 1e-12);
+    const Vec3 a = bind.head_bind[foot] - bind.head_bind[hip], b = apart.head_bind[foot] - apart.head_bind[hip];
+    EXPECT_NEAR(a.norm(), b.norm(), 1e-9);
+    // Turned about z (the forward axis): by the angle in the xy plane, z kept, and outwards
+    // (towards the leg's own side).
+    const double turn = std::atan2(b.y(), b.x()) - std::atan2(a.y(), a.x());
+    EXPECT_NEAR(side * turn * 180 / 3.14159265358979323846, kLegsApartDeg, 1e-6);
+    EXPECT_NEAR(a.z(), b.z(), 1e-9);
+    EXPECT_GT(side * (b.x() - a.x()), 0.05);
+  }
+  for (const char* bone : {"Hips", "Spine", "Neck", "Head", "LeftArm", "RightHand"}) {
+    const int b = bind.find(bone);
+    if (b < 0) continue;
+    EXPECT_LT((apart.head_bind[b] - bind.head_bind[b]).norm(), 1e-12) << bone;
+  }
+  // The skin follows: the lowest vertices (the feet) move out, the highest (the head) stay.
+  Eigen::Index low = 0, high = 0;
+  body.positions.col(1).minCoeff(&low);
+  body.positions.col(1).maxCoeff(&high);
+  EXPECT_GT(std::abs(body.legs_apart_positions(low, 0)) - std::abs(body.positions(low, 0)), 0.05);
+  EXPECT_LT((body.legs_apart_positions.row(high) - body.positions.row(high)).norm(), 1e-12);
+
+  // A jumpsuit is placed on the legs apart; a shirt, which has no legs, is not.
+  GarmentMeshOptions options;
+  options.target_edge_m = 0.05;
+  int seen = 0;
+  for (const std::string& file : test::sample_pattern_files()) {
+    const Pattern pattern = load_pattern(file);
+    if (pattern.name != "js_mean_all" && pattern.name != "shirt_mean") continue;
+    ++seen;
+    EXPECT_EQ(place_garment(pattern, mesh_garment(pattern, options), body).legs_apart, pattern.name == "js_mean_all");
+  }
+  EXPECT_EQ(seen, 2);
 }
 
 }  // namespace

@@ -32,7 +32,14 @@ struct BindBody {
   Triangles triangles;
   Rig rig;           ///< head_bind and tail_bind moved with the body
   BodyColliderSpec spec;  ///< the body as a scene collider, standing still in that pose
+  /// The same body with each leg turned kLegsApartDeg away from the other about the forward
+  /// axis at its hip (the feet apart): trousers are placed and sewn on it, the legs then
+  /// brought back together while the cloth follows (docs/garments.md, "Placement" and "Sewing").
+  Points legs_apart_positions;
+  Rig legs_apart_rig;
 };
+/// How far each leg turns out for trousers (degrees).
+inline constexpr double kLegsApartDeg = 12.0;
 /// The mannequin of a scene's body collider at time 0, held in its bind pose for `hold_s`
 /// seconds (spec.bind_pose_hold is raised to it): the bind pose moved to where the motion
 /// starts, as the walk scenes have it while the garment settles. hold_s must be positive.
@@ -51,6 +58,9 @@ struct PlacedGarment {
   std::vector<std::array<int, 2>> seam_pairs;
   std::vector<int> seam_stitch;          ///< the stitch of each pair (index into Pattern::stitches)
   int vertices_pushed_out = 0;           ///< placed too near the body and moved out
+  /// Placed on the body with its legs apart (trousers: BindBody::legs_apart_positions); sewing
+  /// brings the legs back to the bind pose.
+  bool legs_apart = false;
   /// Times a panel was moved around its part, away from a panel it met edge on edge, to leave
   /// a 6 mm gap (the two fronts of an open jacket).
   int panels_moved_apart = 0;
