@@ -64,6 +64,7 @@ class MeshCollider : public Collider {
   void reserve_nodes(int n) override {
     if (side_.size() < static_cast<size_t>(n)) side_.resize(n, 0);
     if (bound_.size() < static_cast<size_t>(n)) bound_.resize(n);
+    if (last_face_.size() < static_cast<size_t>(n)) last_face_.resize(n, -1);
   }
 
   void prepare(double t0, double t1) override {
@@ -152,14 +153,22 @@ class MeshCollider : public Collider {
     // searches cost more than the queries they rule out (docs/notes/contact-cost.md, "Distance
     // bounds and the swept tree").
     const bool extend = bounded && step_motion_ < kBoundReach * kBoundMotionShare;
-    const double search = extend ? reach + kBoundReach : reach;
-    // The nearest triangle within the search (its point found again for the winner only).
-    double best = 0;
-    const int best_face = tree.nearest(p, search, [&](int f) {
+    double search = extend ? reach + kBoundReach : reach;
+    auto distance = [&](int f) {
       const auto& t = list_[f];
       return closest_point_triangle(p, x.row(t[0]).transpose(), x.row(t[1]).transpose(), x.row(t[2]).transpose())
           .distance;
-    }, best);
+    };
+    // The node's nearest triangle of its last query, most often its nearest again or a
+    // neighbour of it: its distance bounds the search (the nearest triangle within a reach does
+    // not depend on the reach beyond its distance, ties included), so that boxes farther than
+    // it are not opened on the way down to it (with a little room, so that rounding in the
+    // boxes' distances cannot leave it out).
+    if (bounded && last_face_[node] >= 0) search = std::min(search, distance(last_face_[node]) * (1 + 1e-9) + 1e-12);
+    // The nearest triangle within the search (its point found again for the winner only).
+    double best = 0;
+    const int best_face = tree.nearest(p, search, distance, best);
+    if (bounded && best_face >= 0) last_face_[node] = best_face;
     if (bounded) bound_[node] = {p, std::max(best, known), end ? motion_end_ : motion_start_, epoch_};
     if (best_face < 0 || best > reach) return false;
     const auto& t = list_[best_face];
@@ -280,6 +289,7 @@ class MeshCollider : public Collider {
     unsigned epoch = 0;
   };
   mutable std::vector<DistanceBound> bound_;
+  mutable std::vector<int> last_face_;  ///< per cloth node: the nearest triangle of its last query (-1: none)
   unsigned epoch_ = 0;  ///< bumped by every prepare that is not the next step or the same one
   double motion_start_ = 0, motion_end_ = 0;  ///< the clock at the step's start and end
 };
